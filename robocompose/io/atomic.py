@@ -1,0 +1,45 @@
+"""Atomic file writes: an artifact is either complete or absent, never half-written."""
+
+from __future__ import annotations
+
+import json
+import os
+import secrets
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+
+@contextmanager
+def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
+    """Yield a hidden temporary path next to `path`; rename it onto `path` on success.
+
+    The temporary file lives in the same directory (so `os.replace` is an atomic rename on one
+    filesystem) and keeps the suffix (so writers that dispatch on it behave). The caller creates
+    the file. On an exception the temporary file is removed, `path` is left untouched and the
+    exception propagates. This protects against crashes of the process, not against power loss
+    (no fsync).
+    """
+    target = Path(path)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    # Not created here (unlike mkstemp) so the file gets the usual umask permissions, not 0600.
+    tmp = target.with_name(f".{target.stem}.{os.getpid()}.{secrets.token_hex(4)}.tmp{target.suffix}")
+    try:
+        yield tmp
+        os.replace(tmp, target)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+def atomic_write_text(path: str | os.PathLike[str], text: str) -> Path:
+    """Write `text` (UTF-8) to `path` atomically and return the path."""
+    with atomic_path(path) as tmp:
+        tmp.write_text(text, encoding="utf-8")
+    return Path(path)
+
+
+def atomic_write_json(path: str | os.PathLike[str], obj: Any) -> Path:
+    """Write `obj` as JSON (sorted keys, indent 2, trailing newline) atomically; return the path."""
+    return atomic_write_text(path, json.dumps(obj, sort_keys=True, indent=2) + "\n")

@@ -1,0 +1,58 @@
+"""Declared pyarrow schemas of every parquet table in the project, in one place.
+
+Adding a table is one entry in `SCHEMAS` (plus one in `LIST_LENGTHS` per fixed-length list column).
+`robocompose.io.tables` converts to and checks against these on every write and read.
+"""
+
+from __future__ import annotations
+
+import pyarrow as pa
+
+
+def _required(name: str, type_: pa.DataType) -> pa.Field:
+    return pa.field(name, type_, nullable=False)
+
+
+SCHEMAS: dict[str, pa.Schema] = {
+    # One row per robot design. `parents[i]` is the parent node of node i in the design tree (-1 for
+    # the root) and `tokens[i]` its node token (0..41); `rules` is the grammar rule sequence that
+    # derives it (empty for designs not made by the grammar); `contacts` the 16 rest-contact features.
+    "designs": pa.schema(
+        [
+            _required("design_id", pa.string()),
+            _required("rules", pa.list_(pa.int16())),
+            _required("parents", pa.list_(pa.int32())),
+            _required("tokens", pa.list_(pa.int16())),
+            _required("n_links", pa.int16()),
+            _required("n_joints", pa.int16()),
+            _required("contacts", pa.list_(pa.float32())),
+        ]
+    ),
+    # One row per evaluation of a design on a task; `reward` is null when the evaluation did not
+    # produce a score (e.g. status "crashed"), never a made-up number.
+    "eval_cache": pa.schema(
+        [
+            _required("design_id", pa.string()),
+            _required("task", pa.string()),
+            _required("settings_hash", pa.string()),
+            _required("seed", pa.int64()),
+            pa.field("reward", pa.float64(), nullable=True),
+            _required("status", pa.string()),
+            _required("sim_steps", pa.int64()),
+            _required("seconds", pa.float64()),
+        ]
+    ),
+}
+
+# (table, column) -> exact number of values every row of that list column must hold.
+LIST_LENGTHS: dict[tuple[str, str], int] = {
+    ("designs", "contacts"): 16,
+}
+
+
+def get_schema(name: str) -> pa.Schema:
+    """Return the declared schema `name`; KeyError listing the known names otherwise."""
+    try:
+        return SCHEMAS[name]
+    except KeyError:
+        raise KeyError(f"unknown table schema {name!r}; declared: {sorted(SCHEMAS)}") from None
