@@ -1,0 +1,68 @@
+"""Voronoi decomposition of a terrain chip into K regions and its K x 4 terrain-feature matrix.
+
+Seeds: K points drawn uniformly in the unit square, then `lloyd_iterations` Lloyd steps (each seed
+moves to the centroid of its cell) so regions have similar areas. A pixel belongs to the region of
+its nearest seed (pixel centres at ((col + 0.5) / W, (row + 0.5) / H)), which is the Voronoi diagram
+clipped to the square and rasterised; ties go to the lower region index. Everything about a chip's
+regions is fixed by its seed points, so the regions table stores those and `region_raster`
+recomputes the raster exactly.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+N_TERRAINS = 4
+
+
+@dataclass(frozen=True)
+class DecomposeConfig:
+    n_regions: int = 6  # K, Voronoi cells per chip
+    lloyd_iterations: int = 10  # Lloyd relaxation steps of the seeds (0: plain random Voronoi)
+    test_fraction: float = 0.25  # share of chips put in the test split
+    seed: int = 0  # seeds the Voronoi seed points and the split
+
+
+def pixel_centres(height: int, width: int) -> np.ndarray:
+    """(H, W, 2) pixel centres (x = column, y = row) in the unit square."""
+    rows, cols = np.meshgrid((np.arange(height) + 0.5) / height, (np.arange(width) + 0.5) / width,
+                             indexing="ij")
+    return np.stack([cols, rows], axis=-1)
+
+
+def region_raster(seeds: np.ndarray, height: int, width: int) -> np.ndarray:
+    """(H, W) int64 region index of every pixel: its nearest seed of (K, 2) `seeds`."""
+    centres = pixel_centres(height, width)  # (H, W, 2)
+    distances = ((centres[:, :, None, :] - seeds[None, None]) ** 2).sum(-1)  # (H, W, K)
+    return distances.argmin(-1)
+
+
+def voronoi_seeds(rng: np.random.Generator, n_regions: int, lloyd_iterations: int,
+                  resolution: int = 100) -> np.ndarray:
+    """(K, 2) seed points: uniform draws relaxed by Lloyd steps on a resolution^2 pixel grid."""
+    seeds = rng.random((n_regions, 2))
+    centres = pixel_centres(resolution, resolution).reshape(-1, 2)  # (P, 2)
+    for _ in range(lloyd_iterations):
+        labels = region_raster(seeds, resolution, resolution).ravel()
+        counts = np.bincount(labels, minlength=n_regions)
+        sums = np.stack([np.bincount(labels, centres[:, d], minlength=n_regions) for d in range(2)], -1)
+        seeds = np.where(counts[:, None] > 0, sums / np.maximum(counts, 1)[:, None], seeds)
+    return seeds
+
+
+def terrain_features(terrain: np.ndarray, regions: np.ndarray, n_regions: int) -> np.ndarray:
+    """(K, 4) terrain-class distribution of each region (rows sum to 1) from (H, W) maps."""
+    joint = np.bincount(regions.ravel() * N_TERRAINS + terrain.ravel(), minlength=n_regions * N_TERRAINS)
+    counts = joint.reshape(n_regions, N_TERRAINS).astype(np.float64)
+    if (counts.sum(1) == 0).any():
+        raise ValueError(f"a Voronoi region holds no pixel (pixels per region {counts.sum(1)})")
+    return counts / counts.sum(1, keepdims=True)
+
+
+def split_chips(chip_ids: list[str], test_fraction: float, seed: int) -> dict[str, str]:
+    """Map each chip id to "train" or "test": a seeded shuffle, the first round(n * f) are test."""
+    order = np.random.default_rng(seed).permutation(len(chip_ids))
+    n_test = int(round(len(chip_ids) * test_fraction))
+    return {chip_ids[i]: ("test" if rank < n_test else "train") for rank, i in enumerate(order)}

@@ -1,0 +1,211 @@
+"""Ergodic coverage cost of robot teams, with a batched trajectory optimiser (thesis 5.2).
+
+Spectral ergodic metric (Mathew and Mezic) on the unit square, uniform information over a region:
+    F_k(x)   = cos(k_1 x_1) cos(k_2 x_2) / h_k,   k = pi * (i, j), i, j in {0 .. n-1}
+    h_k      = sqrt(1/2) per non-zero index (so F_k has unit norm on [0, 1]^2)
+    phi_k    = mean of F_k over the pixels of the region (the target: uniform over the region)
+    c_k      = sum over the team's observations of w_o F_k(x_o) / sum of w_o (w_o = coverage weight of
+               the observing robot's species, Table 5.3)
+    cost     = sum_k Lambda_k (c_k - phi_k)^2,   Lambda_k = (1 + |k|^2)^-1.5
+A team without robots has c_k = 0 for every k, so it costs sum_k Lambda_k phi_k^2 >= Lambda_0 phi_0^2 = 1.
+The coverage cost of an allocation is the sum of its teams' costs, one team per region.
+
+Trajectories: every robot takes `n_observations` observations x_0 .. x_{T-1}; x_0 is its deployment
+point, drawn uniformly in its region on terrain it can move on. Step t moves the robot by
+    d_t = L(x_t) * u_t / sqrt(1 + |u_t|^2)   (so |d_t| < L(x_t), the species' step length on the
+                                               terrain under it, see species.SPEED_SCALE)
+and then looks at `substeps` evenly spaced points along d_t: the step is cut short before the first
+point on terrain where the species has speed 0, and scaled down by the slowest terrain it passes.
+So a robot can never enter such terrain, and cannot jump across a band of it wider than
+max step length / substeps (0.15 / 8 = 0.019 of the chip side, 6 pixels at 300 px, by default).
+The controls u (one 2-vector per step) are optimised by Adam on the summed team costs, all robots of
+all teams of all candidate allocations at once (the public code also uses gradient descent; the thesis
+says MPC). Teams do not interact, so batching does not change any team's result.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from robocompose.teams.decompose import pixel_centres
+from robocompose.teams.species import coverage_weights, step_lengths
+
+
+@dataclass(frozen=True)
+class CoverageConfig:
+    n_coefficients: int = 10  # Fourier indices per dimension: k = pi * {0 .. n-1}
+    n_observations: int = 20  # observations (waypoints) per robot, x_0 being the deployment point
+    substeps: int = 8  # points checked along every step for impassable / slower terrain
+    iterations: int = 30  # Adam steps of the trajectory optimiser
+    learning_rate: float = 0.15  # Adam step size on the controls u
+    initial_control_std: float = 1.0  # controls start as N(0, std^2): robots start moving apart
+    robots_per_species: int = 20  # N_j, robots of each species in the bank
+
+    def settings_hash(self) -> str:
+        """Short hash of every setting that changes a coverage cost (the cache key part)."""
+        return hashlib.sha1(repr(self).encode()).hexdigest()[:16]
+
+
+def frequencies(n: int) -> tuple[torch.Tensor, torch.Tensor]:
+    """Return (h, Lambda), both (n, n) float64: basis normalisers and Sobolev weights."""
+    index = torch.arange(n, dtype=torch.float64)
+    h_1d = torch.where(index == 0, 1.0, 0.5**0.5)
+    k_squared = (torch.pi * index) ** 2
+    return h_1d[:, None] * h_1d[None, :], (1.0 + k_squared[:, None] + k_squared[None, :]) ** -1.5
+
+
+def region_coefficients(regions: np.ndarray, n_regions: int, n: int) -> torch.Tensor:
+    """(K, n, n) float64 phi_k of the uniform distribution over each region of an (H, W) raster."""
+    height, width = regions.shape
+    h, _ = frequencies(n)
+    cos_x = torch.cos(torch.pi * torch.arange(n)[None, :] * (torch.arange(width)[:, None] + 0.5) / width)
+    cos_y = torch.cos(torch.pi * torch.arange(n)[None, :] * (torch.arange(height)[:, None] + 0.5) / height)
+    one_hot = torch.nn.functional.one_hot(torch.as_tensor(regions), n_regions).double()  # (H, W, K)
+    sums = torch.einsum("hwk,hj,wi->kij", one_hot, cos_y.double(), cos_x.double())  # i: x index, j: y
+    return sums / one_hot.sum((0, 1))[:, None, None] / h
+
+
+def ergodic_cost(observations: torch.Tensor, weights: torch.Tensor, team: torch.Tensor, phi: torch.Tensor,
+                 ) -> torch.Tensor:
+    """Ergodic metric of every team: (n_teams,) costs.
+
+    observations: (N, T, 2) robots' observations in the unit square; weights: (N, T) coverage weight of
+    each observation; team: (N,) int64 team each robot belongs to; phi: (n_teams, n, n) team targets.
+    """
+    n = phi.shape[-1]
+    phi = phi.to(observations.dtype)
+    h, sobolev = (t.to(observations.dtype) for t in frequencies(n))
+    k = torch.pi * torch.arange(n, dtype=observations.dtype)
+    cos_x = torch.cos(observations[..., :1] * k)  # (N, T, n)
+    cos_y = torch.cos(observations[..., 1:] * k)  # (N, T, n)
+    per_robot = torch.bmm((cos_x * weights[..., None]).transpose(1, 2), cos_y)  # (N, n, n): sum_t w F h
+    weighted_sum = torch.zeros_like(phi).index_add_(0, team, per_robot)  # (n_teams, n, n)
+    total_weight = torch.zeros(len(phi), dtype=observations.dtype).index_add_(0, team, weights.sum(1))
+    c = weighted_sum / h / total_weight.clamp_min(1e-12)[:, None, None]  # 0 for a team without robots
+    return (sobolev * (c - phi) ** 2).sum((-2, -1))
+
+
+@dataclass
+class Robots:
+    """A flat batch of robots from any number of teams (and candidate allocations)."""
+
+    species: torch.Tensor  # (N,) int64 species id
+    team: torch.Tensor  # (N,) int64 team index
+    start: torch.Tensor  # (N, 2) deployment point
+    controls: torch.Tensor  # (N, T-1, 2) initial controls
+
+
+def rollout(robots: Robots, controls: torch.Tensor, terrain: torch.Tensor, substeps: int) -> torch.Tensor:
+    """(N, T, 2) observations of robots driven by (N, T-1, 2) controls over an (H, W) terrain map."""
+    height, width = terrain.shape
+    lengths = torch.as_tensor(step_lengths(), dtype=controls.dtype)  # (O, M)
+    species = robots.species
+
+    def step_length_at(points: torch.Tensor) -> torch.Tensor:  # (N, ..., 2) -> (N, ...)
+        col = (points[..., 0] * width).long().clamp(0, width - 1)
+        row = (points[..., 1] * height).long().clamp(0, height - 1)
+        return lengths[species.view(-1, *[1] * (points.dim() - 2)), terrain[row, col]]
+
+    fractions = torch.arange(1, substeps + 1, dtype=controls.dtype) / substeps  # (S,)
+    position, observations = robots.start, [robots.start]
+    for t in range(controls.shape[1]):
+        u = controls[:, t]  # (N, 2)
+        length_here = step_length_at(position)  # (N,)
+        target = (position + length_here[:, None] * u / torch.sqrt(1 + (u**2).sum(-1, keepdim=True)))
+        move = target.clamp(0.0, 1.0 - 1e-6) - position  # (N, 2)
+        along = step_length_at(position[:, None] + fractions[None, :, None] * move[:, None])  # (N, S)
+        open_prefix = torch.cumprod((along > 0).to(controls.dtype), dim=1)  # 1 until the first blocked point
+        reachable = open_prefix.sum(1) / substeps  # share of the step before impassable terrain
+        slowest = torch.where(open_prefix > 0, along, torch.inf).amin(1)  # inf if the first point is blocked
+        slowdown = torch.where(length_here > 0, slowest / length_here.clamp_min(1e-12), 0.0)
+        position = position + torch.minimum(reachable, slowdown).clamp(max=1.0)[:, None] * move
+        observations.append(position)
+    return torch.stack(observations, dim=1)
+
+
+def optimise_trajectories(robots: Robots, phi: torch.Tensor, terrain: torch.Tensor,
+                          config: CoverageConfig) -> tuple[torch.Tensor, torch.Tensor]:
+    """Optimise every robot's controls for its team's ergodic cost.
+
+    phi: (n_teams, n, n) team targets; terrain: (H, W) int64 terrain ids.
+    Returns (team costs (n_teams,) float64 of the final trajectories, observations (N, T, 2)).
+    """
+    species_weight = torch.as_tensor(coverage_weights(), dtype=torch.float32)[robots.species]  # (N,)
+    weights = species_weight[:, None].expand(-1, config.n_observations)  # (N, T)
+    controls = robots.controls.clone().requires_grad_(True)
+    optimiser = torch.optim.Adam([controls], lr=config.learning_rate)
+    for _ in range(config.iterations):
+        observations = rollout(robots, controls, terrain, config.substeps)  # (N, T, 2)
+        loss = ergodic_cost(observations, weights, robots.team, phi).sum()
+        optimiser.zero_grad()
+        loss.backward()
+        optimiser.step()
+    with torch.no_grad():
+        observations = rollout(robots, controls, terrain, config.substeps)
+        costs = ergodic_cost(observations.double(), weights.double(), robots.team, phi)
+    return costs, observations
+
+
+def allocation_id(counts: np.ndarray) -> str:
+    """Canonical id of a (K, O) integer allocation: sha1 of its shape and int16 counts."""
+    counts = np.ascontiguousarray(counts, dtype=np.int16)
+    return hashlib.sha1(repr(counts.shape).encode() + counts.tobytes()).hexdigest()[:16]
+
+
+class ChipCoverage:
+    """Coverage cost of allocations on one decomposed chip (terrain map + region raster)."""
+
+    def __init__(self, terrain: np.ndarray, regions: np.ndarray, n_regions: int, config: CoverageConfig):
+        self.config = config
+        self.n_regions = n_regions
+        self.terrain = torch.as_tensor(terrain.astype(np.int64))  # (H, W)
+        self.phi = region_coefficients(regions, n_regions, config.n_coefficients)  # (K, n, n)
+        height, width = terrain.shape
+        self.centres = pixel_centres(height, width).reshape(-1, 2)  # (H*W, 2)
+        self.pixel_size = np.array([1.0 / width, 1.0 / height])
+        movable = step_lengths()[:, terrain.ravel()] > 0  # (O, H*W)
+        # deployment pixels of (region, species): the region's movable pixels, or all its pixels if none
+        self.deploy_pixels = [[np.flatnonzero((regions.ravel() == i) & movable[j])
+                               if ((regions.ravel() == i) & movable[j]).any()
+                               else np.flatnonzero(regions.ravel() == i)
+                               for j in range(movable.shape[0])] for i in range(n_regions)]
+
+    def deploy(self, counts: np.ndarray, seed: int) -> Robots:
+        """Robots of (B, K, O) allocations; allocation b's team in region i is team b * K + i.
+
+        Each allocation draws its robots' deployment points and initial controls from its own
+        Generator((seed, allocation id)), so its result does not depend on the rest of the batch.
+        """
+        species, team, start, controls = [], [], [], []
+        for b, allocation in enumerate(counts):
+            rng = np.random.default_rng([seed, int(allocation_id(allocation), 16)])
+            for i, j in np.argwhere(allocation > 0):
+                n = int(allocation[i, j])
+                pixels = self.deploy_pixels[i][j][rng.integers(len(self.deploy_pixels[i][j]), size=n)]
+                start.append(self.centres[pixels] + (rng.random((n, 2)) - 0.5) * self.pixel_size)
+                controls.append(rng.standard_normal((n, self.config.n_observations - 1, 2))
+                                * self.config.initial_control_std)
+                species.append(np.full(n, j))
+                team.append(np.full(n, b * self.n_regions + i))
+        if not species:
+            empty = torch.zeros(0, dtype=torch.int64)
+            return Robots(empty, empty, torch.zeros(0, 2), torch.zeros(0, self.config.n_observations - 1, 2))
+        return Robots(torch.as_tensor(np.concatenate(species)), torch.as_tensor(np.concatenate(team)),
+                      torch.as_tensor(np.concatenate(start), dtype=torch.float32),
+                      torch.as_tensor(np.concatenate(controls), dtype=torch.float32))
+
+    def evaluate(self, counts: np.ndarray, seed: int) -> tuple[np.ndarray, Robots, torch.Tensor]:
+        """Coverage cost of (B, K, O) integer allocations, optimised together.
+
+        Returns (coverage costs (B,) float64, the robots, their observations (N, T, 2)).
+        """
+        counts = np.asarray(counts)
+        n_batch = len(counts)
+        robots = self.deploy(counts, seed)
+        phi = self.phi.repeat(n_batch, 1, 1)  # (B*K, n, n)
+        costs, observations = optimise_trajectories(robots, phi, self.terrain, self.config)
+        return costs.reshape(n_batch, self.n_regions).sum(1).numpy(), robots, observations
