@@ -78,26 +78,27 @@ def read_label_png(path: Path) -> tuple[np.ndarray, np.ndarray]:
     return classes.astype(np.uint8), ignore
 
 
-def load_chips(directory: Path, chip_size: int = CHIP_SIZE) -> Iterator[Chip]:
-    """Yield the chips of every *.png label file in `directory` (sorted by name).
+def chips_in_file(path: Path, chip_size: int = CHIP_SIZE) -> Iterator[Chip]:
+    """Yield the chips of one label PNG: chip_size x chip_size windows at stride chip_size (row-major),
+    skipping windows that hold any IGNORE pixel. Chip ids are "<file stem>-<window index, 6 digits>"."""
+    classes, ignore = read_label_png(path)
+    height, width = classes.shape
+    window = 0
+    for top in range(0, height - chip_size + 1, chip_size):
+        for left in range(0, width - chip_size + 1, chip_size):
+            rows, cols = slice(top, top + chip_size), slice(left, left + chip_size)
+            if not ignore[rows, cols].any():
+                yield Chip(f"{Path(path).stem}-{window:06d}", str(path), classes[rows, cols].copy())
+            window += 1
 
-    Each file is cut into chip_size x chip_size windows at stride chip_size (row-major); windows
-    holding any IGNORE pixel are skipped. Chip ids are "<file stem>-<window index, 6 digits>".
-    """
-    directory = Path(directory)
-    files = sorted(directory.glob("*.png"))
+
+def load_chips(directory: Path, chip_size: int = CHIP_SIZE) -> Iterator[Chip]:
+    """Yield the chips of every *.png label file in `directory` (sorted by name), see chips_in_file."""
+    files = sorted(Path(directory).glob("*.png"))
     if not files:
         raise FileNotFoundError(f"{directory}: no *.png label files (teams.chips.directory)")
     for path in files:
-        classes, ignore = read_label_png(path)
-        height, width = classes.shape
-        window = 0
-        for top in range(0, height - chip_size + 1, chip_size):
-            for left in range(0, width - chip_size + 1, chip_size):
-                rows, cols = slice(top, top + chip_size), slice(left, left + chip_size)
-                if not ignore[rows, cols].any():
-                    yield Chip(f"{path.stem}-{window:06d}", str(path), classes[rows, cols].copy())
-                window += 1
+        yield from chips_in_file(path, chip_size)
 
 
 def write_label_png(classes: np.ndarray, path: Path) -> None:
@@ -163,6 +164,12 @@ def generate_chip(rng: np.random.Generator, size: int = CHIP_SIZE) -> np.ndarray
         lakes = _smooth_noise(rng, size, scale=size / 12) > rng.uniform(0.8, 1.8)
         classes[lakes] = WATER
     return classes
+
+
+def synthetic_chip(seed: int, index: int = 0, size: int = CHIP_SIZE) -> Chip:
+    """Chip `index` of the synthetic set `seed`, as write_synthetic_chips + load_chips would give it."""
+    classes = generate_chip(np.random.default_rng([seed, index]), size)
+    return Chip(f"synthetic-{seed}-{index:05d}-000000", "generated", classes)
 
 
 def write_synthetic_chips(directory: Path, n_chips: int, seed: int, size: int = CHIP_SIZE) -> list[Path]:

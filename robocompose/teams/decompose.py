@@ -10,6 +10,7 @@ recomputes the raster exactly.
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -19,7 +20,7 @@ N_TERRAINS = 4
 
 @dataclass(frozen=True)
 class DecomposeConfig:
-    n_regions: int = 6  # K, Voronoi cells per chip
+    n_regions: int = 8  # K, Voronoi cells per chip
     lloyd_iterations: int = 10  # Lloyd relaxation steps of the seeds (0: plain random Voronoi)
     test_fraction: float = 0.25  # share of chips put in the test split
     seed: int = 0  # seeds the Voronoi seed points and the split
@@ -50,6 +51,13 @@ def voronoi_seeds(rng: np.random.Generator, n_regions: int, lloyd_iterations: in
         sums = np.stack([np.bincount(labels, centres[:, d], minlength=n_regions) for d in range(2)], -1)
         seeds = np.where(counts[:, None] > 0, sums / np.maximum(counts, 1)[:, None], seeds)
     return seeds
+
+
+def chip_seeds(chip_id: str, config: DecomposeConfig) -> np.ndarray:
+    """(K, 2) Voronoi seeds of a chip, drawn from Generator((config.seed, hash of the chip id))."""
+    chip_hash = int(hashlib.sha1(chip_id.encode()).hexdigest()[:12], 16)
+    return voronoi_seeds(np.random.default_rng([config.seed, chip_hash]), config.n_regions,
+                         config.lloyd_iterations)
 
 
 def terrain_features(terrain: np.ndarray, regions: np.ndarray, n_regions: int) -> np.ndarray:

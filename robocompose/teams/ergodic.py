@@ -103,21 +103,23 @@ def rollout(robots: Robots, controls: torch.Tensor, terrain: torch.Tensor, subst
     """(N, T, 2) observations of robots driven by (N, T-1, 2) controls over an (H, W) terrain map."""
     height, width = terrain.shape
     lengths = torch.as_tensor(step_lengths(), dtype=controls.dtype)  # (O, M)
-    species = robots.species
+    length_map = lengths[:, terrain].reshape(-1)  # (O*H*W,) step length of species o at each pixel
+    robot_offset = robots.species * (height * width)  # (N,)
 
     def step_length_at(points: torch.Tensor) -> torch.Tensor:  # (N, ..., 2) -> (N, ...)
-        col = (points[..., 0] * width).long().clamp(0, width - 1)
-        row = (points[..., 1] * height).long().clamp(0, height - 1)
-        return lengths[species.view(-1, *[1] * (points.dim() - 2)), terrain[row, col]]
+        col = (points[..., 0] * width).long().clamp_(0, width - 1)
+        row = (points[..., 1] * height).long().clamp_(0, height - 1)
+        offset = robot_offset.view(-1, *[1] * (points.dim() - 2))
+        return length_map[offset + row * width + col]
 
-    fractions = torch.arange(1, substeps + 1, dtype=controls.dtype) / substeps  # (S,)
+    fractions = torch.arange(1, substeps + 1, dtype=controls.dtype)[None, :, None] / substeps  # (1, S, 1)
+    direction = controls / torch.sqrt(1 + (controls**2).sum(-1, keepdim=True))  # (N, T-1, 2), |.| < 1
     position, observations = robots.start, [robots.start]
     for t in range(controls.shape[1]):
-        u = controls[:, t]  # (N, 2)
         length_here = step_length_at(position)  # (N,)
-        target = (position + length_here[:, None] * u / torch.sqrt(1 + (u**2).sum(-1, keepdim=True)))
+        target = position + length_here[:, None] * direction[:, t]
         move = target.clamp(0.0, 1.0 - 1e-6) - position  # (N, 2)
-        along = step_length_at(position[:, None] + fractions[None, :, None] * move[:, None])  # (N, S)
+        along = step_length_at(position[:, None] + fractions * move[:, None])  # (N, S)
         open_prefix = torch.cumprod((along > 0).to(controls.dtype), dim=1)  # 1 until the first blocked point
         reachable = open_prefix.sum(1) / substeps  # share of the step before impassable terrain
         slowest = torch.where(open_prefix > 0, along, torch.inf).amin(1)  # inf if the first point is blocked

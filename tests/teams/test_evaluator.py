@@ -1,0 +1,60 @@
+import numpy as np
+
+from robocompose.teams.chips import synthetic_chip
+from robocompose.teams.decompose import DecomposeConfig
+from robocompose.teams.ergodic import ChipCoverage, CoverageConfig
+from robocompose.teams.evaluator import AllocationEvaluator, EvaluationCache, chip_coverage
+
+TINY = CoverageConfig(iterations=3, n_observations=5)
+
+
+def tiny_coverage() -> ChipCoverage:
+    terrain = np.random.default_rng(0).integers(0, 4, (30, 30))
+    regions = np.repeat(np.arange(2), 15)[None, :].repeat(30, 0)
+    return ChipCoverage(terrain, regions, 2, TINY)
+
+
+def test_cache_round_trips_through_parquet(tmp_path):
+    path = tmp_path / "cache.parquet"
+    cache = EvaluationCache(path)
+    cache.put(("a1", "chip", "s", 0), 0.5, 3)
+    cache.put(("a0", "chip", "s", 1), 0.25, 7)
+    cache.save()
+    first_bytes = path.read_bytes()
+    again = EvaluationCache(path)
+    assert len(again) == 2 and again.get(("a1", "chip", "s", 0)) == (0.5, 3)
+    assert again.get(("a1", "chip", "s", 1)) is None
+    again.save()
+    assert path.read_bytes() == first_bytes
+
+
+def test_evaluator_optimises_each_distinct_allocation_once(tmp_path):
+    cache = EvaluationCache(tmp_path / "cache.parquet")
+    evaluate = AllocationEvaluator(tiny_coverage(), "chip", seed=0, cache=cache, max_batch=2)
+    counts = np.array([[[1, 0, 0], [0, 1, 0]], [[2, 0, 0], [0, 0, 1]], [[1, 0, 0], [0, 1, 0]]])
+    objectives = evaluate(counts)
+    assert evaluate.optimised == 2
+    np.testing.assert_array_equal(objectives[0], objectives[2])
+    assert objectives[:, 1].tolist() == [2, 3, 2]
+    again = evaluate(counts[:1])
+    assert evaluate.optimised == 2 and (again == objectives[:1]).all()
+    cache.save()
+    reloaded = AllocationEvaluator(tiny_coverage(), "chip", seed=0, cache=EvaluationCache(cache.path))
+    np.testing.assert_array_equal(reloaded(counts), objectives)
+    assert reloaded.optimised == 0
+
+
+def test_other_settings_or_seed_miss_the_cache():
+    cache = EvaluationCache()
+    counts = np.array([[[1, 0, 0], [0, 1, 0]]])
+    AllocationEvaluator(tiny_coverage(), "chip", seed=0, cache=cache)(counts)
+    other_seed = AllocationEvaluator(tiny_coverage(), "chip", seed=1, cache=cache)
+    other_seed(counts)
+    assert other_seed.optimised == 1 and len(cache) == 2
+
+
+def test_chip_coverage_decomposes_the_chip_into_its_regions():
+    chip = synthetic_chip(0, size=40)
+    coverage = chip_coverage(chip, DecomposeConfig(n_regions=5), TINY)
+    assert coverage.phi.shape == (5, 10, 10)
+    assert coverage.phi[:, 0, 0].tolist() == [1.0] * 5
