@@ -45,6 +45,14 @@ _IGNORE_CODE = int(_colour_code(np.array(IGNORE_COLOUR_RGB)))
 
 
 @dataclass(frozen=True)
+class ChipsConfig:
+    directory: str = ""  # DroneDeploy label PNGs to cut into chips; "" = generate synthetic chips
+    n_synthetic: int = 24  # synthetic chips to generate
+    seed: int = 0  # seed of the synthetic chips
+    max_chips: int = 0  # keep the first max_chips chips (sorted by id); 0 = all
+
+
+@dataclass(frozen=True)
 class Chip:
     chip_id: str
     source: str  # the label PNG it was cut from
@@ -184,3 +192,33 @@ def write_synthetic_chips(directory: Path, n_chips: int, seed: int, size: int = 
         write_label_png(generate_chip(rng, size), path)
         paths.append(path)
     return paths
+
+
+def prepare_chips(config: ChipsConfig, store: Path) -> list[Chip]:
+    """Fill `store` with one label PNG per chip and return the chips (sorted by id).
+
+    Synthetic chips (config.directory empty) are generated into `store` and read back with the
+    loader; DroneDeploy label PNGs in config.directory are cut into chips, each written to
+    `store/<chip id>.png`. A chip's `source` is its file in `store`.
+    """
+    store = Path(store)
+    store.mkdir(parents=True, exist_ok=True)
+    for stale in store.glob("*.png"):
+        stale.unlink()
+    if not config.directory:
+        write_synthetic_chips(store, config.n_synthetic, config.seed)
+        chips = sorted(load_chips(store), key=lambda chip: chip.chip_id)
+    else:
+        chips = []
+        for chip in sorted(load_chips(Path(config.directory)), key=lambda chip: chip.chip_id):
+            write_label_png(chip.classes, store / f"{chip.chip_id}.png")
+            chips.append(Chip(chip.chip_id, str(store / f"{chip.chip_id}.png"), chip.classes))
+    return chips[:config.max_chips] if config.max_chips else chips
+
+
+def read_chip(chip_id: str, source: str | Path) -> Chip:
+    """The chip stored as one label PNG at `source` (as written by prepare_chips)."""
+    classes, ignore = read_label_png(Path(source))
+    if ignore.any():
+        raise ValueError(f"{source}: chip {chip_id} holds IGNORE pixels")
+    return Chip(chip_id, str(source), classes)

@@ -43,7 +43,7 @@ def _setup(args: argparse.Namespace):
     import torch
 
     from robocompose.teams.chips import chips_in_file, synthetic_chip
-    from robocompose.teams.decompose import DecomposeConfig
+    from robocompose.teams.decompose import DecomposeConfig, chip_seeds
     from robocompose.teams.ergodic import CoverageConfig
     from robocompose.teams.evaluator import AllocationEvaluator, chip_coverage
 
@@ -56,7 +56,8 @@ def _setup(args: argparse.Namespace):
             raise SystemExit(f"--chip {args.chip}: no 300 x 300 window without IGNORE pixels")
     else:
         chip = synthetic_chip(args.synthetic_seed)
-    coverage = chip_coverage(chip, DecomposeConfig(n_regions=args.regions), CoverageConfig())
+    seeds = chip_seeds(chip.chip_id, DecomposeConfig(n_regions=args.regions))
+    coverage = chip_coverage(chip, seeds, CoverageConfig())
     return AllocationEvaluator(coverage, chip.chip_id, args.seed)
 
 

@@ -14,6 +14,9 @@ import hashlib
 from dataclasses import dataclass
 
 import numpy as np
+import pandas as pd
+
+from robocompose.teams.chips import Chip
 
 N_TERRAINS = 4
 
@@ -74,3 +77,20 @@ def split_chips(chip_ids: list[str], test_fraction: float, seed: int) -> dict[st
     order = np.random.default_rng(seed).permutation(len(chip_ids))
     n_test = int(round(len(chip_ids) * test_fraction))
     return {chip_ids[i]: ("test" if rank < n_test else "train") for rank, i in enumerate(order)}
+
+
+def regions_table(chips: list[Chip], config: DecomposeConfig) -> pd.DataFrame:
+    """The "regions" table: one row per (chip, region) with split, seed point, size and terrain shares."""
+    split = split_chips([chip.chip_id for chip in chips], config.test_fraction, config.seed)
+    rows = []
+    for chip in chips:
+        seeds = chip_seeds(chip.chip_id, config)
+        regions = region_raster(seeds, *chip.classes.shape)
+        features = terrain_features(chip.terrain, regions, config.n_regions)
+        sizes = np.bincount(regions.ravel(), minlength=config.n_regions)
+        for region in range(config.n_regions):
+            rows.append((chip.chip_id, chip.source, split[chip.chip_id], region, *seeds[region],
+                         sizes[region], *features[region]))
+    columns = ["chip_id", "source", "split", "region", "seed_x", "seed_y", "n_pixels",
+               "water", "mountain", "plain", "city"]
+    return pd.DataFrame(rows, columns=columns)

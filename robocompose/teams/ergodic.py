@@ -164,6 +164,7 @@ class ChipCoverage:
     def __init__(self, terrain: np.ndarray, regions: np.ndarray, n_regions: int, config: CoverageConfig):
         self.config = config
         self.n_regions = n_regions
+        self.regions = regions  # (H, W) region index of every pixel
         self.terrain = torch.as_tensor(terrain.astype(np.int64))  # (H, W)
         self.phi = region_coefficients(regions, n_regions, config.n_coefficients)  # (K, n, n)
         height, width = terrain.shape

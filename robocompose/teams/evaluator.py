@@ -16,7 +16,7 @@ import pandas as pd
 
 from robocompose.io import read_table, write_table
 from robocompose.teams.chips import Chip
-from robocompose.teams.decompose import DecomposeConfig, chip_seeds, region_raster
+from robocompose.teams.decompose import region_raster
 from robocompose.teams.ergodic import ChipCoverage, CoverageConfig, allocation_id
 from robocompose.teams.species import deployment_cost
 
@@ -24,10 +24,10 @@ CacheKey = tuple[str, str, str, int]  # (allocation id, chip id, settings hash, 
 CACHE_SCHEMA = "teams_eval_cache"
 
 
-def chip_coverage(chip: Chip, decompose: DecomposeConfig, coverage: CoverageConfig) -> ChipCoverage:
-    """The coverage problem of a chip decomposed as the decompose stage does it."""
-    regions = region_raster(chip_seeds(chip.chip_id, decompose), *chip.classes.shape)
-    return ChipCoverage(chip.terrain, regions, decompose.n_regions, coverage)
+def chip_coverage(chip: Chip, seeds: np.ndarray, coverage: CoverageConfig) -> ChipCoverage:
+    """The coverage problem of a chip decomposed into the Voronoi regions of (K, 2) `seeds`."""
+    regions = region_raster(seeds, *chip.classes.shape)
+    return ChipCoverage(chip.terrain, regions, len(seeds), coverage)
 
 
 class EvaluationCache:
@@ -49,6 +49,10 @@ class EvaluationCache:
 
     def put(self, key: CacheKey, coverage_cost: float, deployment_cost: int) -> None:
         self._costs[key] = (float(coverage_cost), int(deployment_cost))
+
+    def merge(self, other: EvaluationCache) -> None:
+        """Add every entry of `other`."""
+        self._costs.update(other._costs)
 
     def __len__(self) -> int:
         return len(self._costs)

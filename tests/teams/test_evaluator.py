@@ -1,7 +1,7 @@
 import numpy as np
 
 from robocompose.teams.chips import synthetic_chip
-from robocompose.teams.decompose import DecomposeConfig
+from robocompose.teams.decompose import DecomposeConfig, chip_seeds
 from robocompose.teams.ergodic import ChipCoverage, CoverageConfig
 from robocompose.teams.evaluator import AllocationEvaluator, EvaluationCache, chip_coverage
 
@@ -55,6 +55,6 @@ def test_other_settings_or_seed_miss_the_cache():
 
 def test_chip_coverage_decomposes_the_chip_into_its_regions():
     chip = synthetic_chip(0, size=40)
-    coverage = chip_coverage(chip, DecomposeConfig(n_regions=5), TINY)
+    coverage = chip_coverage(chip, chip_seeds(chip.chip_id, DecomposeConfig(n_regions=5)), TINY)
     assert coverage.phi.shape == (5, 10, 10)
     assert coverage.phi[:, 0, 0].tolist() == [1.0] * 5

@@ -1,0 +1,57 @@
+"""Coverage baselines of thesis Table 5.5, at a deployment budget of B robots.
+
+Both draw B robots at random from the bank (N robots of each species, without replacement):
+- decomposition + random allocation: each robot joins the team of a uniformly drawn region; teams
+  plan in their regions exactly as for any allocation (ergodic.ChipCoverage).
+- no decomposition: the robots start anywhere on the chip (on terrain they can move on) and plan
+  jointly, as one team, for uniform coverage of the whole chip.
+Both are scored by the same cost as every allocation: the sum over the Voronoi regions of the ergodic
+metric of the observations attributed to the region. For the decomposed plans an observation counts
+for its robot's team; the joint plan has no teams, so each observation counts for the region it lies
+in (a region nobody visits costs >= 1, as an empty team does).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from robocompose.teams.ergodic import ChipCoverage, ergodic_cost
+from robocompose.teams.species import coverage_weights
+
+
+def random_species_counts(rng: np.random.Generator, budget: int, n_species: int,
+                          robots_per_species: int) -> np.ndarray:
+    """(O,) species counts of `budget` robots drawn without replacement from the bank."""
+    bank = np.repeat(np.arange(n_species), robots_per_species)
+    return np.bincount(rng.choice(bank, size=budget, replace=False), minlength=n_species)
+
+
+def random_allocation(rng: np.random.Generator, budget: int, n_regions: int, n_species: int,
+                      robots_per_species: int) -> np.ndarray:
+    """(K, O) counts: `budget` random robots, each sent to a uniformly drawn region."""
+    species = np.repeat(np.arange(n_species), random_species_counts(rng, budget, n_species,
+                                                                   robots_per_species))
+    regions = rng.integers(n_regions, size=budget)
+    counts = np.zeros((n_regions, n_species), dtype=np.int64)
+    np.add.at(counts, (regions, species), 1)
+    return counts
+
+
+def no_decomposition_costs(decomposed: ChipCoverage, species_counts: np.ndarray, seed: int) -> np.ndarray:
+    """(B,) coverage costs of (B, O) teams planning jointly over the whole chip, scored per region."""
+    regions = decomposed.regions
+    whole_chip = ChipCoverage(decomposed.terrain.numpy(), np.zeros_like(regions), 1, decomposed.config)
+    _, robots, observations = whole_chip.evaluate(species_counts[:, None, :], seed)  # (N, T, 2)
+    height, width = regions.shape
+    points = observations.reshape(-1, 2).double()  # (N*T, 2)
+    col = (points[:, 0] * width).long().clamp(0, width - 1)
+    row = (points[:, 1] * height).long().clamp(0, height - 1)
+    region_of_point = torch.as_tensor(regions)[row, col]  # (N*T,)
+    allocation_of_point = robots.team.repeat_interleave(observations.shape[1])  # team b = allocation b
+    weights = torch.as_tensor(coverage_weights())[robots.species].repeat_interleave(observations.shape[1])
+    n_regions = decomposed.n_regions
+    team_of_point = allocation_of_point * n_regions + region_of_point  # (N*T,)
+    costs = ergodic_cost(points[:, None, :], weights[:, None], team_of_point,
+                         decomposed.phi.repeat(len(species_counts), 1, 1))  # (B*K,)
+    return costs.reshape(len(species_counts), n_regions).sum(1).numpy()

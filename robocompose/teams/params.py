@@ -1,0 +1,79 @@
+"""The `teams:` section of params.yaml, parsed into the config dataclasses and checked.
+
+An unknown key, a missing section or a value of the wrong type fails with the file, the field and
+what was expected.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from robocompose.teams.chips import ChipsConfig
+from robocompose.teams.decompose import DecomposeConfig
+from robocompose.teams.ergodic import CoverageConfig
+
+
+@dataclass(frozen=True)
+class ExperimentsConfig:
+    populations: list[int] = field(default_factory=lambda: [20, 50])  # NSGA-II population sizes
+    generations: int = 50  # NSGA-II generations
+    crossover_probability: float = 0.5  # NSGA-II single-point arithmetic crossover probability
+    mutation_rate: float = 0.1  # NSGA-II per-gene uniform mutation rate
+    nsga2_chips: int = 2  # NSGA-II runs on the first nsga2_chips test chips
+    nsga2_seeds: list[int] = field(default_factory=lambda: [0])  # one run per seed and population
+    budgets: list[int] = field(default_factory=lambda: [15, 30, 45])  # Table 5.5 deployment budgets
+    baseline_chips: int = 6  # coverage baselines on the first baseline_chips test chips
+    baseline_seeds: list[int] = field(default_factory=lambda: [0, 1, 2])  # random draws per chip
+
+
+@dataclass(frozen=True)
+class TeamsParams:
+    chips: ChipsConfig
+    decompose: DecomposeConfig
+    coverage: CoverageConfig
+    experiments: ExperimentsConfig
+    threads: int = 1  # torch threads: the tensors are small, one thread is fastest and reproducible
+
+
+def _build(cls: type, values: Any, where: str) -> Any:
+    if not isinstance(values, dict):
+        raise ValueError(f"{where}: expected a mapping of {[f.name for f in dataclasses.fields(cls)]}, "
+                         f"found {values!r}")
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    unknown = sorted(set(values) - set(fields))
+    if unknown:
+        raise ValueError(f"{where}.{unknown[0]}: unknown field; expected one of {sorted(fields)}")
+    defaults = cls()
+    for name, value in values.items():
+        expected = type(getattr(defaults, name))
+        if expected is float and isinstance(value, int) and not isinstance(value, bool):
+            continue
+        if not isinstance(value, expected) or (expected is int and isinstance(value, bool)):
+            raise ValueError(f"{where}.{name}: expected {expected.__name__}, found {value!r}")
+    return cls(**values)
+
+
+def load_teams_params(path: str | Path = "params.yaml") -> TeamsParams:
+    """Read the `teams:` section of a params file."""
+    with open(path, encoding="utf-8") as handle:
+        document = yaml.safe_load(handle) or {}
+    section = document.get("teams")
+    where = f"{path}: teams"
+    if not isinstance(section, dict):
+        raise ValueError(f"{where}: missing section (expected chips, decompose, coverage, experiments)")
+    parts = {"chips": ChipsConfig, "decompose": DecomposeConfig, "coverage": CoverageConfig,
+             "experiments": ExperimentsConfig}
+    known = sorted([*parts, "threads"])
+    unknown = sorted(set(section) - set(known))
+    if unknown:
+        raise ValueError(f"{where}.{unknown[0]}: unknown field; expected one of {known}")
+    built = {name: _build(cls, section.get(name, {}), f"{where}.{name}") for name, cls in parts.items()}
+    threads = section.get("threads", 1)
+    if not isinstance(threads, int) or threads < 1:
+        raise ValueError(f"{where}.threads: expected a positive integer, found {threads!r}")
+    return TeamsParams(**built, threads=threads)

@@ -1,0 +1,18 @@
+"""DVC stage `decompose`: terrain chips -> data/teams/chips/*.png and data/regions.parquet."""
+
+from pathlib import Path
+
+from robocompose.io import write_table
+from robocompose.teams.chips import prepare_chips
+from robocompose.teams.decompose import regions_table
+from robocompose.teams.params import load_teams_params
+
+
+def main() -> None:
+    params = load_teams_params("params.yaml")
+    chips = prepare_chips(params.chips, Path("data/teams/chips"))
+    write_table(regions_table(chips, params.decompose), "data/regions.parquet", "regions")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,35 @@
+"""DVC stage `teams_baselines`: NSGA-II (Table 5.4) and coverage baselines (Table 5.5) on test chips."""
+
+import torch
+
+from robocompose.io import read_table, write_table
+from robocompose.teams.evaluator import EvaluationCache
+from robocompose.teams.experiments import (
+    coverage_baselines,
+    decomposed_chips,
+    example_allocation,
+    example_trajectories,
+    nsga2_runs,
+)
+from robocompose.teams.params import load_teams_params
+
+
+def main() -> None:
+    params = load_teams_params("params.yaml")
+    torch.set_num_threads(params.threads)
+    test_chips = decomposed_chips(read_table("data/regions.parquet", "regions"), "test")
+    cache = EvaluationCache("data/teams/eval_cache.parquet")
+    runs, fronts = nsga2_runs(test_chips, params.coverage, params.experiments, cache)
+    cache.save()
+    write_table(runs, "data/teams/nsga2.parquet", "teams_nsga2")
+    write_table(fronts, "data/teams/fronts.parquet", "teams_fronts")
+    write_table(coverage_baselines(test_chips, params.coverage, params.experiments),
+                "data/teams/coverage.parquet", "teams_coverage")
+    chip, seeds = test_chips[0]
+    counts, seed = example_allocation(fronts, chip.chip_id, len(seeds))
+    write_table(example_trajectories(chip, seeds, params.coverage, counts, seed),
+                "data/teams/trajectories.parquet", "teams_trajectories")
+
+
+if __name__ == "__main__":
+    main()

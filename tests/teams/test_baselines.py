@@ -1,0 +1,40 @@
+import numpy as np
+import torch
+
+from robocompose.teams.baselines import no_decomposition_costs, random_allocation, random_species_counts
+from robocompose.teams.ergodic import ChipCoverage, CoverageConfig, ergodic_cost
+
+TINY = CoverageConfig(iterations=4, n_observations=6)
+HALVES = np.repeat(np.arange(2), 15)[None, :].repeat(30, 0)  # (30, 30): left region 0, right region 1
+
+
+def test_random_draws_respect_budget_and_bank():
+    rng = np.random.default_rng(0)
+    for budget in (1, 15, 60):
+        counts = random_allocation(rng, budget, n_regions=4, n_species=3, robots_per_species=20)
+        assert counts.shape == (4, 3) and counts.sum() == budget and (counts.sum(0) <= 20).all()
+    assert random_species_counts(rng, 60, 3, 20).tolist() == [20, 20, 20]
+
+
+def test_no_decomposition_scores_observations_in_the_region_they_lie_in():
+    terrain = np.full((30, 30), 2)
+    coverage = ChipCoverage(terrain, HALVES, 2, TINY)
+    species_counts = np.array([[2, 1, 0], [0, 3, 0]])
+    costs = no_decomposition_costs(coverage, species_counts, seed=0)
+    assert costs.shape == (2,) and (costs > 0).all()
+    # recompute the first allocation by hand from the same joint plan
+    whole = ChipCoverage(terrain, np.zeros_like(HALVES), 1, TINY)
+    _, robots, observations = whole.evaluate(species_counts[:1, None, :], seed=0)
+    points = observations.reshape(-1, 2).double()
+    region = (points[:, 0] >= 0.5).long()
+    weights = torch.tensor([20.0, 10.0, 0.0], dtype=torch.float64)[robots.species].repeat_interleave(6)
+    by_hand = ergodic_cost(points[:, None], weights[:, None], region, coverage.phi).sum().item()
+    assert np.isclose(costs[0], by_hand)
+
+
+def test_no_decomposition_with_all_robots_in_one_half_leaves_the_other_costly():
+    terrain = np.full((30, 30), 2)
+    terrain[:, 15:] = 0  # right half water: ground robots cannot start or go there
+    coverage = ChipCoverage(terrain, HALVES, 2, TINY)
+    costs = no_decomposition_costs(coverage, np.array([[3, 0, 0]]), seed=0)
+    assert costs[0] > 1.0  # region 1 is never visited: it costs >= 1
