@@ -1,0 +1,210 @@
+"""Report section for team formation (thesis 5.2): Tables 5.4 and 5.5 beside ours, and three figures.
+
+Built only from the outputs of the `decompose` and `teams_baselines` stages.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from robocompose.io import read_table
+
+THESIS_TABLE_5_4 = {20: (9.4, 1.0, 43.1), 50: (11.9, 1.5, 107.6)}  # population: (HV, HV std, minutes)
+THESIS_TABLE_5_5 = {  # method: coverage cost x 1e-2 at deployment budget 15 / 30 / 45
+    "no_decomposition": ("No decomposition", (0.365, 0.153, 0.056)),
+    "dec_random_allocation": ("Dec + random allocation", (0.732, 0.401, 0.062)),
+}
+TERRAIN_COLOURS = ["#3b7dd8", "#8c6d46", "#b8d98a", "#9a9a9a"]  # Water, Mountain, Plain, City
+SPECIES_COLOURS = ["#d62728", "#ff7f0e", "#1f77b4"]  # ground, aerial, aquatic
+SPECIES_NAMES = ["ground", "aerial", "aquatic"]
+
+
+def section(reports_dir: Path, data_dir: Path) -> str:
+    """Markdown for the team-formation section; figures go to reports_dir/figures/."""
+    paths = {name: Path(data_dir) / relative for name, relative in [
+        ("regions", "regions.parquet"), ("nsga2", "teams/nsga2.parquet"), ("fronts", "teams/fronts.parquet"),
+        ("coverage", "teams/coverage.parquet"), ("trajectories", "teams/trajectories.parquet")]}
+    missing = [str(path) for path in paths.values() if not path.exists()]
+    if missing:
+        return ("## Multi-robot team formation (thesis 5.2)\n\nNot run yet: missing "
+                + ", ".join(missing) + " (stages `decompose` and `teams_baselines`).\n")
+    regions = read_table(paths["regions"], "regions")
+    runs = read_table(paths["nsga2"], "teams_nsga2")
+    fronts = read_table(paths["fronts"], "teams_fronts")
+    coverage = read_table(paths["coverage"], "teams_coverage")
+    trajectories = read_table(paths["trajectories"], "teams_trajectories")
+    figures = Path(reports_dir) / "figures"
+    figures.mkdir(parents=True, exist_ok=True)
+    _plot_decomposition(regions, figures / "teams_decomposition.png")
+    _plot_fronts(fronts, figures / "teams_pareto.png")
+    _plot_trajectories(regions, trajectories, figures / "teams_trajectories.png")
+
+    n_chips = regions.chip_id.nunique()
+    n_test = regions[regions.split == "test"].chip_id.nunique()
+    n_regions = int(regions.region.max()) + 1
+    synthetic = regions.chip_id.str.startswith("synthetic-").all()
+    source = ("synthetic label chips in the DroneDeploy PNG format (the dataset cannot be downloaded "
+              "here; generated rivers, lakes, vegetated hills, fields and city blocks)" if synthetic
+              else "DroneDeploy label chips")
+    return "\n".join([
+        "## Multi-robot team formation (thesis 5.2)",
+        "",
+        f"Terrain: {n_chips} chips ({n_test} test), {source}; each chip split into K = {n_regions} "
+        "Voronoi regions. Coverage cost: the sum over regions of the spectral ergodic metric of the "
+        "region's team (20 observations per robot, trajectories optimised by gradient descent, speeds "
+        "x 0.003 per step); a region without robots costs >= 1, so the hypervolume reference "
+        "(0.25, 60) keeps allocations that cover every region. Evaluator: the ergodic trajectory "
+        "optimiser for every number below.",
+        "",
+        "![Chips and their Voronoi regions](figures/teams_decomposition.png)",
+        "",
+        "### Table 5.4: NSGA-II (hypervolume, runtime)",
+        "",
+        _table_5_4(runs),
+        "",
+        "![NSGA-II fronts](figures/teams_pareto.png)",
+        "",
+        "### Table 5.5: coverage cost (x 1e-2) at a deployment budget",
+        "",
+        _table_5_5(coverage, fronts),
+        "",
+        "![Trajectories of a front allocation](figures/teams_trajectories.png)",
+        "",
+    ])
+
+
+def _mean_std(values: pd.Series, scale: float = 1.0, digits: int = 2) -> str:
+    values = values.to_numpy(dtype=float) * scale
+    return f"{values.mean():.{digits}f} ± {values.std():.{digits}f}"
+
+
+def _table_5_4(runs: pd.DataFrame) -> str:
+    lines = ["| method | thesis HV | thesis runtime (min) | our HV | our runtime (min) | runs |",
+             "|---|---|---|---|---|---|"]
+    for population, group in runs.groupby("population"):
+        thesis = THESIS_TABLE_5_4.get(int(population))
+        thesis_cells = (f"{thesis[0]} ± {thesis[1]} | {thesis[2]}" if thesis else "- | -")
+        lines.append(f"| NSGA-II:{population} | {thesis_cells} | {_mean_std(group.hypervolume)} | "
+                     f"{_mean_std(group.seconds, 1 / 60, 2)} | {len(group)} |")
+    paired = runs.pivot_table(index=["chip_id", "seed"], columns="population", values="hypervolume")
+    if {20, 50} <= set(paired.columns):
+        gain = (paired[50] - paired[20]).to_numpy()
+        verdict = "reaches" if gain.mean() >= 0 else "does NOT reach"
+        lines += ["", f"On the same {len(gain)} chip x seed pairs, NSGA-II:50 {verdict} the hypervolume "
+                  f"of NSGA-II:20 on average (mean difference {gain.mean():+.3f}; thesis +2.5)."]
+    return "\n".join(lines)
+
+
+def _table_5_5(coverage: pd.DataFrame, fronts: pd.DataFrame) -> str:
+    budgets = sorted(coverage.budget.unique())
+    header = " | ".join(f"<= {b}" for b in budgets)
+    lines = [f"| method | thesis {header} | ours {header} |",
+             "|---|" + "---|" * (2 * len(budgets))]
+    for method, (name, thesis) in THESIS_TABLE_5_5.items():
+        rows = coverage[coverage.method == method]
+        ours = [_mean_std(rows[rows.budget == b].coverage_cost, 100, 3) for b in budgets]
+        lines.append(f"| {name} | {' | '.join(map(str, thesis))} | {' | '.join(ours)} |")
+    best = fronts[fronts.population == fronts.population.max()]
+    cells = []
+    for budget in budgets:
+        within = best[best.deployment_cost <= budget].groupby(["chip_id", "seed"]).coverage_cost.min()
+        cells.append(_mean_std(within, 100, 3) if len(within) else "-")
+    lines.append(f"| Dec + NSGA-II:{best.population.max()} front (ours; thesis: EG-GAN 0.049 / 0.018 / "
+                 f"0.007) | - | - | - | {' | '.join(cells)} |")
+    n_chips = coverage.chip_id.nunique()
+    lines += ["", f"Ours: mean ± std over {n_chips} test chips x {coverage.seed.nunique()} seeds (NSGA-II "
+              f"row: the best front point within the budget, {best.chip_id.nunique()} chips). The joint "
+              "plan without decomposition is scored by the regions its observations fall in."]
+    return "\n".join(lines)
+
+
+def _chip_background(source: str) -> tuple[np.ndarray, np.ndarray]:
+    from robocompose.teams.chips import CLASS_TO_TERRAIN, read_label_png
+
+    classes, _ = read_label_png(Path(source))
+    terrain = CLASS_TO_TERRAIN[classes]
+    rgb = np.array([[int(c[i:i + 2], 16) for i in (1, 3, 5)] for c in TERRAIN_COLOURS], dtype=np.uint8)
+    return rgb[terrain], terrain
+
+
+def _draw_chip(axis, chip_rows: pd.DataFrame) -> None:
+    from robocompose.teams.decompose import region_raster
+
+    image, terrain = _chip_background(chip_rows.source.iloc[0])
+    seeds = chip_rows.sort_values("region")[["seed_x", "seed_y"]].to_numpy()
+    regions = region_raster(seeds, *terrain.shape)
+    axis.imshow(image, extent=(0, 1, 1, 0), interpolation="nearest")
+    axis.contour(np.linspace(0, 1, terrain.shape[1]), np.linspace(0, 1, terrain.shape[0]), regions,
+                 levels=np.arange(len(seeds)) + 0.5, colors="black", linewidths=0.8)
+    axis.scatter(seeds[:, 0], seeds[:, 1], s=8, c="black")
+    axis.set(xlim=(0, 1), ylim=(1, 0), xticks=[], yticks=[])
+
+
+def _plot_decomposition(regions: pd.DataFrame, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Patch
+
+    chip_ids = sorted(regions.chip_id.unique())[:6]
+    figure, axes = plt.subplots(1, len(chip_ids), figsize=(2.4 * len(chip_ids), 2.8))
+    for axis, chip_id in zip(np.atleast_1d(axes), chip_ids, strict=True):
+        rows = regions[regions.chip_id == chip_id]
+        _draw_chip(axis, rows)
+        axis.set_title(f"{chip_id[-12:]} ({rows.split.iloc[0]})", fontsize=7)
+    figure.legend(handles=[Patch(color=c, label=t) for c, t in
+                           zip(TERRAIN_COLOURS, ["Water", "Mountain", "Plain", "City"], strict=True)],
+                  loc="lower center", ncol=4, fontsize=7)
+    figure.tight_layout(rect=(0, 0.08, 1, 1))
+    figure.savefig(path, dpi=110)
+    plt.close(figure)
+
+
+def _plot_fronts(fronts: pd.DataFrame, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    chip_id, seed = fronts.sort_values(["chip_id", "seed"]).iloc[0][["chip_id", "seed"]]
+    figure, axis = plt.subplots(figsize=(5, 3.6))
+    shown = fronts[(fronts.chip_id == chip_id) & (fronts.seed == seed)]
+    for population, group in shown.groupby("population"):
+        inside = group[group.coverage_cost < 0.25].sort_values("deployment_cost")
+        axis.step(inside.deployment_cost, inside.coverage_cost, where="post", marker="o", markersize=3,
+                  label=f"NSGA-II:{population}")
+    axis.set(xlabel="deployment cost (robots)", ylabel="coverage cost", yscale="log",
+             title=f"Fronts on {chip_id} (seed {seed}), inside the reference box", xlim=(0, 60))
+    axis.title.set_fontsize(8)
+    axis.legend()
+    figure.tight_layout()
+    figure.savefig(path, dpi=110)
+    plt.close(figure)
+
+
+def _plot_trajectories(regions: pd.DataFrame, trajectories: pd.DataFrame, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    chip_id = trajectories.chip_id.iloc[0]
+    figure, axis = plt.subplots(figsize=(4.6, 4.6))
+    _draw_chip(axis, regions[regions.chip_id == chip_id])
+    for _, robot in trajectories.groupby("robot"):
+        robot = robot.sort_values("step")
+        species = int(robot.species.iloc[0])
+        axis.plot(robot.x, robot.y, "-", color=SPECIES_COLOURS[species], linewidth=0.8, alpha=0.9)
+        axis.plot(robot.x.iloc[0], robot.y.iloc[0], "o", color=SPECIES_COLOURS[species], markersize=3)
+    for colour, name in zip(SPECIES_COLOURS, SPECIES_NAMES, strict=True):
+        axis.plot([], [], color=colour, label=name)
+    axis.legend(fontsize=7, loc="upper right")
+    n_robots = trajectories.robot.nunique()
+    axis.set_title(f"{n_robots} robots of a front allocation on {chip_id}", fontsize=8)
+    figure.tight_layout()
+    figure.savefig(path, dpi=110)
+    plt.close(figure)

@@ -1,0 +1,34 @@
+import runpy
+from pathlib import Path
+
+from robocompose.report.teams import section
+
+STAGES = Path(__file__).resolve().parents[2] / "stages"
+TINY_PARAMS = """
+teams:
+  chips: {n_synthetic: 4, seed: 1}
+  decompose: {n_regions: 3, test_fraction: 0.5}
+  coverage: {iterations: 2, n_observations: 4}
+  experiments: {populations: [20, 50], generations: 1, nsga2_chips: 1, nsga2_seeds: [0],
+                budgets: [15, 30, 45], baseline_chips: 1, baseline_seeds: [0]}
+"""
+
+
+def test_section_says_not_run_yet_without_stage_outputs(tmp_path):
+    text = section(tmp_path / "reports", tmp_path / "data")
+    assert "Not run yet" in text and "regions.parquet" in text
+
+
+def test_section_has_both_tables_beside_the_thesis_and_its_figures(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "params.yaml").write_text(TINY_PARAMS)
+    for stage in ("decompose", "teams_baselines"):
+        runpy.run_path(str(STAGES / f"{stage}.py"), run_name="__main__")
+    text = section(tmp_path / "reports", tmp_path / "data")
+    assert "| NSGA-II:20 | 9.4 ± 1.0 | 43.1 |" in text and "| NSGA-II:50 | 11.9 ± 1.5 | 107.6 |" in text
+    assert "| No decomposition | 0.365 | 0.153 | 0.056 |" in text
+    assert "| Dec + random allocation | 0.732 | 0.401 | 0.062 |" in text
+    assert "synthetic label chips" in text
+    for figure in ("teams_decomposition", "teams_pareto", "teams_trajectories"):
+        assert f"figures/{figure}.png" in text
+        assert (tmp_path / "reports" / "figures" / f"{figure}.png").stat().st_size > 1000

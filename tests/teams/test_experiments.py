@@ -1,0 +1,59 @@
+import numpy as np
+import pytest
+
+from robocompose.teams.chips import ChipsConfig, prepare_chips
+from robocompose.teams.decompose import DecomposeConfig, regions_table
+from robocompose.teams.ergodic import CoverageConfig
+from robocompose.teams.evaluator import EvaluationCache
+from robocompose.teams.experiments import (
+    coverage_baselines,
+    decomposed_chips,
+    example_allocation,
+    example_trajectories,
+    nsga2_runs,
+)
+from robocompose.teams.params import ExperimentsConfig
+
+TINY = CoverageConfig(iterations=3, n_observations=5)
+EXPERIMENTS = ExperimentsConfig(populations=[4, 6], generations=2, nsga2_chips=1, nsga2_seeds=[0],
+                                budgets=[3, 6], baseline_chips=1, baseline_seeds=[0, 1])
+
+
+@pytest.fixture(scope="module")
+def test_chips(tmp_path_factory):
+    chips = prepare_chips(ChipsConfig(n_synthetic=4, seed=2), tmp_path_factory.mktemp("chips"))
+    regions = regions_table(chips, DecomposeConfig(n_regions=3, test_fraction=0.5))
+    return decomposed_chips(regions, "test")
+
+
+def test_decomposed_test_chips_carry_their_seeds(test_chips):
+    assert len(test_chips) == 2
+    chip, seeds = test_chips[0]
+    assert seeds.shape == (3, 2) and chip.classes.shape == (300, 300)
+
+
+def test_nsga2_runs_record_every_population_and_a_front_per_run(test_chips):
+    cache = EvaluationCache()
+    runs, fronts = nsga2_runs(test_chips, TINY, EXPERIMENTS, cache)
+    assert runs.population.tolist() == [4, 6] and (runs.evaluations == [8, 12]).all()
+    assert len(cache) > 0 and (runs.seconds > 0).all()
+    for _, front in fronts.groupby("population"):
+        points = front[["coverage_cost", "deployment_cost"]].to_numpy()
+        assert not any((p <= q).all() and (p < q).any() for p in points for q in points)
+    for counts, deployed in zip(fronts.counts, fronts.deployment_cost, strict=True):
+        assert len(counts) == 9 and sum(counts) == deployed
+    counts, seed = example_allocation(fronts, test_chips[0][0].chip_id, 3)
+    assert counts.shape == (3, 3) and seed == 0
+    chip, seeds = test_chips[0]
+    trajectories = example_trajectories(chip, seeds, TINY, counts, seed)
+    assert len(trajectories) == counts.sum() * TINY.n_observations
+    assert trajectories[["x", "y"]].to_numpy().min() >= 0 and trajectories[["x", "y"]].to_numpy().max() < 1
+
+
+def test_coverage_baselines_deploy_exactly_the_budget(test_chips):
+    table = coverage_baselines(test_chips, TINY, EXPERIMENTS)
+    assert len(table) == 2 * 2 * 2  # methods x budgets x seeds on one chip
+    assert (table.deployment_cost == table.budget).all()
+    assert np.isfinite(table.coverage_cost).all() and (table.coverage_cost > 0).all()
+    again = coverage_baselines(test_chips, TINY, EXPERIMENTS)
+    np.testing.assert_array_equal(table.coverage_cost, again.coverage_cost)

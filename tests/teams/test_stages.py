@@ -1,0 +1,36 @@
+import runpy
+from pathlib import Path
+
+import pandas as pd
+
+STAGES = Path(__file__).resolve().parents[2] / "stages"
+TINY_PARAMS = """
+teams:
+  chips: {n_synthetic: 4, seed: 1}
+  decompose: {n_regions: 3, test_fraction: 0.5}
+  coverage: {iterations: 2, n_observations: 4}
+  experiments: {populations: [4, 6], generations: 2, nsga2_chips: 1, nsga2_seeds: [0], budgets: [3, 6],
+                baseline_chips: 1, baseline_seeds: [0]}
+"""
+
+
+def run_stage(name: str) -> None:
+    runpy.run_path(str(STAGES / f"{name}.py"), run_name="__main__")
+
+
+def test_stages_write_their_tables_deterministically(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "params.yaml").write_text(TINY_PARAMS)
+    run_stage("decompose")
+    regions_bytes = Path("data/regions.parquet").read_bytes()
+    regions = pd.read_parquet("data/regions.parquet")
+    assert len(regions) == 4 * 3 and sorted(Path("data/teams/chips").glob("*.png"))
+    run_stage("decompose")
+    assert Path("data/regions.parquet").read_bytes() == regions_bytes
+    run_stage("teams_baselines")
+    outputs = ["nsga2", "fronts", "coverage", "trajectories", "eval_cache"]
+    first = {name: pd.read_parquet(f"data/teams/{name}.parquet") for name in outputs}
+    assert first["nsga2"].population.tolist() == [4, 6]
+    run_stage("teams_baselines")
+    for name in ["fronts", "coverage", "trajectories"]:
+        pd.testing.assert_frame_equal(pd.read_parquet(f"data/teams/{name}.parquet"), first[name])
