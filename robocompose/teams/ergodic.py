@@ -171,11 +171,14 @@ class ChipCoverage:
         self.centres = pixel_centres(height, width).reshape(-1, 2)  # (H*W, 2)
         self.pixel_size = np.array([1.0 / width, 1.0 / height])
         movable = step_lengths()[:, terrain.ravel()] > 0  # (O, H*W)
-        # deployment pixels of (region, species): the region's movable pixels, or all its pixels if none
-        self.deploy_pixels = [[np.flatnonzero((regions.ravel() == i) & movable[j])
-                               if ((regions.ravel() == i) & movable[j]).any()
-                               else np.flatnonzero(regions.ravel() == i)
-                               for j in range(movable.shape[0])] for i in range(n_regions)]
+        self.deploy_pixels = [[self._deploy_pixels(regions.ravel() == i, can_move) for can_move in movable]
+                              for i in range(n_regions)]  # [K][O] flat pixel indices
+
+    @staticmethod
+    def _deploy_pixels(in_region: np.ndarray, can_move: np.ndarray) -> np.ndarray:
+        """Pixels of a region where a species can move, or all the region's pixels if there are none."""
+        movable = np.flatnonzero(in_region & can_move)
+        return movable if len(movable) else np.flatnonzero(in_region)
 
     def deploy(self, counts: np.ndarray, seed: int) -> Robots:
         """Robots of (B, K, O) allocations; allocation b's team in region i is team b * K + i.
