@@ -1,0 +1,112 @@
+"""Deriving designs from rule sequences: checked replay, uniform random derivation, graph -> tree."""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from robocompose.grammar.rules import RULES, START_GRAPH, Graph, apply_rule, first_match
+from robocompose.grammar.tree import DesignTree, classify_joint, classify_link, token_of
+
+MAX_DEPTH = 40  # rule-sequence length limit of random derivation (RoboGrammar's search depth)
+
+
+class DerivationError(ValueError):
+    """A rule sequence that does not derive a complete design; the message names the step and rule."""
+
+
+@dataclass(frozen=True)
+class Derivation:
+    rules: tuple[int, ...]
+    graph: Graph
+
+    @property
+    def tree(self) -> DesignTree:
+        return graph_to_tree(self.graph)
+
+
+def parse_rules(text: str) -> tuple[int, ...]:
+    """Parse "0,7,1,..." into rule indices; errors name the bad item."""
+    out = []
+    for k, item in enumerate(x.strip() for x in text.split(",")):
+        try:
+            out.append(int(item))
+        except ValueError:
+            raise DerivationError(f"rule sequence item {k} is {item!r}, expected an integer rule index") from None
+    return tuple(out)
+
+
+def derive(rules: tuple[int, ...] | list[int], require_complete: bool = True) -> Derivation:
+    """Apply `rules` in order, each at its first applicable match."""
+    graph = START_GRAPH
+    for step, r in enumerate(rules):
+        if not 0 <= r < len(RULES):
+            raise DerivationError(f"step {step}: rule {r} does not exist (rules are 0..{len(RULES) - 1})")
+        match = first_match(RULES[r], graph)
+        if match is None:
+            raise DerivationError(f"step {step}: rule {r} ({RULES[r].name}) is not applicable here")
+        graph = apply_rule(RULES[r], graph, match)
+    if require_complete and not graph.complete:
+        pending = sorted({n.label for n in graph.nodes if n.label} | {e.label for _, _, e in graph.edges if e.label})
+        raise DerivationError(
+            f"after {len(rules)} steps the design is incomplete: non-terminals {', '.join(pending)} remain"
+        )
+    return Derivation(tuple(rules), graph)
+
+
+def applicable_rules(graph: Graph) -> list[int]:
+    return [r for r, rule in enumerate(RULES) if first_match(rule, graph) is not None]
+
+
+def random_derivation(rng: np.random.Generator, max_depth: int = MAX_DEPTH) -> Derivation | None:
+    """Choose uniformly among the applicable rules until complete; None past `max_depth` rules."""
+    graph, rules = START_GRAPH, []
+    while not graph.complete:
+        if len(rules) >= max_depth:
+            return None
+        choices, matches = [], {}
+        for r, rule in enumerate(RULES):
+            if rule.match_key not in matches:  # many rules share a left side: match it once
+                matches[rule.match_key] = first_match(rule, graph)
+            if matches[rule.match_key] is not None:
+                choices.append((r, matches[rule.match_key]))
+        r, match = choices[int(rng.integers(len(choices)))]
+        graph = apply_rule(RULES[r], graph, match)
+        rules.append(r)
+    return Derivation(tuple(rules), graph)
+
+
+def graph_to_tree(graph: Graph) -> DesignTree:
+    """Unfold a complete graph breadth-first into a design tree, as RoboGrammar's buildRobot does."""
+    if not graph.complete:
+        raise DerivationError("only a complete design graph can be built")
+    root = 0
+    for _ in range(len(graph.edges)):  # follow edges backwards to a root
+        incoming = next((t for t, h, _ in graph.edges if h == root), None)
+        if incoming is None:
+            break
+        root = incoming
+    parents, tokens = [], []
+    # (node, parent link, edge attrs or None, mirrored)
+    queue = deque([(root, -1, None, False)])
+    while queue:
+        node, parent, edge, mirror = queue.popleft()
+        attrs = graph.nodes[node]
+        link_type = classify_link(attrs.length, attrs.radius)
+        if edge is None:
+            joint_type = 0
+        else:
+            w, x, y, z = edge.joint_rot
+            ax, ay, az = edge.joint_axis
+            if mirror:  # mirror across the body's sagittal plane
+                x, y, az = -x, -y, -az
+            joint_type = classify_joint(edge.joint_type, (w, x, y, z), (ax, ay, az), link_type)
+        index = len(tokens)
+        parents.append(parent)
+        tokens.append(token_of(link_type, joint_type))
+        for t, h, e in graph.edges:
+            if t == node:
+                queue.append((h, index, e, mirror != e.mirror))
+    return DesignTree(tuple(parents), tuple(tokens))

@@ -1,0 +1,143 @@
+"""The GLSO dataset: random grammar derivations with rest-contact features, enumerated in parallel.
+
+Candidate k is derived from its own random stream (seed, k), so which designs are kept depends only on
+the seed, never on the number of workers: candidates are processed in chunks on all cores and taken
+in index order until `n` distinct valid designs are found.
+"""
+
+from __future__ import annotations
+
+import os
+from collections import Counter
+from collections.abc import Callable, Iterator
+from concurrent.futures import Future, ProcessPoolExecutor
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from robocompose.grammar.derivation import MAX_DEPTH, random_derivation
+from robocompose.grammar.tree import DesignTree
+
+MIN_LINKS = 11  # the thesis keeps designs with at least 11 links
+
+
+@dataclass(frozen=True)
+class EnumerateConfig:
+    """Settings of one enumeration run."""
+
+    n: int  # distinct valid designs to collect
+    seed: int = 0  # base seed; candidate k uses the random stream (seed, k)
+    min_links: int = MIN_LINKS  # smaller designs are rejected
+    max_depth: int = MAX_DEPTH  # rule-sequence length limit of a derivation
+    workers: int = 0  # processes; 0 = all cores
+    chunk: int = 64  # candidates per task sent to a worker
+
+    def __post_init__(self) -> None:
+        for name in ("n", "chunk", "min_links", "max_depth"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"enumerate: {name} must be a positive integer, got {getattr(self, name)}")
+        if self.workers < 0:
+            raise ValueError(f"enumerate: workers must be >= 0 (0 = all cores), got {self.workers}")
+
+
+@dataclass
+class EnumerateStats:
+    candidates: int = 0
+    kept: int = 0
+    duplicates: int = 0
+    rejected: Counter = field(default_factory=Counter)  # reason -> count
+
+    def as_dict(self) -> dict:
+        return {"candidates": self.candidates, "kept": self.kept, "duplicates": self.duplicates,
+                "rejected": dict(sorted(self.rejected.items()))}
+
+
+# A candidate's outcome: (reason, row); reason "" means valid.
+Outcome = tuple[str, dict | None]
+_CLIENT: int | None = None
+
+
+def _client() -> int:
+    """One pybullet client per worker process, made on first use."""
+    global _CLIENT
+    if _CLIENT is None:
+        from robocompose.sim.physics import connect
+
+        _CLIENT = connect()
+    return _CLIENT
+
+
+def design_row(tree: DesignTree, rules: tuple[int, ...], contacts: np.ndarray) -> dict:
+    return {"design_id": tree.design_id, "rules": list(rules), "parents": list(tree.parents),
+            "tokens": list(tree.tokens), "n_links": tree.n_links, "n_joints": tree.n_joints,
+            "contacts": [float(x) for x in contacts]}
+
+
+def candidate(seed: int, k: int, min_links: int, max_depth: int) -> Outcome:
+    """Derive candidate k, filter it and measure its contacts."""
+    from robocompose.sim.contacts import contact_features
+
+    derivation = random_derivation(np.random.default_rng([seed, k]), max_depth)
+    if derivation is None:
+        return "depth_limit", None
+    tree = derivation.tree
+    if tree.n_links < min_links:
+        return "too_few_links", None
+    contacts = contact_features(tree, _client())
+    if not contacts.valid:
+        return contacts.reason, None
+    return "", design_row(tree, derivation.rules, contacts.features)
+
+
+def _chunk(task: tuple[Callable[..., Outcome], int, int, int, tuple]) -> list[Outcome]:
+    make, seed, start, stop, args = task
+    return [make(seed, k, *args) for k in range(start, stop)]
+
+
+def collect(make: Callable[..., Outcome], n: int, seed: int, args: tuple, workers: int, chunk: int,
+            progress: str | None = None) -> tuple[pd.DataFrame, EnumerateStats]:
+    """Run `make(seed, k, *args)` for k = 0, 1, ... on `workers` processes; keep the first `n`
+    distinct valid rows in index order. `make` must be a module-level function (it is pickled)."""
+    from tqdm import tqdm
+
+    workers = workers or os.cpu_count() or 1
+    stats, rows, seen = EnumerateStats(), [], set()
+    bar = tqdm(total=n, desc=progress, unit="design", disable=progress is None, mininterval=1.0)
+
+    def tasks() -> Iterator[tuple]:
+        start = 0
+        while True:
+            yield (make, seed, start, start + chunk, args)
+            start += chunk
+
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        pending: list[Future] = []
+        source = tasks()
+        while len(rows) < n:
+            while len(pending) < 2 * workers:  # keep every core busy, results taken in order
+                pending.append(pool.submit(_chunk, next(source)))
+            for reason, row in pending.pop(0).result():
+                if len(rows) == n:
+                    break
+                stats.candidates += 1
+                if reason:
+                    stats.rejected[reason] += 1
+                elif row["design_id"] in seen:
+                    stats.duplicates += 1
+                else:
+                    seen.add(row["design_id"])
+                    rows.append(row)
+                    bar.update(1)
+        for f in pending:
+            f.cancel()
+    bar.close()
+    stats.kept = len(rows)
+    return pd.DataFrame(rows), stats
+
+
+def enumerate_designs(config: EnumerateConfig,
+                      progress: str | None = "enumerate") -> tuple[pd.DataFrame, EnumerateStats]:
+    """`config.n` distinct valid grammar designs with their contact features, and run statistics."""
+    return collect(candidate, config.n, config.seed, (config.min_links, config.max_depth),
+                   config.workers, config.chunk, progress)

@@ -1,0 +1,147 @@
+"""The design tree: a robot as parent indices and node tokens, its geometry and its canonical id.
+
+A token is `link_type * 14 + joint_type` (3 x 14 = 42 tokens). The joint types are the distinct joints
+after mirroring (a mirrored left roll is a right roll, a mirrored swing is a swing), so a token tree
+alone determines the physical robot; joint positions follow from the joint type.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from dataclasses import dataclass
+
+from robocompose.grammar.rules import Quaternion, axis_angle
+
+# (length, radius, density) of each link type.
+LINK_TYPES: tuple[tuple[str, float, float, float], ...] = (
+    ("long_limb", 0.15, 0.025, 1.0),
+    ("body", 0.15, 0.045, 3.0),
+    ("limb", 0.10, 0.025, 1.0),
+)
+_Y90, _YM90 = axis_angle(0, 1, 0, 90), axis_angle(0, 1, 0, -90)
+_I = (1.0, 0.0, 0.0, 0.0)
+X, Y, Z, MZ = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (0.0, 0.0, -1.0)
+# (name, pybullet joint kind, rotation (w, x, y, z), hinge axis). "fixed" is the identity on a body and
+# the limb-mount rotation on a limb link (the grammar never makes the other combinations).
+JOINT_TYPES: tuple[tuple[str, str, Quaternion, tuple[float, float, float]], ...] = (
+    ("root", "none", _I, Z),
+    ("fixed", "fixed", _I, Z),
+    ("fixed_mirrored", "fixed", _YM90, Z),
+    ("roll", "hinge", _I, X),
+    ("swing", "hinge", _I, Y),
+    ("lift", "hinge", _I, Z),
+    ("left_roll", "hinge", _YM90, X),
+    ("right_roll", "hinge", _Y90, X),
+    ("acute_lift", "hinge", axis_angle(0, 0, 1, 120), Z),
+    ("acute_lift_mirrored", "hinge", axis_angle(0, 0, 1, 120), MZ),
+    ("obtuse_lift", "hinge", axis_angle(0, 0, 1, 60), Z),
+    ("obtuse_lift_mirrored", "hinge", axis_angle(0, 0, 1, 60), MZ),
+    ("backwards_lift", "hinge", axis_angle(0, 0, 1, -60), Z),
+    ("backwards_lift_mirrored", "hinge", axis_angle(0, 0, 1, -60), MZ),
+)
+N_JOINT_TYPES = len(JOINT_TYPES)
+N_TOKENS = len(LINK_TYPES) * N_JOINT_TYPES  # 42
+BODY_LINK_TYPE = 1
+BODY_TOTAL_MASS = 0.45  # all body links together weigh one body segment (GLSO's mass normalisation)
+
+
+def token_of(link_type: int, joint_type: int) -> int:
+    return link_type * N_JOINT_TYPES + joint_type
+
+
+def split_token(token: int) -> tuple[int, int]:
+    return divmod(token, N_JOINT_TYPES)
+
+
+@dataclass(frozen=True)
+class Link:
+    """Geometry of one link and of the joint to its parent (all in the parent's frame)."""
+
+    parent: int
+    length: float
+    radius: float
+    mass: float
+    joint_kind: str  # none | fixed | hinge
+    joint_pos: float  # position along the parent, 0 = its near end, 1 = its far end
+    joint_rot: Quaternion
+    joint_axis: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class DesignTree:
+    """A robot: `parents[i]` is node i's parent (-1 for the root, which is node 0), `tokens[i]` its token.
+
+    Nodes are in breadth-first order, parents before children.
+    """
+
+    parents: tuple[int, ...]
+    tokens: tuple[int, ...]
+
+    def __post_init__(self) -> None:
+        if len(self.parents) != len(self.tokens) or not self.parents:
+            raise ValueError("a design tree needs one parent and one token per node, and at least one node")
+        if self.parents[0] != -1 or any(not 0 <= p < i for i, p in enumerate(self.parents) if i):
+            raise ValueError(f"parents must list the root first and each parent before its child: {self.parents}")
+        if any(not 0 <= t < N_TOKENS for t in self.tokens):
+            raise ValueError(f"tokens must lie in 0..{N_TOKENS - 1}: {self.tokens}")
+
+    @property
+    def n_links(self) -> int:
+        return len(self.tokens)
+
+    @property
+    def n_joints(self) -> int:
+        """Actuated (hinge) joints."""
+        return sum(JOINT_TYPES[split_token(t)[1]][1] == "hinge" for t in self.tokens)
+
+    def children(self, i: int) -> list[int]:
+        return [j for j, p in enumerate(self.parents) if p == i]
+
+    def links(self) -> list[Link]:
+        n_body = sum(split_token(t)[0] == BODY_LINK_TYPE for t in self.tokens)
+        out = []
+        for parent, token in zip(self.parents, self.tokens, strict=True):
+            link_type, joint_type = split_token(token)
+            _, length, radius, density = LINK_TYPES[link_type]
+            jname, kind, rot, axis = JOINT_TYPES[joint_type]
+            mass = BODY_TOTAL_MASS / n_body if link_type == BODY_LINK_TYPE else length * density
+            # Limb mounts (fixed joints on limb links) sit at the middle of their body.
+            mount = kind == "fixed" and (jname == "fixed_mirrored" or link_type != BODY_LINK_TYPE)
+            if jname == "fixed" and link_type != BODY_LINK_TYPE:
+                rot = _Y90
+            out.append(Link(parent, length, radius, mass, kind, 0.5 if mount else 1.0, rot, axis))
+        return out
+
+    def canonical(self, i: int = 0) -> str:
+        """A string that is the same for every ordering of siblings (children sorted by their own form)."""
+        kids = sorted(self.canonical(j) for j in self.children(i))
+        return f"{self.tokens[i]}" + (f"({','.join(kids)})" if kids else "")
+
+    @property
+    def design_id(self) -> str:
+        """Canonical id: the first 16 hex digits of the SHA-256 of the canonical form."""
+        return hashlib.sha256(self.canonical().encode()).hexdigest()[:16]
+
+
+def classify_joint(kind: str, rot: Quaternion, axis: tuple[float, float, float], link_type: int) -> int:
+    """The joint type of a (mirrored) joint as found in a built grammar graph."""
+    for j, (name, k, r, a) in enumerate(JOINT_TYPES):
+        if name == "root":
+            continue
+        if name == "fixed" and link_type != BODY_LINK_TYPE:
+            r = _Y90
+        if k == kind and _close(r, rot) and (kind == "fixed" or _close(a, axis)):
+            return j
+    raise ValueError(f"no joint type for kind={kind} rotation={rot} axis={axis} on link type {link_type}")
+
+
+def classify_link(length: float, radius: float) -> int:
+    for i, (_, l_, r_, _) in enumerate(LINK_TYPES):
+        if math.isclose(length, l_) and math.isclose(radius, r_):
+            return i
+    raise ValueError(f"no link type of length {length} and radius {radius}")
+
+
+def _close(a, b) -> bool:
+    return all(math.isclose(x, y, abs_tol=1e-9) for x, y in zip(a, b, strict=True))
