@@ -1,0 +1,133 @@
+"""Prefect flow that runs the DVC pipeline: one task per DVC stage, each running `dvc repro <stage>`.
+
+DVC keeps the stage graph and the cache (an up-to-date stage is skipped); Prefect adds schedules,
+retries and logs. Stages run one at a time in dependency order, because DVC locks the repository
+during `dvc repro`.
+
+Run once, locally (Prefect starts a temporary local server; nothing to set up):
+
+    python flows/pipeline.py                                # every stage
+    python flows/pipeline.py --stage enumerate --stage bo   # some stages (+ what they need)
+
+Serve it on a schedule against a real Prefect server:
+
+    prefect server start --host 127.0.0.1
+    PREFECT_API_URL=http://127.0.0.1:4200/api python flows/pipeline.py --serve --cron "0 3 * * *"
+"""
+
+from __future__ import annotations
+
+import argparse
+import graphlib
+import os
+import re
+import subprocess
+import sys
+from collections import deque
+from pathlib import Path
+
+PROJECT_DIR = Path(__file__).resolve().parents[1]
+
+# Prefect reads its settings when imported, so the defaults go in before the import below.
+for _key, _value in {
+    "PREFECT_HOME": str(PROJECT_DIR / ".prefect"),
+    "PREFECT_SERVER_ANALYTICS_ENABLED": "false",
+    "DO_NOT_TRACK": "1",  # telemetry otherwise races the server's migrations: "database is locked"
+    "PREFECT_SERVER_EPHEMERAL_STARTUP_TIMEOUT_SECONDS": "120",  # first start migrates for ~20 s
+    "DVC_NO_ANALYTICS": "1",
+}.items():
+    os.environ.setdefault(_key, _value)
+
+from prefect import flow, get_run_logger, task  # noqa: E402
+from prefect.settings import PREFECT_API_URL  # noqa: E402
+
+_NODE = re.compile(r'^"(?P<node>[^"]+)";$')
+_EDGE = re.compile(r'^"(?P<upstream>[^"]+)" -> "(?P<downstream>[^"]+)";$')
+_LOG_TAIL = 20  # lines of dvc output quoted in the error of a failed stage
+
+
+def dvc_stages(project_dir: str | Path = ".") -> list[str]:
+    """All stages of the DVC project in dependency order; matrix/foreach stages expanded (`bo@...`)."""
+    # `python -m dvc` from this interpreter: the venv's dvc even when its bin/ is not on PATH.
+    result = subprocess.run(
+        [sys.executable, "-m", "dvc", "dag", "--dot"], cwd=project_dir, capture_output=True, text=True
+    )
+    if result.returncode:
+        raise RuntimeError(f"`dvc dag --dot` failed in {project_dir}: {result.stderr.strip()}")
+    graph: dict[str, set[str]] = {}
+    for line in result.stdout.splitlines():
+        if edge := _EDGE.match(line.strip()):
+            graph.setdefault(edge["downstream"], set()).add(edge["upstream"])
+        elif node := _NODE.match(line.strip()):
+            graph.setdefault(node["node"], set())
+    return list(graphlib.TopologicalSorter(graph).static_order())
+
+
+def select_stages(all_stages: list[str], wanted: list[str] | None) -> list[str]:
+    """The stages of `all_stages` named in `wanted` (a matrix stage's name selects all its items).
+
+    Keeps dependency order; `wanted=None` selects everything.
+    """
+    if wanted is None:
+        return list(all_stages)
+    unknown = [w for w in wanted if not any(s == w or s.startswith(f"{w}@") for s in all_stages)]
+    if unknown:
+        raise ValueError(f"unknown DVC stage(s) {unknown}; dvc.yaml defines {all_stages}")
+    return [s for s in all_stages if any(s == w or s.startswith(f"{w}@") for w in wanted)]
+
+
+@task(task_run_name="dvc repro {stage}", retries=1, retry_delay_seconds=5)
+def run_stage(stage: str, project_dir: str) -> None:
+    """`dvc repro <stage>` in the project, its output streamed into the Prefect log."""
+    logger = get_run_logger()
+    command = [sys.executable, "-m", "dvc", "repro", stage]
+    tail: deque[str] = deque(maxlen=_LOG_TAIL)
+    with subprocess.Popen(
+        command, cwd=project_dir, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
+    ) as process:
+        assert process.stdout is not None
+        for line in process.stdout:
+            if line := line.rstrip():
+                logger.info(line)
+                tail.append(line)
+    if process.returncode:
+        output = "\n".join(tail)
+        raise RuntimeError(f"DVC stage {stage!r} failed (dvc repro exited {process.returncode}):\n{output}")
+
+
+@flow(name="robocompose-pipeline")
+def pipeline(stages: list[str] | None = None, project_dir: str = ".") -> list[str]:
+    """Reproduce the DVC stages `stages` (all if None) of the project in dependency order.
+
+    Returns the stages run; the first stage that fails (after its retry) fails the flow.
+    """
+    selected = select_stages(dvc_stages(project_dir), stages)
+    get_run_logger().info("stages: %s", selected)
+    for stage in selected:
+        run_stage(stage, project_dir)
+    return selected
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Command line: run the flow once, or serve it on a cron schedule."""
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("--stage", action="append", dest="stages", help="stage to run (repeatable)")
+    parser.add_argument("--project-dir", default=str(PROJECT_DIR), help="DVC project (default: %(default)s)")
+    parser.add_argument("--serve", action="store_true", help="serve on a schedule (needs a Prefect server)")
+    parser.add_argument("--cron", default="0 3 * * *", help="schedule for --serve (default: %(default)s)")
+    parser.add_argument("--name", default="scheduled", help="deployment name for --serve")
+    args = parser.parse_args(argv)
+    parameters = {"stages": args.stages, "project_dir": args.project_dir}
+    if args.serve:
+        if not PREFECT_API_URL.value():
+            parser.error("--serve needs a Prefect server: set PREFECT_API_URL (see the commands above)")
+        pipeline.serve(name=args.name, cron=args.cron, parameters=parameters)
+        return 0
+    state = pipeline(**parameters, return_state=True)
+    return 0 if state.is_completed() else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

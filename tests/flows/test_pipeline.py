@@ -1,0 +1,153 @@
+"""The Prefect pipeline flow on real, tiny DVC projects, against a temporary Prefect server."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+from types import ModuleType
+from typing import TYPE_CHECKING
+
+import pytest
+
+if TYPE_CHECKING:  # prefect is imported only once the fixture has pointed it at a temporary home
+    from prefect.states import State
+
+PIPELINE_FILE = Path(__file__).resolve().parents[2] / "flows" / "pipeline.py"
+
+# Stage `a` writes a file from params (`${n}` is params.yaml's n), matrix stage `b` one file per item
+# from it, and `c` one from b@x.
+DVC_YAML = """\
+stages:
+  a:
+    cmd: python -c "open('a.txt', 'w').write('${n}')"
+    params: [n]
+    outs: [a.txt]
+  b:
+    matrix:
+      suffix: [x, y]
+    cmd: python -c "open('b_${item.suffix}.txt', 'w').write(open('a.txt').read() + '${item.suffix}')"
+    deps: [a.txt]
+    outs: ["b_${item.suffix}.txt"]
+  c:
+    cmd: python -c "open('c.txt', 'w').write(open('b_x.txt').read() + 'c')"
+    deps: [b_x.txt]
+    outs: [c.txt]
+"""
+
+# Stage `b` leaves a line in attempts.txt on every attempt (not a DVC output: it survives), then fails.
+FAILING_DVC_YAML = """\
+stages:
+  a:
+    cmd: python -c "open('a.txt', 'w').write('7')"
+    outs: [a.txt]
+  b:
+    cmd: python -c "open('attempts.txt', 'a').write('attempt\\n'); raise SystemExit(3)"
+    deps: [a.txt]
+    outs: [b.txt]
+  c:
+    cmd: python -c "open('c.txt', 'w').write(open('b.txt').read())"
+    deps: [b.txt]
+    outs: [c.txt]
+"""
+
+
+def make_dvc_project(root: Path, dvc_yaml: str = DVC_YAML) -> Path:
+    """A fresh git + DVC project (analytics off) with `dvc_yaml` and params n: 7."""
+    root.mkdir(parents=True)
+    (root / "dvc.yaml").write_text(dvc_yaml)
+    (root / "params.yaml").write_text("n: 7\n")
+    for command in (
+        ["git", "init", "-q"],
+        [sys.executable, "-m", "dvc", "init", "-q"],
+        [sys.executable, "-m", "dvc", "config", "core.analytics", "false"],
+        [sys.executable, "-m", "dvc", "config", "core.check_update", "false"],
+    ):
+        subprocess.run(command, cwd=root, check=True, capture_output=True)
+    return root
+
+
+def dvc_status(project: Path) -> dict:
+    result = subprocess.run(
+        [sys.executable, "-m", "dvc", "status", "--json"],
+        cwd=project,
+        check=True,
+        capture_output=True,
+        text=True,
+    )
+    return json.loads(result.stdout)
+
+
+@pytest.fixture(scope="module")
+def flows_pipeline(tmp_path_factory: pytest.TempPathFactory) -> Iterator[ModuleType]:
+    """flows/pipeline.py imported with Prefect pointed at a temporary home and server."""
+    tmp = tmp_path_factory.mktemp("prefect")
+    with pytest.MonkeyPatch.context() as env:
+        # All the defaults the module would set, so none of them outlives these tests.
+        env.setenv("PREFECT_HOME", str(tmp / "home"))
+        env.setenv("PREFECT_SERVER_ANALYTICS_ENABLED", "false")
+        env.setenv("DO_NOT_TRACK", "1")
+        env.setenv("PREFECT_SERVER_EPHEMERAL_STARTUP_TIMEOUT_SECONDS", "120")
+        env.setenv("DVC_NO_ANALYTICS", "1")
+        env.setenv("DVC_SITE_CACHE_DIR", str(tmp / "dvc_site_cache"))
+        spec = importlib.util.spec_from_file_location("flows_pipeline", PIPELINE_FILE)
+        assert spec is not None and spec.loader is not None
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+
+        from prefect.settings import PREFECT_HOME, temporary_settings
+        from prefect.testing.utilities import prefect_test_harness
+
+        # The env var only counts if prefect was not imported yet; the setting always does.
+        with temporary_settings(updates={PREFECT_HOME: tmp / "home"}), prefect_test_harness(120):
+            yield module
+
+
+def run_pipeline(flows_pipeline: ModuleType, project_dir: Path, stages: list[str] | None = None) -> State:
+    """Run the pipeline flow on `project_dir`; return its final Prefect state (never raises)."""
+    return flows_pipeline.pipeline(stages=stages, project_dir=str(project_dir), return_state=True)
+
+
+def test_stage_order_follows_the_dag(flows_pipeline: ModuleType, tmp_path: Path) -> None:
+    project = make_dvc_project(tmp_path / "project")
+    order = flows_pipeline.dvc_stages(project)
+    assert sorted(order) == ["a", "b@x", "b@y", "c"]
+    assert order.index("a") < order.index("b@x") < order.index("c") and order.index("a") < order.index("b@y")
+    assert flows_pipeline.select_stages(order, ["c", "b"]) == [s for s in order if s != "a"]
+    with pytest.raises(ValueError, match=r"unknown DVC stage\(s\) \['d'\]"):
+        flows_pipeline.select_stages(order, ["d"])
+
+
+def test_pipeline_reproduces_selected_then_all_stages(flows_pipeline: ModuleType, tmp_path: Path) -> None:
+    project = make_dvc_project(tmp_path / "project")
+    # From the command line, a matrix stage's name selects its items; DVC brings in what they need.
+    assert flows_pipeline.main(["--stage", "b", "--project-dir", str(project)]) == 0
+    assert (project / "b_x.txt").read_text() == "7x" and (project / "b_y.txt").read_text() == "7y"
+    assert not (project / "c.txt").exists()
+
+    state = run_pipeline(flows_pipeline, project)
+    assert state.is_completed(), state.message
+    assert sorted(state.result()) == ["a", "b@x", "b@y", "c"]
+    assert (project / "a.txt").read_text() == "7"
+    assert (project / "c.txt").read_text() == "7xc"
+    assert dvc_status(project) == {}
+
+
+def test_failing_stage_fails_the_flow_after_one_retry(
+    flows_pipeline: ModuleType, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    assert (flows_pipeline.run_stage.retries, flows_pipeline.run_stage.retry_delay_seconds) == (1, 5)
+    # Same task without the 5 s wait before its retry, to keep the test fast.
+    monkeypatch.setattr(
+        flows_pipeline, "run_stage", flows_pipeline.run_stage.with_options(retry_delay_seconds=0)
+    )
+    project = make_dvc_project(tmp_path / "project", FAILING_DVC_YAML)
+    state = run_pipeline(flows_pipeline, project)
+    assert state.is_failed()
+    assert "DVC stage 'b' failed" in state.message
+    assert (project / "a.txt").read_text() == "7"  # the stage before ran
+    assert (project / "attempts.txt").read_text() == "attempt\nattempt\n"  # retries=1
+    assert not (project / "c.txt").exists()  # the stage after did not
