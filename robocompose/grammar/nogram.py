@@ -10,6 +10,8 @@ contact vector is still recorded, from the (penetrating) rest pose.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import pandas as pd
 
@@ -17,6 +19,18 @@ from robocompose.grammar.enumerate import EnumerateStats, Outcome, _client, coll
 from robocompose.grammar.tree import LINK_TYPES, N_JOINT_TYPES, DesignTree, token_of
 
 MAX_NEIGHBOURS = 4
+
+
+@dataclass(frozen=True)
+class NogramConfig:
+    """Settings of the no-grammar dataset."""
+
+    n: int  # designs to collect
+    seed: int = 1  # candidate k uses the random stream (seed, k)
+
+    def __post_init__(self) -> None:
+        if self.n < 1:
+            raise ValueError(f"n must be a positive integer, got {self.n}")
 
 
 def random_tree(rng: np.random.Generator, n_links: int) -> DesignTree:
@@ -45,9 +59,10 @@ def nogram_candidate(seed: int, k: int, sizes: tuple[int, ...]) -> Outcome:
     return "", design_row(tree, (), contacts.features)
 
 
-def enumerate_nogram(n: int, seed: int, sizes: list[int], workers: int = 0, chunk: int = 64,
+def enumerate_nogram(config: NogramConfig, sizes: list[int], workers: int = 0, chunk: int = 64,
                      progress: str | None = "nogram") -> tuple[pd.DataFrame, EnumerateStats]:
-    """`n` distinct random-topology designs whose sizes are drawn from `sizes` (the grammar dataset's)."""
+    """`config.n` distinct random-topology designs whose sizes are drawn from `sizes` (the grammar dataset's)."""
     if not sizes:
         raise ValueError("nogram: needs the link counts of the grammar dataset, got none")
-    return collect(nogram_candidate, n, seed, (tuple(int(s) for s in sizes),), workers, chunk, progress)
+    return collect(nogram_candidate, config.n, config.seed, (tuple(int(s) for s in sizes),), workers, chunk,
+                   progress)

@@ -66,8 +66,11 @@ def depth_first_order(tree: DesignTree) -> list[int]:
     return order
 
 
-def build(tree: DesignTree, client: int, visual: bool = False, position=(0.0, 0.0, 0.0),
-          color=(0.35, 0.55, 0.85, 1.0)) -> tuple[int, tuple[int, ...]]:
+BODY_COLOR, LIMB_COLOR = (0.25, 0.45, 0.80, 1.0), (0.95, 0.55, 0.25, 1.0)
+
+
+def build(tree: DesignTree, client: int, visual: bool = False,
+          position=(0.0, 0.0, 0.0)) -> tuple[int, tuple[int, ...]]:
     """Create the multibody with its link frames, masses, motors and self-collision filter.
 
     Visual shapes (for pictures) double the build time, so they are made only when asked for.
@@ -87,7 +90,8 @@ def build(tree: DesignTree, client: int, visual: bool = False, position=(0.0, 0.
             collisionFramePosition=[link.length / 2, 0, 0], collisionFrameOrientation=_CAPSULE_ALONG_X,
             physicsClientId=client))
         visuals.append(pb.createVisualShape(
-            pb.GEOM_CAPSULE, radius=link.radius, length=link.length, rgbaColor=list(color),
+            pb.GEOM_CAPSULE, radius=link.radius, length=link.length,
+            rgbaColor=list(BODY_COLOR if link.radius > 0.03 else LIMB_COLOR),
             visualFramePosition=[link.length / 2, 0, 0], visualFrameOrientation=_CAPSULE_ALONG_X,
             physicsClientId=client) if visual else -1)
     kinds = {"fixed": pb.JOINT_FIXED, "hinge": pb.JOINT_REVOLUTE}

@@ -29,3 +29,20 @@ def save_png(image: np.ndarray, path: str | Path) -> Path:
     with atomic_path(path) as tmp:
         Image.fromarray(image).save(tmp, format="PNG")
     return Path(path)
+
+
+def render_design(tree, path: str | Path, width: int = WIDTH, height: int = HEIGHT) -> Path:
+    """Picture of a design resting on a floor, from the front-left and a little above, legs in view."""
+    from robocompose.sim.builder import aabb, build_at_rest
+    from robocompose.sim.physics import add_floor, connect
+
+    client = connect()
+    try:
+        add_floor(client)
+        robot = build_at_rest(tree, client, visual=True)
+        lo, hi = aabb(robot.body, client)
+        image = camera_image(client, (lo + hi) / 2, distance=1.1 * float(max(hi - lo)) + 0.35,
+                             yaw=35.0, pitch=-18.0, width=width, height=height)
+    finally:
+        pb.disconnect(physicsClientId=client)
+    return save_png(image, path)

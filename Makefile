@@ -1,0 +1,39 @@
+# `make run`: set up .venv and run the whole default pipeline. `make test`: set up and run the tests.
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed-$(shell cat pyproject.toml | sha1sum | cut -c1-12)
+
+export DVC_NO_ANALYTICS := 1
+export DO_NOT_TRACK := 1
+export PREFECT_HOME ?= $(CURDIR)/.prefect
+export PREFECT_SERVER_ANALYTICS_ENABLED := false
+export PREFECT_SERVER_EPHEMERAL_STARTUP_TIMEOUT_SECONDS := 120
+export MPLBACKEND := Agg
+export PATH := $(CURDIR)/$(BIN):$(PATH)
+
+.PHONY: setup run test bench lint profile
+
+$(STAMP): pyproject.toml
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install -q --upgrade pip
+	$(BIN)/python -m pip install -q -e ".[dev]"
+	rm -f $(VENV)/.installed-*
+	touch $(STAMP)
+
+setup: $(STAMP)
+	test -f params.yaml || $(BIN)/robocompose profile default
+
+run: setup
+	$(BIN)/dvc repro
+
+test: setup
+	$(BIN)/ruff check robocompose stages flows tests benchmarks
+	$(BIN)/python -m pytest -q -ra
+
+bench: setup
+	$(BIN)/python -m benchmarks
+
+# `make profile PROFILE=paper` switches params.yaml to the thesis's scale; `make profile PROFILE=default` back.
+profile: setup
+	$(BIN)/robocompose profile $(PROFILE)

@@ -1,0 +1,41 @@
+"""The `robocompose` command. Each concept registers its own sub-commands; heavy imports wait for a handler."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import sys
+
+COMMAND_MODULES = ("robocompose.grammar.cli", "robocompose.teams.cli")
+
+
+def _profile(args: argparse.Namespace) -> int:
+    from robocompose.params import write_profile
+
+    print(json.dumps({"params": str(write_profile(args.name)), "profile": args.name}))
+    return 0
+
+
+def parser() -> argparse.ArgumentParser:
+    top = argparse.ArgumentParser(prog="robocompose", description="Robot composition learning (GLSO, EG-GAN).")
+    commands = top.add_subparsers(dest="command", required=True)
+    profile = commands.add_parser("profile", help="switch params.yaml to a profile (default, paper)")
+    profile.add_argument("name", help="a file name under profiles/, without .yaml")
+    profile.set_defaults(handler=_profile)
+    for module in COMMAND_MODULES:
+        importlib.import_module(module).register(commands)
+    return top
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parser().parse_args(argv)
+    try:
+        return int(args.handler(args) or 0)
+    except (ValueError, FileNotFoundError, KeyError) as err:  # bad input: a clear message, no traceback
+        print(f"robocompose {args.command}: error: {err}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

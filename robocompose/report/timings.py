@@ -1,0 +1,43 @@
+"""Stage wall times, kept apart from DVC-tracked outputs so that those stay byte-reproducible.
+
+Each stage records its duration (and any speed figures) under its name in reports/timings.json, a
+file DVC does not track; the report shows them.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+TIMINGS_FILE = Path("reports/timings.json")
+
+
+class Timing(dict):
+    """Figures of one stage run; `elapsed()` is the time since the stage started."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self._start = time.perf_counter()
+
+    def elapsed(self) -> float:
+        return time.perf_counter() - self._start
+
+
+def read_timings(path: Path = TIMINGS_FILE) -> dict:
+    return json.loads(path.read_text()) if path.exists() else {}
+
+
+@contextmanager
+def timed(stage: str, path: Path = TIMINGS_FILE) -> Iterator[Timing]:
+    """Record `stage`'s wall time (and the figures put in the yielded dict) when it finishes."""
+    from robocompose.io import atomic_write_json
+
+    timing = Timing()
+    yield timing
+    timing["seconds"] = round(timing.elapsed(), 1)
+    timings = read_timings(path)
+    timings[stage] = dict(timing)
+    atomic_write_json(path, timings)

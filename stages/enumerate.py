@@ -1,0 +1,25 @@
+"""DVC stage `enumerate`: params -> data/designs.parquet, data/designs_nogram.parquet, reports/metrics/enumerate.json."""
+
+from robocompose.grammar.enumerate import EnumerateConfig, enumerate_designs
+from robocompose.grammar.nogram import NogramConfig, enumerate_nogram
+from robocompose.io import atomic_write_json, write_table
+from robocompose.params import load_section
+from robocompose.report.timings import timed
+
+
+def main() -> None:
+    config = load_section(EnumerateConfig, "enumerate")
+    nogram = load_section(NogramConfig, "nogram")
+    with timed("enumerate") as timing:
+        designs, stats = enumerate_designs(config)
+        timing["designs_per_s"] = round(len(designs) / timing.elapsed(), 1)
+        write_table(designs, "data/designs.parquet", "designs")
+        nogram_designs, nogram_stats = enumerate_nogram(nogram, designs["n_links"].tolist(), config.workers,
+                                                        config.chunk)
+        write_table(nogram_designs, "data/designs_nogram.parquet", "designs")
+        atomic_write_json("reports/metrics/enumerate.json", {"grammar": stats.as_dict(),
+                                                              "nogram": nogram_stats.as_dict()})
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,12 @@
+"""DVC stage `report`: every stage's outputs -> reports/report.md, reports/report.html, reports/figures/."""
+
+from robocompose.params import load_section
+from robocompose.report.build import ReportConfig, build_report
+
+
+def main() -> None:
+    build_report(load_section(ReportConfig, "report"))
+
+
+if __name__ == "__main__":
+    main()
