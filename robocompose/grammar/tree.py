@@ -85,6 +85,9 @@ class DesignTree:
             raise ValueError(f"parents must list the root first and each parent before its child: {self.parents}")
         if any(not 0 <= t < N_TOKENS for t in self.tokens):
             raise ValueError(f"tokens must lie in 0..{N_TOKENS - 1}: {self.tokens}")
+        roots = [i for i, t in enumerate(self.tokens) if split_token(t)[1] == 0]
+        if roots != [0]:
+            raise ValueError(f"exactly the root (node 0) has the root joint type; found it at nodes {roots}")
 
     @property
     def n_links(self) -> int:

@@ -6,13 +6,10 @@ what was expected.
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
-import yaml
-
+from robocompose.params import build_config, read_params
 from robocompose.teams.chips import ChipsConfig
 from robocompose.teams.decompose import DecomposeConfig
 from robocompose.teams.ergodic import CoverageConfig
@@ -40,29 +37,9 @@ class TeamsParams:
     threads: int = 1  # torch threads: the tensors are small, one thread is fastest and reproducible
 
 
-def _build(cls: type, values: Any, where: str) -> Any:
-    if not isinstance(values, dict):
-        raise ValueError(f"{where}: expected a mapping of {[f.name for f in dataclasses.fields(cls)]}, "
-                         f"found {values!r}")
-    fields = {f.name: f for f in dataclasses.fields(cls)}
-    unknown = sorted(set(values) - set(fields))
-    if unknown:
-        raise ValueError(f"{where}.{unknown[0]}: unknown field; expected one of {sorted(fields)}")
-    defaults = cls()
-    for name, value in values.items():
-        expected = type(getattr(defaults, name))
-        if expected is float and isinstance(value, int) and not isinstance(value, bool):
-            continue
-        if not isinstance(value, expected) or (expected is int and isinstance(value, bool)):
-            raise ValueError(f"{where}.{name}: expected {expected.__name__}, found {value!r}")
-    return cls(**values)
-
-
 def load_teams_params(path: str | Path = "params.yaml") -> TeamsParams:
     """Read the `teams:` section of a params file."""
-    with open(path, encoding="utf-8") as handle:
-        document = yaml.safe_load(handle) or {}
-    section = document.get("teams")
+    section = read_params(path).get("teams")
     where = f"{path}: teams"
     if not isinstance(section, dict):
         raise ValueError(f"{where}: missing section (expected chips, decompose, coverage, experiments)")
@@ -72,7 +49,7 @@ def load_teams_params(path: str | Path = "params.yaml") -> TeamsParams:
     unknown = sorted(set(section) - set(known))
     if unknown:
         raise ValueError(f"{where}.{unknown[0]}: unknown field; expected one of {known}")
-    built = {name: _build(cls, section.get(name, {}), f"{where}.{name}") for name, cls in parts.items()}
+    built = {name: build_config(cls, section.get(name, {}), f"{where}.{name}") for name, cls in parts.items()}
     threads = section.get("threads", 1)
     if not isinstance(threads, int) or threads < 1:
         raise ValueError(f"{where}.threads: expected a positive integer, found {threads!r}")

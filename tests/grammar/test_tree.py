@@ -1,0 +1,48 @@
+import pytest
+
+from robocompose.grammar.derivation import derive, parse_rules
+from robocompose.grammar.tree import N_TOKENS, DesignTree, split_token
+
+
+def test_forty_two_tokens():
+    assert N_TOKENS == 42
+
+
+def test_design_id_ignores_sibling_order():
+    a = DesignTree((-1, 0, 0, 1), (14, 29, 30, 32))
+    b = DesignTree((-1, 0, 0, 2), (14, 30, 29, 32))  # same tree, children of the root swapped
+    assert a.design_id == b.design_id
+    c = DesignTree((-1, 0, 0, 1), (14, 29, 30, 33))
+    assert c.design_id != a.design_id
+
+
+def test_mirrored_legs_are_twins(reference_rules):
+    tree = derive(parse_rules(reference_rules)).tree
+    mounts = [i for i, t in enumerate(tree.tokens) if split_token(t)[1] in (1, 2) and split_token(t)[0] == 2]
+    plain = [i for i in mounts if split_token(tree.tokens[i])[1] == 1]
+    mirrored = [i for i in mounts if split_token(tree.tokens[i])[1] == 2]
+    assert len(plain) == len(mirrored) > 0  # every leg has a mirrored twin
+
+
+def test_body_mass_is_normalised(reference_rules):
+    links = derive(parse_rules(reference_rules)).tree.links()
+    assert sum(lk.mass for lk in links if lk.radius == 0.045) == pytest.approx(0.45)
+
+
+@pytest.mark.parametrize(("parents", "tokens", "message"), [
+    ((0,), (14,), "root first"),
+    ((-1, 1), (14, 15), "parent before"),
+    ((-1,), (42,), "0..41"),
+    ((-1, 0), (14,), "one parent and one token"),
+    ((-1, 0), (14, 14), "root joint type"),
+])
+def test_invalid_trees_are_rejected(parents, tokens, message):
+    with pytest.raises(ValueError, match=message):
+        DesignTree(parents, tokens)
+
+
+def test_only_the_root_has_the_root_joint():
+    with pytest.raises(ValueError, match="root joint type"):
+        DesignTree((-1, 0), (14, 14))
+    with pytest.raises(ValueError, match="root joint type"):
+        DesignTree((-1, 0), (15, 29))
