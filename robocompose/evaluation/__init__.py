@@ -1,0 +1,1 @@
+"""Evaluating designs: the shared evaluation cache and executor, and the robot evaluator (MPPI on a task)."""
