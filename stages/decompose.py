@@ -3,6 +3,7 @@
 from pathlib import Path
 
 from robocompose.io import write_table
+from robocompose.stage import run_stage
 from robocompose.teams.chips import prepare_chips
 from robocompose.teams.decompose import regions_table
 from robocompose.teams.params import load_teams_params
@@ -15,4 +16,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_stage(main)

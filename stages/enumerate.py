@@ -1,10 +1,11 @@
-"""DVC stage `enumerate`: params -> data/designs.parquet, data/designs_nogram.parquet, reports/metrics/enumerate.json."""
+"""DVC stage `enumerate`: params -> data/designs.parquet, data/designs_nogram.parquet and their statistics."""
 
 from robocompose.grammar.enumerate import EnumerateConfig, enumerate_designs
 from robocompose.grammar.nogram import NogramConfig, enumerate_nogram
 from robocompose.io import atomic_write_json, write_table
 from robocompose.params import load_section
 from robocompose.report.timings import timed
+from robocompose.stage import run_stage
 
 
 def main() -> None:
@@ -22,4 +23,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_stage(main)

@@ -2,6 +2,7 @@
 
 from robocompose.params import load_section
 from robocompose.report.build import ReportConfig, build_report
+from robocompose.stage import run_stage
 
 
 def main() -> None:
@@ -9,4 +10,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_stage(main)

@@ -3,6 +3,7 @@
 import torch
 
 from robocompose.io import read_table, write_table
+from robocompose.stage import run_stage
 from robocompose.teams.evaluator import EvaluationCache
 from robocompose.teams.experiments import (
     coverage_baselines,
@@ -32,4 +33,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_stage(main)

@@ -36,9 +36,9 @@ class EnumerateConfig:
     def __post_init__(self) -> None:
         for name in ("n", "chunk", "min_links", "max_depth"):
             if getattr(self, name) < 1:
-                raise ValueError(f"enumerate: {name} must be a positive integer, got {getattr(self, name)}")
+                raise ValueError(f"{name} must be a positive integer, got {getattr(self, name)}")
         if self.workers < 0:
-            raise ValueError(f"enumerate: workers must be >= 0 (0 = all cores), got {self.workers}")
+            raise ValueError(f"workers must be >= 0 (0 = all cores), got {self.workers}")
 
 
 @dataclass

@@ -151,3 +151,75 @@ def test_failing_stage_fails_the_flow_after_one_retry(
     assert (project / "a.txt").read_text() == "7"  # the stage before ran
     assert (project / "attempts.txt").read_text() == "attempt\nattempt\n"  # retries=1
     assert not (project / "c.txt").exists()  # the stage after did not
+
+
+TINY_PARAMS = {"enumerate": {"n": 6, "seed": 0, "workers": 2, "chunk": 8}, "nogram": {"n": 4, "seed": 1}}
+
+
+def copy_project(root: Path, params: dict) -> Path:
+    """The project's tracked files (as in the working tree) in a new git repo, with tiny params."""
+    import shutil
+
+    import yaml
+
+    source = PIPELINE_FILE.parents[1]
+    files = subprocess.run(["git", "ls-files"], cwd=source, check=True, capture_output=True, text=True).stdout.split()
+    for name in files:
+        if (source / name).is_file():
+            (root / name).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(source / name, root / name)
+    document = yaml.safe_load((root / "profiles" / "default.yaml").read_text())
+    for section, values in params.items():
+        document[section].update(values)
+    (root / "params.yaml").write_text(yaml.safe_dump(document))
+    subprocess.run(["git", "init", "-q"], cwd=root, check=True)
+    return root
+
+
+def dvc(project: Path, *args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "dvc", *args], cwd=project, capture_output=True, text=True)
+
+
+def test_flow_runs_the_real_enumerate_stage_reproducibly(
+    flows_pipeline: ModuleType, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import os
+
+    monkeypatch.setenv("PATH", f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}")  # the stages' python
+    project = copy_project(tmp_path / "project", TINY_PARAMS)
+    state = run_pipeline(flows_pipeline, project, stages=["enumerate"])
+    assert state.is_completed(), state.message
+    designs = project / "data" / "designs.parquet"
+    first = designs.read_bytes()
+    from robocompose.io import read_table
+
+    assert len(read_table(designs, "designs")) == 6
+    assert len(read_table(project / "data" / "designs_nogram.parquet", "designs")) == 4
+
+    again = dvc(project, "repro", "enumerate")
+    assert again.returncode == 0 and "didn't change" in again.stdout  # a no-op right after
+
+    designs.unlink()
+    assert dvc(project, "repro", "enumerate").returncode == 0
+    assert designs.read_bytes() == first  # deleted and re-run: the same bytes
+
+    params = yaml_load(project / "params.yaml")
+    params["enumerate"]["n"] = -3
+    (project / "params.yaml").write_text(yaml_dump(params))
+    failed = dvc(project, "repro", "enumerate")
+    assert failed.returncode != 0
+    assert "params.yaml: enumerate: n must be a positive integer, got -3" in failed.stderr + failed.stdout
+    leftovers = [p.name for p in (project / "data").iterdir()]
+    assert "designs.parquet" not in leftovers and not [p for p in leftovers if p.startswith(".")]
+
+
+def yaml_load(path: Path) -> dict:
+    import yaml
+
+    return yaml.safe_load(path.read_text())
+
+
+def yaml_dump(document: dict) -> str:
+    import yaml
+
+    return yaml.safe_dump(document)

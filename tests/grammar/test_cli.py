@@ -32,6 +32,7 @@ def test_enumerate_negative_count_fails_without_output(tmp_path, capsys):
 
 
 def test_help_does_not_import_torch_or_pybullet():
-    code = "import sys; from robocompose.cli import parser; parser(); print('torch' in sys.modules, 'pybullet' in sys.modules)"
+    code = ("import sys; from robocompose.cli import parser; parser(); "
+            "print('torch' in sys.modules, 'pybullet' in sys.modules)")
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert result.stdout.split() == ["False", "False"]
