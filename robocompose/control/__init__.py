@@ -1,0 +1,1 @@
+"""Control: RoboGrammar's MPPI controller over a pybullet robot world."""

@@ -1,0 +1,133 @@
+"""The robot evaluator: a design's score on a task is the mean reward of one MPPI episode in pybullet.
+
+    from robocompose.evaluation.evaluate import EvaluationConfig, evaluate
+    row = evaluate(tree, "flat", EvaluationConfig(), seed=0)
+    # {"reward": 4.57, "status": "ok", "sim_steps": 107264, "seconds": 8.8}   (an `eval_cache` row's values)
+
+Many designs, cached and fanned out (local processes or a Dask cluster):
+    rows = evaluate_designs(trees, ["flat", "wall"], config, seeds=[0], cache=cache, executor=executor)
+
+Status of a result (`reward` is null unless noted):
+- "ok": the episode ran; `reward` is its mean per-step reward (~4 standing still, +2 per m/s forward).
+- "self_collision": the design self-penetrates when placed at rest (RoboGrammar rejects it); not simulated.
+- "unstable": the simulation blew up: a non-finite state, or a mean reward >= 10 (`BLOWUP_REWARD`, the
+  reference treats any such result as a blow-up); `reward` holds the measured value when finite.
+Optimisers score a result with `objective(row)`: the reward when ok, else `INVALID_SCORE[status]` (GLSO's
+3.8 for a self-collision, 4.0 for a blow-up: about what a robot standing still scores).
+
+The settings hash covers the MPPI config, the physics settings and `EVALUATOR_VERSION` (bump it when the
+simulation or the terrains change), so cached results never mix settings.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import time
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import asdict, dataclass, field
+
+import pandas as pd
+
+from robocompose.control.mppi import MPPIConfig, run_episode
+from robocompose.evaluation.cache import EvaluationCache
+from robocompose.evaluation.executor import Executor, evaluate_many
+from robocompose.grammar.tree import DesignTree
+from robocompose.params import build_config
+from robocompose.sim.physics import PhysicsSettings
+from robocompose.tasks.terrains import get_task
+
+EVALUATOR_VERSION = "robogrammar-mppi-1"
+OK, SELF_COLLISION, UNSTABLE = "ok", "self_collision", "unstable"
+STATUSES = (OK, SELF_COLLISION, UNSTABLE)
+BLOWUP_REWARD = 10.0  # any mean reward at or above this is a simulation blow-up
+INVALID_SCORE = {SELF_COLLISION: 3.8, UNSTABLE: 4.0}  # what optimisers use instead of an invalid result (GLSO)
+
+
+@dataclass(frozen=True)
+class EvaluationConfig:
+    """The `evaluation:` section of params.yaml."""
+
+    mppi: MPPIConfig = field(default_factory=MPPIConfig)  # controller settings (paper values by default)
+    seed: int = 0  # controller seed of an evaluation (results are reproducible given design, task, seed)
+    workers: int = 0  # local evaluation processes; 0 = all cores
+    address: str = ""  # a running Dask scheduler (e.g. "tcp://host:8786"); "" = local processes
+    cache: str = "data/cache/eval_cache.parquet"  # the shared evaluation cache ("" = memory only)
+
+    def __post_init__(self) -> None:
+        if isinstance(self.mppi, dict):
+            object.__setattr__(self, "mppi", build_config(MPPIConfig, self.mppi, "evaluation.mppi"))
+
+    def settings_hash(self) -> str:
+        """16 hex digits identifying everything that changes a result besides design, task and seed."""
+        settings = {"evaluator": EVALUATOR_VERSION, "mppi": self.mppi.as_dict(), "physics": asdict(PhysicsSettings())}
+        text = json.dumps(settings, sort_keys=True)
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+    def executor(self) -> Executor:
+        return Executor(workers=self.workers, address=self.address or None)
+
+    def open_cache(self) -> EvaluationCache:
+        return EvaluationCache(self.cache or None)
+
+
+def objective(row: dict) -> float:
+    """The number an optimiser maximises for an evaluation row: its reward if ok, else the penalty score."""
+    return float(row["reward"]) if row["status"] == OK else INVALID_SCORE[row["status"]]
+
+
+def evaluate(tree: DesignTree, task: str, config: EvaluationConfig, seed: int,
+             observer: Callable | None = None, visual: bool = False) -> dict:
+    """Run one MPPI episode of `tree` on `task`; the values of an `eval_cache` row.
+
+    `observer(world, step, reward)` is called after each control step (for logs and pictures).
+    """
+    from robocompose.control.world import RobotWorld
+
+    started = time.perf_counter()
+    spec = get_task(task)
+    with RobotWorld(tree, spec, visual=visual) as world:
+        if world.robot.self_penetrating:
+            return {"reward": None, "status": SELF_COLLISION, "sim_steps": 0,
+                    "seconds": time.perf_counter() - started}
+        watch = None if observer is None else (lambda step, reward: observer(world, step, reward))
+        episode = run_episode(world, config.mppi, seed, config.mppi.horizon * spec.horizon_scale, watch)
+        reward = episode.mean_reward
+        status = OK if math.isfinite(reward) and reward < BLOWUP_REWARD else UNSTABLE
+        return {"reward": reward if math.isfinite(reward) else None, "status": status,
+                "sim_steps": world.sim_steps, "seconds": time.perf_counter() - started}
+
+
+@dataclass(frozen=True)
+class EvalJob:
+    """One evaluation as a picklable work item for an `Executor`."""
+
+    tree: DesignTree
+    task: str
+    config: EvaluationConfig
+    seed: int
+
+    @property
+    def key(self) -> tuple[str, str, str, int]:
+        return (self.tree.design_id, self.task, self.config.settings_hash(), self.seed)
+
+
+def run_job(job: EvalJob) -> dict:
+    return evaluate(job.tree, job.task, job.config, job.seed)
+
+
+def job_key(job: EvalJob) -> tuple[str, str, str, int]:
+    return job.key
+
+
+def evaluate_designs(trees: Sequence[DesignTree], tasks: Iterable[str], config: EvaluationConfig,
+                     seeds: Iterable[int] = (0,), cache: EvaluationCache | None = None,
+                     executor: Executor | None = None, save_every: int = 0) -> pd.DataFrame:
+    """Every design on every task with every seed, through the cache: one `eval_cache` row each
+    (design-major order)."""
+    tasks, seeds = [get_task(t).name for t in tasks], list(seeds)
+    jobs = [EvalJob(tree, task, config, seed) for tree in trees for task in tasks for seed in seeds]
+    rows = evaluate_many(run_job, jobs, job_key, cache=cache, executor=executor, save_every=save_every)
+    keys = pd.DataFrame([job.key for job in jobs], columns=["design_id", "task", "settings_hash", "seed"])
+    return pd.concat([keys, pd.DataFrame(rows)], axis=1)

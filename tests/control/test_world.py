@@ -1,0 +1,60 @@
+import math
+
+import numpy as np
+import pybullet as pb
+import pytest
+
+from robocompose.control.world import RobotWorld, forward_reward
+from robocompose.grammar.derivation import derive, parse_rules
+from robocompose.sim.builder import BASE_ORIENTATION
+from robocompose.tasks.terrains import get_task
+
+RIDGED_BEST = "0,7,1,13,1,2,16,12,13,6,4,19,4,17,5,3,2,16,4,5,18,9,8,9,9,8"
+
+
+@pytest.fixture(scope="module")
+def tree():
+    return derive(parse_rules(RIDGED_BEST)).tree
+
+
+def test_reward_of_an_upright_robot_facing_forward_is_4_plus_2_vx():
+    assert forward_reward(BASE_ORIENTATION, (0.0, 0.0, 0.0)) == pytest.approx(4.0)
+    assert forward_reward(BASE_ORIENTATION, (0.5, 3.0, -2.0)) == pytest.approx(5.0)  # only v_x counts
+    # Facing backwards (robot x along world +x, i.e. RoboGrammar's pose turned 180 deg about up): 0.
+    backwards = pb.getQuaternionFromEuler([np.pi / 2, 0.0, 0.0])  # local y -> world z, local x -> world x
+    assert forward_reward(backwards, (0.0, 0.0, 0.0)) == pytest.approx(0.0, abs=1e-6)
+    # Lying on its back, facing forward: the up term is -2.
+    on_back = pb.multiplyTransforms([0, 0, 0], pb.getQuaternionFromEuler([np.pi, 0, 0]), [0, 0, 0],
+                                    BASE_ORIENTATION)[1]
+    assert forward_reward(on_back, (0.0, 0.0, 0.0)) == pytest.approx(0.0, abs=1e-6)
+
+
+def test_placed_design_rests_upright_facing_x_and_scores_about_4(tree):
+    with RobotWorld(tree, get_task("flat")) as world:
+        assert not world.robot.self_penetrating and world.dof == tree.n_joints
+        assert world.reward_now() == pytest.approx(4.0, abs=1e-6)
+        mean = world.run(np.zeros(world.dof), 240) / 240  # one second holding the rest pose
+        assert mean == pytest.approx(4.0, abs=0.1) and world.sim_steps == 240
+
+
+def test_restore_state_replays_a_rollout_exactly(tree):
+    targets = np.random.default_rng(0).normal(0, 0.5, (4, tree.n_joints))
+    with RobotWorld(tree, get_task("ridged")) as world:
+        state = world.save()
+        first = [world.run(t, 16) for t in targets]
+        world.restore(state)
+        again = [world.run(t, 16) for t in targets]
+        world.forget(state)
+    assert first == again and all(math.isfinite(r) for r in first)
+    assert len(set(first)) == 4  # the robot moved
+
+
+def test_pushing_forward_on_ice_slides_further_than_on_flat(tree):
+    travelled = {}
+    for task in ("flat", "frozen_lake"):
+        with RobotWorld(tree, get_task(task)) as world:
+            start = pb.getBasePositionAndOrientation(world.body, physicsClientId=world.client)[0][0]
+            pb.resetBaseVelocity(world.body, [1.0, 0, 0], [0, 0, 0], physicsClientId=world.client)
+            world.run(np.zeros(world.dof), 120)
+            travelled[task] = pb.getBasePositionAndOrientation(world.body, physicsClientId=world.client)[0][0] - start
+    assert travelled["frozen_lake"] > travelled["flat"] > 0

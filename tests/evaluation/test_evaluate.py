@@ -1,0 +1,68 @@
+import math
+
+import numpy as np
+import pytest
+
+import robocompose.evaluation.evaluate as ev
+from robocompose.control.mppi import Episode, MPPIConfig
+from robocompose.evaluation.cache import EvaluationCache
+from robocompose.evaluation.evaluate import EvaluationConfig, evaluate, evaluate_designs, objective
+from robocompose.evaluation.executor import Executor
+from robocompose.grammar.derivation import derive, parse_rules
+
+RIDGED_BEST = "0,7,1,13,1,2,16,12,13,6,4,19,4,17,5,3,2,16,4,5,18,9,8,9,9,8"
+SELF_PENETRATING = "0,2,17,10,6,4,16,5,9,8,7"  # its two limbs overlap when placed
+TINY = EvaluationConfig(mppi=MPPIConfig(samples=4, first_samples=4, horizon=4, episode=6))
+
+
+@pytest.fixture(scope="module")
+def tree():
+    return derive(parse_rules(RIDGED_BEST)).tree
+
+
+def test_evaluation_runs_the_mppi_episode_and_counts_its_steps(tree):
+    row = evaluate(tree, "flat", TINY, seed=0)
+    assert row["status"] == "ok" and 3.0 < row["reward"] < 6.0
+    m = TINY.mppi
+    assert row["sim_steps"] == ((m.first_samples + m.episode * m.samples) * m.horizon + m.episode) * m.interval
+    wall = evaluate(tree, "wall", TINY, seed=0)  # twice the horizon on the wall task
+    assert wall["sim_steps"] == ((m.first_samples + m.episode * m.samples) * 2 * m.horizon + m.episode) * m.interval
+
+
+def test_evaluation_is_reproducible_given_the_seed(tree):
+    a, b, c = (evaluate(tree, "ridged", TINY, seed=s)["reward"] for s in (1, 1, 2))
+    assert a == b and a != c
+
+
+def test_self_penetrating_design_is_not_simulated():
+    row = evaluate(derive(parse_rules(SELF_PENETRATING)).tree, "flat", TINY, seed=0)
+    assert row["status"] == "self_collision" and row["reward"] is None and row["sim_steps"] == 0
+    assert objective(row) == 3.8
+
+
+@pytest.mark.parametrize(("reward", "status", "stored"), [(12.0, "unstable", 12.0), (math.nan, "unstable", None),
+                                                         (9.9, "ok", 9.9)])
+def test_blow_ups_are_unstable_not_scores(monkeypatch, tree, reward, status, stored):
+    monkeypatch.setattr(ev, "run_episode", lambda *a, **k: Episode(reward, 1, np.zeros((1, 1)), np.zeros(1)))
+    row = evaluate(tree, "flat", TINY, seed=0)
+    assert row["status"] == status and row["reward"] == stored
+    assert objective(row) == (4.0 if status == "unstable" else 9.9)
+
+
+def test_settings_hash_separates_settings_and_params_build_nested_config():
+    config = EvaluationConfig(mppi={"samples": 4, "first_samples": 4, "horizon": 4, "episode": 6})
+    assert config.mppi == TINY.mppi and config.settings_hash() == TINY.settings_hash()
+    assert EvaluationConfig().settings_hash() != TINY.settings_hash()
+    with pytest.raises(ValueError, match="evaluation.mppi.samples"):
+        EvaluationConfig(mppi={"samples": "many"})
+
+
+def test_evaluate_designs_on_processes_fills_the_cache(tmp_path, tree):
+    cache = EvaluationCache(tmp_path / "cache.parquet")
+    config = EvaluationConfig(mppi=MPPIConfig(samples=2, first_samples=2, horizon=2, episode=2))
+    with Executor(workers=2) as executor:
+        table = evaluate_designs([tree], ["flat", "frozen_lake"], config, seeds=[0], cache=cache, executor=executor)
+    assert table["task"].tolist() == ["flat", "frozen_lake"] and (table["status"] == "ok").all()
+    assert table["design_id"].tolist() == [tree.design_id] * 2 and len(EvaluationCache(cache.path)) == 2
+    inline = evaluate(tree, "frozen_lake", config, seed=0)
+    assert table["reward"].iloc[1] == inline["reward"]  # same result in a worker process
