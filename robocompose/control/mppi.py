@@ -20,8 +20,8 @@ Rollouts run in the one simulator client, rewound with saveState/restoreState: m
 RoboGrammar's one-client-per-sample stepped in lockstep (see benchmarks/bench_evaluate.py). A rollout
 that becomes non-finite gets weight 0; a non-finite episode step ends the episode (status "unstable").
 
-Cost of one episode in sim steps: (first_samples + episode * samples) * horizon * interval, plus
-episode * interval for the trajectory itself.
+Cost of one episode in sim steps (`MPPIConfig.sim_steps`): (first_samples + episode * samples) * horizon
+* interval for the rollouts, plus episode * interval for the trajectory itself.
 """
 
 from __future__ import annotations
@@ -63,6 +63,11 @@ class MPPIConfig:
 
     def as_dict(self) -> dict:
         return asdict(self)
+
+    def sim_steps(self, horizon: int | None = None) -> int:
+        """Physics steps of one episode of a robot with joints (rollouts and trajectory)."""
+        rollouts = (self.first_samples + self.episode * self.samples) * (horizon or self.horizon)
+        return (rollouts + self.episode) * self.interval
 
 
 class Simulator:

@@ -42,6 +42,14 @@ SCHEMAS: dict[str, pa.Schema] = {
             _required("seconds", pa.float64()),
         ]
     ),
+    # The evaluate_references stage: each named design (RoboGrammar's references, random dataset designs)
+    # on each task; `objective` is what an optimiser sees (the reward if ok, else the status's penalty).
+    "reference_evals": pa.schema([
+        _required("name", pa.string()), _required("rules", pa.list_(pa.int16())),
+        _required("design_id", pa.string()), _required("task", pa.string()),
+        _required("settings_hash", pa.string()), _required("seed", pa.int64()),
+        pa.field("reward", pa.float64(), nullable=True), _required("status", pa.string()),
+        _required("sim_steps", pa.int64()), _required("objective", pa.float64())]),
     # Team formation (robocompose.teams). One row per Voronoi region of a terrain chip: its seed point
     # (the region raster is recomputed from the chip's seeds) and its terrain shares (sum to 1).
     "regions": pa.schema([_required(n, t) for n, t in [

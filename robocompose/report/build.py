@@ -17,13 +17,14 @@ class ReportConfig:
 
 
 def build_report(config: ReportConfig, reports_dir: Path = Path("reports"), data_dir: Path = Path("data")) -> Path:
-    from robocompose.report import dataset, metadata, teams
+    from robocompose.report import dataset, evaluation, metadata, teams
 
     sections = [
         "# robocompose report",
         "Thesis numbers stand beside ours with the settings used; every figure of ours is measured with the "
         "evaluator named in its section.",
         dataset.section(reports_dir, data_dir, config.gallery, config.gallery_seed),
+        evaluation.section(reports_dir, data_dir),
         teams.section(reports_dir, data_dir),
         metadata.section(reports_dir),
     ]

@@ -44,7 +44,7 @@ def test_mppi_drives_the_toy_world_to_its_target():
     assert episode.step_rewards[-3:].mean() > -0.6 > episode.step_rewards[0]
     assert episode.mean_reward == pytest.approx(episode.step_rewards.mean())
     rollouts = (TINY.first_samples + TINY.episode * TINY.samples) * TINY.horizon * TINY.interval
-    assert sim.sim_steps == rollouts + TINY.episode * TINY.interval
+    assert sim.sim_steps == rollouts + TINY.episode * TINY.interval == TINY.sim_steps()
     assert sim.states == {}  # every saved state was released
 
 

@@ -23,10 +23,9 @@ def tree():
 def test_evaluation_runs_the_mppi_episode_and_counts_its_steps(tree):
     row = evaluate(tree, "flat", TINY, seed=0)
     assert row["status"] == "ok" and 3.0 < row["reward"] < 6.0
-    m = TINY.mppi
-    assert row["sim_steps"] == ((m.first_samples + m.episode * m.samples) * m.horizon + m.episode) * m.interval
+    assert row["sim_steps"] == TINY.mppi.sim_steps()
     wall = evaluate(tree, "wall", TINY, seed=0)  # twice the horizon on the wall task
-    assert wall["sim_steps"] == ((m.first_samples + m.episode * m.samples) * 2 * m.horizon + m.episode) * m.interval
+    assert wall["sim_steps"] == TINY.mppi.sim_steps(2 * TINY.mppi.horizon)
 
 
 def test_evaluation_is_reproducible_given_the_seed(tree):

@@ -5,9 +5,9 @@ from PIL import Image
 
 from robocompose.control.mppi import MPPIConfig
 from robocompose.evaluation.evaluate import EvaluationConfig, evaluate
+from robocompose.evaluation.rollout_log import RolloutRecorder, link_frames
 from robocompose.grammar.derivation import derive, parse_rules
 from robocompose.io import read_mcap
-from robocompose.sim.rollout_log import RolloutRecorder, link_frames
 
 RIDGED_BEST = "0,7,1,13,1,2,16,12,13,6,4,19,4,17,5,3,2,16,4,5,18,9,8,9,9,8"
 CONFIG = EvaluationConfig(mppi=MPPIConfig(samples=2, first_samples=2, horizon=2, episode=5))

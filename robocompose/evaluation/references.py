@@ -1,0 +1,97 @@
+"""Scoring the RoboGrammar reference designs and a few random dataset designs on every task.
+
+This anchors the evaluator: the two designs RoboGrammar found best (on flat and on ridged terrain) should
+beat random grammar designs on their own terrain. The best design of each task is replayed with a
+`RolloutRecorder` into an MCAP log and a GIF.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from robocompose.evaluation.cache import EvaluationCache
+from robocompose.evaluation.evaluate import OK, EvaluationConfig, evaluate, evaluate_designs, objective
+from robocompose.evaluation.executor import Executor
+from robocompose.grammar.derivation import derive, parse_rules
+from robocompose.grammar.tree import DesignTree
+from robocompose.sim.physics import PhysicsSettings
+from robocompose.tasks.terrains import TASK_NAMES, get_task
+
+# The best designs RoboGrammar reports on flat and on ridged terrain (rule sequences).
+REFERENCE_DESIGNS = {
+    "robogrammar_flat": "0,12,7,1,12,3,10,1,3,1,12,12,1,3,10,2,16,8,1,3,12,4,1,3,2,12,18,9,18,8,5,5,1,12,6,3",
+    "robogrammar_ridged": "0,7,1,13,1,2,16,12,13,6,4,19,4,17,5,3,2,16,4,5,18,9,8,9,9,8",
+}
+
+
+@dataclass(frozen=True)
+class ReferencesConfig:
+    """The `evaluate_references:` section of params.yaml."""
+
+    n_random: int = 8  # random dataset designs scored beside the reference designs
+    seed: int = 0  # which random designs
+    tasks: list[str] = field(default_factory=lambda: list(TASK_NAMES))
+
+    def __post_init__(self) -> None:
+        if self.n_random < 0:
+            raise ValueError(f"evaluate_references.n_random must be >= 0, got {self.n_random}")
+        for task in self.tasks:
+            get_task(task)
+
+
+def candidate_designs(designs: pd.DataFrame, config: ReferencesConfig) -> pd.DataFrame:
+    """Columns name, design_id, rules, tree: the reference designs, then `n_random` dataset designs."""
+    rows = []
+    for name, text in REFERENCE_DESIGNS.items():
+        rules = parse_rules(text)
+        tree = derive(rules).tree
+        rows.append({"name": name, "design_id": tree.design_id, "rules": list(rules), "tree": tree})
+    if config.n_random > len(designs):
+        raise ValueError(f"evaluate_references.n_random = {config.n_random} but the dataset holds {len(designs)}")
+    picks = np.random.default_rng(config.seed).choice(len(designs), size=config.n_random, replace=False)
+    for k, i in enumerate(picks):
+        row = designs.iloc[int(i)]
+        tree = DesignTree(tuple(int(p) for p in row["parents"]), tuple(int(t) for t in row["tokens"]))
+        rows.append({"name": f"random_{k}", "design_id": tree.design_id, "rules": [int(r) for r in row["rules"]],
+                     "tree": tree})
+    return pd.DataFrame(rows)
+
+
+def evaluate_references(designs: pd.DataFrame, config: ReferencesConfig, evaluation: EvaluationConfig,
+                        cache: EvaluationCache | None = None, executor: Executor | None = None) -> pd.DataFrame:
+    """A `reference_evals` table: every candidate on every task with the evaluation seed."""
+    candidates = candidate_designs(designs, config)
+    rows = evaluate_designs(list(candidates["tree"]), config.tasks, evaluation, [evaluation.seed], cache, executor)
+    names = candidates.loc[candidates.index.repeat(len(config.tasks)), ["name", "rules"]].reset_index(drop=True)
+    table = pd.concat([names, rows.drop(columns=["seconds"])], axis=1)
+    table["objective"] = [objective(row) for row in table.to_dict("records")]
+    return table
+
+
+def best_per_task(table: pd.DataFrame) -> pd.DataFrame:
+    """The row of the highest-reward ok design of each task (first in table order on ties)."""
+    ok = table[table["status"] == OK]
+    return ok.loc[ok.groupby("task", sort=False)["reward"].idxmax()]
+
+
+def record_best(table: pd.DataFrame, designs: pd.DataFrame, config: ReferencesConfig, evaluation: EvaluationConfig,
+                out_dir: Path, gif_size: tuple[int, int] = (320, 240)) -> list[Path]:
+    """Replay the best design of each task into out_dir/<task>.mcap and out_dir/<task>.gif."""
+    from robocompose.evaluation.rollout_log import RolloutRecorder
+
+    candidates = candidate_designs(designs, config)
+    trees = dict(zip(candidates["name"], candidates["tree"], strict=True))
+    step_seconds = evaluation.mppi.interval * PhysicsSettings().time_step
+    written = []
+    for row in best_per_task(table).itertuples():
+        recorder = RolloutRecorder(step_seconds, frame_every=2, image_size=gif_size)
+        replay = evaluate(trees[row.name], row.task, evaluation, int(row.seed), observer=recorder, visual=True)
+        if replay["reward"] != row.reward:
+            raise RuntimeError(f"{row.name} on {row.task}: replay scored {replay['reward']}, the table {row.reward}"
+                               " (the simulation is not deterministic here)")
+        written += [recorder.write_mcap(out_dir / f"{row.task}.mcap"), recorder.write_gif(out_dir / f"{row.task}.gif")]
+    return written

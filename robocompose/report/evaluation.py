@@ -1,0 +1,79 @@
+"""Report section for the robot evaluator (thesis 7.2): reference and random designs on the four tasks.
+
+Built from the `evaluate_references` stage's outputs; the MPPI settings come from params.yaml.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pandas as pd
+
+from robocompose.io import read_table
+
+# The thesis's settings (RoboGrammar's MPPI) and its reported cost.
+THESIS_MPPI = {"samples": 64, "first_samples": 512, "horizon": 16, "episode": 128}
+THESIS_SECONDS = "30-60 s per design on an 8-core computer"
+
+
+def _cell(row: pd.Series) -> str:
+    if row["status"] == "ok":
+        return f"{row['reward']:.2f}"
+    return row["status"].replace("_", " ") + (f" ({row['reward']:.1f})" if pd.notna(row["reward"]) else "")
+
+
+def section(reports_dir: Path, data_dir: Path, params: Path = Path("params.yaml")) -> str:
+    title = "## Robot evaluator: MPPI in pybullet (thesis 7.2)"
+    table_path, rollouts = Path(data_dir) / "reference_evals.parquet", Path(data_dir) / "rollouts"
+    if not table_path.exists():
+        return f"{title}\n\nNot run yet: missing {table_path} (stage `evaluate_references`).\n"
+    from robocompose.evaluation.evaluate import EvaluationConfig, objective
+    from robocompose.evaluation.references import best_per_task
+    from robocompose.params import load_section
+    from robocompose.report.timings import read_timings
+
+    table = read_table(table_path, "reference_evals")
+    mppi = load_section(EvaluationConfig, "evaluation", params).mppi
+    tasks = list(dict.fromkeys(table["task"]))
+    names = list(dict.fromkeys(table["name"]))
+    grid = table.assign(cell=table.apply(_cell, axis=1)).pivot(index="name", columns="task", values="cell")
+    lines = [title, "",
+             "Each design is scored by one MPPI episode (RoboGrammar's controller and reward: ~4 standing still "
+             "upright and facing forward, +2 per m/s forward); mean reward per sim step. Non-ok results are shown "
+             "with their status; optimisers score them 3.8 (self-collision) or 4.0 (blow-up), as GLSO does.", "",
+             "| design | " + " | ".join(tasks) + " |", "|---|" + "---|" * len(tasks)]
+    lines += [f"| {name} | " + " | ".join(grid.loc[name, task] for task in tasks) + " |" for name in names]
+    scores = table.assign(score=[objective(r) for r in table.to_dict("records")])
+    random_best = scores[scores["name"].str.startswith("random")].groupby("task")["score"].max()
+    reference = scores[scores["name"].str.startswith("robogrammar")].groupby("task")["score"].max()
+    lines += ["", "Best reference design vs best random design per task: "
+              + "; ".join(f"{t} {reference[t]:.2f} vs {random_best[t]:.2f}" for t in tasks if t in random_best) + "."]
+
+    steps = table.groupby("task")["sim_steps"].max()
+    timing = read_timings(Path(reports_dir) / "timings.json").get("evaluate_references", {})
+    lines += ["", "| MPPI setting | thesis | this run |", "|---|---|---|"]
+    lines += [f"| {k.replace('_', ' ')} | {v} | {getattr(mppi, k)} |" for k, v in THESIS_MPPI.items()]
+    lines += [f"| sim steps per evaluation (flat / wall) | ~2.4 M / ~4.6 M | {steps.get('flat', 0) / 1e6:.2f} M / "
+              f"{steps.get('wall', 0) / 1e6:.2f} M |"]
+    if timing.get("seconds") and timing.get("evaluations"):
+        per = timing["seconds"] / timing["evaluations"]
+        lines += [f"| wall time per evaluation (all cores, incl. the GIF replays) | {THESIS_SECONDS} | {per:.1f} s |"]
+    bench = Path(reports_dir) / "benchmarks.json"
+    figures = json.loads(bench.read_text()) if bench.exists() else {}
+    if "mppi.overhead_ratio" in figures:
+        lines += ["", f"MPPI wall time is {figures['mppi.overhead_ratio']:.2f}x the time of the raw physics steps it "
+                  f"takes (target <= 1.2; `benchmarks/bench_evaluate.py`)."]
+    gifs = sorted(rollouts.glob("*.gif")) if rollouts.exists() else []
+    if gifs:
+        out = Path(reports_dir) / "figures"
+        out.mkdir(parents=True, exist_ok=True)
+        best = best_per_task(table).set_index("task")
+        lines += ["", "Best design of each task (MCAP logs for Foxglove beside the GIFs in `data/rollouts/`):", ""]
+        for gif in gifs:
+            shutil.copyfile(gif, out / f"rollout_{gif.name}")
+            task = gif.stem
+            lines.append(f"![{task}: {best.loc[task, 'name']}, reward {best.loc[task, 'reward']:.2f}]"
+                         f"(figures/rollout_{gif.name})")
+    return "\n".join(lines) + "\n"

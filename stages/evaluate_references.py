@@ -1,0 +1,35 @@
+"""DVC stage `evaluate_references`: the RoboGrammar reference designs and random dataset designs on every task.
+
+params (evaluation, evaluate_references) + data/designs.parquet -> data/reference_evals.parquet,
+data/rollouts/<task>.{mcap,gif} (best design of each task), reports/metrics/evaluate_references.json.
+"""
+
+from pathlib import Path
+
+from robocompose.evaluation.evaluate import EvaluationConfig
+from robocompose.evaluation.references import ReferencesConfig, best_per_task, evaluate_references, record_best
+from robocompose.io import atomic_write_json, read_table, write_table
+from robocompose.params import load_section
+from robocompose.report.timings import timed
+
+
+def main() -> None:
+    evaluation = load_section(EvaluationConfig, "evaluation")
+    config = load_section(ReferencesConfig, "evaluate_references")
+    designs = read_table("data/designs.parquet", "designs")
+    with timed("evaluate_references") as timing, evaluation.executor() as executor:
+        table = evaluate_references(designs, config, evaluation, evaluation.open_cache(), executor)
+        timing["evaluations"] = len(table)
+        timing["sim_steps"] = int(table["sim_steps"].sum())
+        write_table(table, "data/reference_evals.parquet", "reference_evals")
+        record_best(table, designs, config, evaluation, Path("data/rollouts"))
+        best = best_per_task(table)
+        atomic_write_json("reports/metrics/evaluate_references.json", {
+            "best_reward": {row.task: round(row.reward, 4) for row in best.itertuples()},
+            "best_design": {row.task: row.name for row in best.itertuples()},
+            "statuses": table["status"].value_counts().sort_index().to_dict(),
+            "settings_hash": evaluation.settings_hash()})
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,57 @@
+import numpy as np
+import pandas as pd
+import pytest
+
+from robocompose.control.mppi import MPPIConfig
+from robocompose.evaluation.evaluate import EvaluationConfig
+from robocompose.evaluation.references import (
+    REFERENCE_DESIGNS,
+    ReferencesConfig,
+    best_per_task,
+    candidate_designs,
+    evaluate_references,
+    record_best,
+)
+from robocompose.grammar.derivation import random_derivation
+from robocompose.grammar.enumerate import design_row
+from robocompose.io import read_mcap, read_table, write_table
+
+TINY = EvaluationConfig(mppi=MPPIConfig(samples=2, first_samples=2, horizon=2, episode=4), workers=1)
+
+
+@pytest.fixture(scope="module")
+def designs():
+    rows = []
+    for seed in range(40):
+        derivation = random_derivation(np.random.default_rng(seed))
+        if derivation is not None and derivation.tree.n_links >= 5:
+            rows.append(design_row(derivation.tree, derivation.rules, np.zeros(16)))
+    return pd.DataFrame(rows[:5])
+
+
+def test_candidates_are_the_references_then_seeded_random_designs(designs):
+    config = ReferencesConfig(n_random=3, seed=1)
+    candidates = candidate_designs(designs, config)
+    assert list(candidates["name"]) == [*REFERENCE_DESIGNS, "random_0", "random_1", "random_2"]
+    assert set(candidates["design_id"][2:]) <= set(designs["design_id"])
+    assert candidates["design_id"].tolist() == candidate_designs(designs, config)["design_id"].tolist()
+    with pytest.raises(ValueError, match="dataset holds 5"):
+        candidate_designs(designs, ReferencesConfig(n_random=6))
+    with pytest.raises(ValueError, match="known tasks"):
+        ReferencesConfig(tasks=["moon"])
+
+
+def test_table_best_designs_and_their_logs(tmp_path, designs):
+    config = ReferencesConfig(n_random=1, tasks=["flat", "ridged"])
+    table = evaluate_references(designs, config, TINY)
+    assert len(table) == 6 and table["task"].tolist()[:2] == ["flat", "ridged"]
+    ok = table["status"] == "ok"
+    assert (table.loc[ok, "objective"] == table.loc[ok, "reward"]).all()
+    write_table(table, tmp_path / "t.parquet", "reference_evals")
+    pd.testing.assert_frame_equal(read_table(tmp_path / "t.parquet", "reference_evals"), table, check_dtype=False)
+    best = best_per_task(table)
+    assert list(best["task"]) == ["flat", "ridged"]
+    assert best["reward"].iloc[0] == table.loc[ok & (table["task"] == "flat"), "reward"].max()
+    written = record_best(table, designs, config, TINY, tmp_path / "rollouts", gif_size=(32, 24))
+    assert sorted(p.name for p in written) == ["flat.gif", "flat.mcap", "ridged.gif", "ridged.mcap"]
+    assert any(m.topic == "/tf" for m in read_mcap(tmp_path / "rollouts" / "flat.mcap"))
