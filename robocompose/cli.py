@@ -7,7 +7,7 @@ import importlib
 import json
 import sys
 
-COMMAND_MODULES = ("robocompose.grammar.cli", "robocompose.teams.cli")
+COMMAND_MODULES = ("robocompose.grammar.cli", "robocompose.teams.cli", "robocompose.evaluation.cli")
 
 
 def _profile(args: argparse.Namespace) -> int:
