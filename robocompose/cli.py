@@ -7,7 +7,8 @@ import importlib
 import json
 import sys
 
-COMMAND_MODULES = ("robocompose.grammar.cli", "robocompose.teams.cli", "robocompose.evaluation.cli")
+COMMAND_MODULES = ("robocompose.grammar.cli", "robocompose.teams.cli", "robocompose.evaluation.cli",
+                   "robocompose.modular.cli")
 
 
 def _profile(args: argparse.Namespace) -> int:

@@ -1,0 +1,86 @@
+"""`robocompose modular ...`: evaluate one modular design on a block terrain; run a GA baseline on one terrain.
+
+Settings come from the `modular:` section of `--params` (default params.yaml); without that file, the thesis's
+settings (the dataclass defaults). pybullet and the search code are imported inside the handlers.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+VARIANTS = ("ga20", "ga50", "crowding", "random")
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add `modular evaluate` and `modular ga` to the robocompose CLI."""
+    modular = subparsers.add_parser("modular", help="modular robots on block terrains (thesis 5.1)")
+    commands = modular.add_subparsers(dest="modular_command", required=True)
+
+    evaluate = commands.add_parser("evaluate", help="simulate one design; prints distance, status, seconds as JSON")
+    evaluate.add_argument("--design", required=True,
+                          help="6 letters n/l/w/b (none/leg/wheel/leg-wheel), ports front-left, mid-left, "
+                          "back-left, back-right, mid-right, front-right")
+    evaluate.add_argument("--terrain-seed", type=int, required=True, help="seed of the block terrain")
+    evaluate.add_argument("--mcap", type=Path, help="write the rollout as MCAP (Foxglove schemas)")
+    evaluate.add_argument("--gif", type=Path, help="write the rollout as an animated GIF")
+    _add_params_argument(evaluate)
+    evaluate.set_defaults(handler=_evaluate)
+
+    ga = commands.add_parser("ga", help="an evolutionary baseline on one terrain; prints the best design as JSON")
+    ga.add_argument("--variant", choices=VARIANTS, required=True,
+                    help="ga20 / ga50 (uniform crossover + mutation), crowding (deterministic crowding, "
+                    "population 50), random (random sampling)")
+    ga.add_argument("--terrain-seed", type=int, required=True)
+    ga.add_argument("--seed", type=int, default=0, help="seed of the search")
+    ga.add_argument("--workers", type=int, help="evaluation processes (default: params; 0 = all cores)")
+    _add_params_argument(ga)
+    ga.set_defaults(handler=_ga)
+
+
+def _add_params_argument(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--params", type=Path, default=Path("params.yaml"),
+                        help="params file with a modular: section (default params.yaml; if absent, thesis settings)")
+
+
+def _params(path: Path):
+    from robocompose.modular.evaluate import EvalSettings, FitnessRule
+    from robocompose.modular.params import ExperimentsConfig, ModularParams, load_modular_params
+
+    if path.exists():
+        return load_modular_params(path)
+    return ModularParams(EvalSettings(), FitnessRule(), ExperimentsConfig())
+
+
+def _evaluate(args: argparse.Namespace) -> None:
+    from robocompose.modular.evaluate import evaluate_designs
+    from robocompose.modular.record import record_rollout
+    from robocompose.modular.robot import parse_design
+
+    params = _params(args.params)
+    design = parse_design(args.design)
+    if params.fitness.skips(design):
+        result = evaluate_designs([design], args.terrain_seed, params.eval, params.fitness)[0]
+    else:
+        result = record_rollout(design, args.terrain_seed, params.eval, mcap=args.mcap, gif=args.gif)
+    print(json.dumps({"design": design, "terrain_seed": args.terrain_seed, "distance": result.distance,
+                      "fitness": params.fitness.fitness(result), "status": result.status,
+                      "sim_steps": result.sim_steps, "seconds": round(result.seconds, 3),
+                      "settings_hash": params.eval.settings_hash()}))
+
+
+def _ga(args: argparse.Namespace) -> None:
+    from robocompose.evaluation.cache import EvaluationCache
+    from robocompose.evaluation.executor import Executor
+    from robocompose.modular.experiments import run_method
+
+    params = _params(args.params)
+    workers = params.workers if args.workers is None else args.workers
+    cache = EvaluationCache(params.cache)
+    with Executor(workers=workers, address=params.address or None) as executor:
+        run = run_method(args.variant, args.terrain_seed, args.seed, params, cache, executor)
+    print(json.dumps({"variant": args.variant, "terrain_seed": args.terrain_seed, "seed": args.seed,
+                      "best_design": run.best_design, "best_distance": run.best_distance,
+                      "distinct": run.distinct, "evaluations": run.evaluations,
+                      "seconds": round(run.seconds, 3), "sim_seconds": round(run.sim_seconds, 3)}))

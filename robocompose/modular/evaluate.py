@@ -1,0 +1,214 @@
+"""Evaluating a modular design on a block terrain: one pybullet rollout, the distance travelled in x.
+
+Episode (thesis 5.1): the chassis starts at (0, 0, 0.3) in the rest pose and settles for `settle_steps` sim
+steps; then `control_steps` control steps of `sim_steps_per_control` sim steps each (dt 1/240). The distance is
+the chassis's x at the end minus its x when the episode starts. Early stops (the reference's): the robot flips
+(the chassis's up axis has world z < 0.1), leaves the course (|y| > 2), or moves less than 0.02 m in the plane
+over 25 control steps; the distance is then taken where it stopped.
+
+Statuses: `ok` (ran to the end), `flipped`, `left_course`, `stalled` (early stops: the distance is real);
+`unstable` (non-finite state or a blow-up: no distance); `invalid` (a design the original rejected, under
+the `penalty` rule: not simulated, no distance). Optimisers turn a result into a fitness with
+`FitnessRule.fitness`: the distance, or the penalty (-10, the original's score) when there is none.
+
+Results are cached in the shared evaluation cache, key (design port string, "blocks-<seed>", settings hash,
+seed 0): the rollout is deterministic, so the seed column is always 0.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from robocompose.evaluation.cache import EvaluationCache
+from robocompose.evaluation.executor import Executor, evaluate_many
+from robocompose.modular.controller import RobotState, make_controller
+from robocompose.modular.robot import START_HEIGHT, ModularRobot, build_robot, parse_design, valid_in_original
+from robocompose.modular.terrain import Terrain, TerrainConfig, add_terrain, generate_terrain
+
+REWARD_STATUSES = ("ok", "flipped", "left_course", "stalled")  # statuses that carry a measured distance
+BLOWUP_SPEED = 50.0  # m/s; a chassis faster than this has exploded
+
+
+@dataclass(frozen=True)
+class EvalSettings:
+    """Everything a rollout depends on (all of it enters the settings hash)."""
+
+    control_steps: int = 250  # thesis: 250 (~20.8 s)
+    sim_steps_per_control: int = 20
+    settle_steps: int = 100  # sim steps in the rest pose before the episode
+    time_step: float = 1 / 240  # s
+    solver_iterations: int = 50  # pybullet's default, written out
+    flip_up_z: float = 0.1  # stop when the chassis up axis' world z drops below this
+    max_abs_y: float = 2.0  # m, stop when the chassis leaves the course sideways
+    stall_window: int = 25  # control steps
+    stall_distance: float = 0.02  # m, stop when the chassis moved less than this over stall_window
+    controller: str = "tripod"
+    terrain: TerrainConfig = field(default_factory=TerrainConfig)
+
+    def __post_init__(self):
+        for name in ("control_steps", "sim_steps_per_control", "stall_window", "solver_iterations"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name}: expected a positive integer, found {getattr(self, name)}")
+        make_controller(self.controller)  # fails early on an unknown name
+        if isinstance(self.terrain, dict):  # from params.yaml
+            object.__setattr__(self, "terrain", TerrainConfig(**self.terrain))
+
+    def settings_hash(self) -> str:
+        """A short hash of every field (terrain ranges included)."""
+        text = json.dumps(asdict(self), sort_keys=True)
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+    @property
+    def sim_steps(self) -> int:
+        return self.settle_steps + self.control_steps * self.sim_steps_per_control
+
+
+@dataclass(frozen=True)
+class FitnessRule:
+    """How results become the fitness optimisers maximise."""
+
+    invalid: str = "penalty"  # "penalty": designs the original rejected score `penalty` unsimulated; "simulate"
+    penalty: float = -10.0  # the original's score of an invalid design; also given to `unstable` results
+
+    def __post_init__(self):
+        if self.invalid not in ("penalty", "simulate"):
+            raise ValueError(f"invalid: expected 'penalty' or 'simulate', found {self.invalid!r}")
+
+    def skips(self, design: str) -> bool:
+        """True if `design` is scored without simulation."""
+        return self.invalid == "penalty" and not valid_in_original(design)
+
+    def fitness(self, result: Result) -> float:
+        return self.penalty if result.distance is None else result.distance
+
+
+@dataclass(frozen=True)
+class Result:
+    distance: float | None  # m travelled in x; None when the status carries no distance
+    status: str
+    sim_steps: int
+    seconds: float
+
+
+StepCallback = Callable[[float, ModularRobot], None]  # (time s, robot) after each control step (and at t=0)
+
+
+def rollout(design: str, terrain: Terrain, settings: EvalSettings, visual: bool = False,
+            on_step: StepCallback | None = None) -> Result:
+    """Simulate `design` on `terrain` under `settings`' controller; see the module docstring for the episode."""
+    import pybullet as pb
+
+    from robocompose.sim.physics import PhysicsSettings, connect
+
+    started = time.perf_counter()
+    client = connect(PhysicsSettings(time_step=settings.time_step, solver_iterations=settings.solver_iterations))
+    try:
+        add_terrain(client, terrain, visual=visual)
+        robot = build_robot(design, client, position=(0.0, 0.0, START_HEIGHT), visual=visual)
+        controller = make_controller(settings.controller)
+        controller.reset(robot)
+        # Start in the pose the controller asks for first (wheels already steered, drives still), so the
+        # episode does not begin with the modules fighting each other through a transient.
+        robot.pose(controller.act(_state(robot, 0.0)))
+        for _ in range(settings.settle_steps):
+            pb.stepSimulation(physicsClientId=client)
+        x0 = _state(robot, 0.0).position[0]
+        history = []  # (x, y) per control step
+        status, steps = "ok", settings.settle_steps
+        if on_step is not None:
+            on_step(0.0, robot)
+        control_dt = settings.sim_steps_per_control * settings.time_step
+        state = _state(robot, 0.0)
+        for step in range(settings.control_steps):
+            robot.command(controller.act(state))
+            for _ in range(settings.sim_steps_per_control):
+                pb.stepSimulation(physicsClientId=client)
+            steps += settings.sim_steps_per_control
+            state = _state(robot, (step + 1) * control_dt)
+            if on_step is not None:
+                on_step(state.t, robot)
+            status = _stop_reason(state, history, settings)
+            if status != "ok":
+                break
+        distance = None if status == "unstable" else float(state.position[0] - x0)
+    finally:
+        pb.disconnect(physicsClientId=client)
+    return Result(distance, status, steps, time.perf_counter() - started)
+
+
+def _state(robot: ModularRobot, t: float) -> RobotState:
+    import pybullet as pb
+
+    position, orientation = pb.getBasePositionAndOrientation(robot.body, physicsClientId=robot.client)
+    linear, angular = pb.getBaseVelocity(robot.body, physicsClientId=robot.client)
+    q, qd = robot.joint_state()
+    return RobotState(t, np.array(position), np.array(orientation), np.array(linear), np.array(angular), q, qd)
+
+
+def up_z(orientation: np.ndarray) -> float:
+    """World z component of the body's z axis for a quaternion (x, y, z, w)."""
+    x, y, _, _ = orientation
+    return float(1.0 - 2.0 * (x * x + y * y))
+
+
+def _stop_reason(state: RobotState, history: list, settings: EvalSettings) -> str:
+    """'ok' to go on, or why the episode ends now; appends the chassis's (x, y) to `history`."""
+    values = np.concatenate([state.position, state.orientation, state.linear_velocity, state.joint_positions])
+    if not np.isfinite(values).all() or np.linalg.norm(state.linear_velocity) > BLOWUP_SPEED:
+        return "unstable"
+    if up_z(state.orientation) < settings.flip_up_z:
+        return "flipped"
+    if abs(state.position[1]) > settings.max_abs_y:
+        return "left_course"
+    history.append(state.position[:2].copy())
+    if len(history) > settings.stall_window:
+        moved = math.dist(history[-1], history[-1 - settings.stall_window])
+        if moved < settings.stall_distance:
+            return "stalled"
+    return "ok"
+
+
+# --- cached, batched evaluation ---
+
+TASK_PREFIX = "blocks-"
+SEED = 0  # the rollout is deterministic; the cache's seed column
+
+
+def task_id(terrain_seed: int) -> str:
+    return f"{TASK_PREFIX}{int(terrain_seed)}"
+
+
+def simulate(job: tuple[str, int, EvalSettings]) -> dict:
+    """One rollout from (design, terrain seed, settings) as an eval_cache row: the unit sent to the workers."""
+    design, terrain_seed, settings = job
+    result = rollout(design, generate_terrain(terrain_seed, settings.terrain), settings)
+    return {"reward": result.distance, "status": result.status, "sim_steps": result.sim_steps,
+            "seconds": result.seconds}
+
+
+def evaluate_designs(designs: Sequence[str], terrain_seed: int, settings: EvalSettings, rule: FitnessRule,
+                     cache: EvaluationCache | None = None, executor: Executor | None = None,
+                     save_every: int = 0) -> list[Result]:
+    """Results of `designs` on terrain `terrain_seed`, through the shared cache and executor.
+
+    Cache hits are read; the distinct misses are simulated by `executor` (None: in this process) and stored
+    as they arrive (the cache is saved every `save_every` results, so a long batch resumes). Designs the rule
+    skips are answered without simulating or caching.
+    """
+    designs = [parse_design(d) for d in designs]
+    simulated = [d for d in designs if not rule.skips(d)]
+    jobs = [(d, int(terrain_seed), settings) for d in simulated]
+    settings_hash = settings.settings_hash()
+    rows = evaluate_many(simulate, jobs, key=lambda job: (job[0], task_id(job[1]), settings_hash, SEED),
+                         cache=cache, executor=executor, save_every=save_every)
+    found = {d: Result(r["reward"], r["status"], int(r["sim_steps"]), float(r["seconds"]))
+             for d, r in zip(simulated, rows, strict=True)}
+    skipped = Result(None, "invalid", 0, 0.0)
+    return [found.get(d, skipped) for d in designs]
