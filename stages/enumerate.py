@@ -16,7 +16,7 @@ def main() -> None:
         timing["designs_per_s"] = round(len(designs) / timing.elapsed(), 1)
         write_table(designs, "data/designs.parquet", "designs")
         nogram_designs, nogram_stats = enumerate_nogram(nogram, designs["n_links"].tolist(), config.workers,
-                                                        config.chunk)
+                                                        config.chunk, address=config.address)
         write_table(nogram_designs, "data/designs_nogram.parquet", "designs")
         atomic_write_json("reports/metrics/enumerate.json", {"grammar": stats.as_dict(),
                                                               "nogram": nogram_stats.as_dict()})

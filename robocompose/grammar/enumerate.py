@@ -1,16 +1,15 @@
 """The GLSO dataset: random grammar derivations with rest-contact features, enumerated in parallel.
 
 Candidate k is derived from its own random stream (seed, k), so which designs are kept depends only on
-the seed, never on the number of workers: candidates are processed in chunks on all cores and taken
-in index order until `n` distinct valid designs are found.
+the seed, never on the number of workers: candidates are processed in chunks through the project's
+executor (local processes, or a Dask cluster given its address) and taken in index order until `n`
+distinct valid designs are found.
 """
 
 from __future__ import annotations
 
-import os
 from collections import Counter
-from collections.abc import Callable, Iterator
-from concurrent.futures import Future, ProcessPoolExecutor
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -32,6 +31,7 @@ class EnumerateConfig:
     max_depth: int = MAX_DEPTH  # rule-sequence length limit of a derivation
     workers: int = 0  # processes; 0 = all cores
     chunk: int = 64  # candidates per task sent to a worker
+    address: str = ""  # a running Dask scheduler (e.g. tcp://10.0.0.5:8786); "" = local processes
 
     def __post_init__(self) -> None:
         for name in ("n", "chunk", "min_links", "max_depth"):
@@ -96,28 +96,22 @@ def _chunk(task: tuple[Callable[..., Outcome], int, int, int, tuple]) -> list[Ou
 
 
 def collect(make: Callable[..., Outcome], n: int, seed: int, args: tuple, workers: int, chunk: int,
-            progress: str | None = None) -> tuple[pd.DataFrame, EnumerateStats]:
-    """Run `make(seed, k, *args)` for k = 0, 1, ... on `workers` processes; keep the first `n`
-    distinct valid rows in index order. `make` must be a module-level function (it is pickled)."""
+            progress: str | None = None, address: str = "") -> tuple[pd.DataFrame, EnumerateStats]:
+    """Run `make(seed, k, *args)` for k = 0, 1, ... through an Executor; keep the first `n` distinct
+    valid rows in index order. `make` must be a module-level function (it is pickled)."""
     from tqdm import tqdm
 
-    workers = workers or os.cpu_count() or 1
+    from robocompose.evaluation.executor import Executor
+
     stats, rows, seen = EnumerateStats(), [], set()
     bar = tqdm(total=n, desc=progress, unit="design", disable=progress is None, mininterval=1.0)
-
-    def tasks() -> Iterator[tuple]:
-        start = 0
-        while True:
-            yield (make, seed, start, start + chunk, args)
-            start += chunk
-
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        pending: list[Future] = []
-        source = tasks()
+    start = 0
+    with Executor(workers=workers, address=address or None) as executor:
+        per_round = 4 * executor.workers if executor.backend != "dask" else 64
         while len(rows) < n:
-            while len(pending) < 2 * workers:  # keep every core busy, results taken in order
-                pending.append(pool.submit(_chunk, next(source)))
-            for reason, row in pending.pop(0).result():
+            tasks = [(make, seed, start + i * chunk, start + (i + 1) * chunk, args) for i in range(per_round)]
+            start += per_round * chunk
+            for reason, row in (outcome for batch in executor.imap(_chunk, tasks) for outcome in batch):
                 if len(rows) == n:
                     break
                 stats.candidates += 1
@@ -129,8 +123,6 @@ def collect(make: Callable[..., Outcome], n: int, seed: int, args: tuple, worker
                     seen.add(row["design_id"])
                     rows.append(row)
                     bar.update(1)
-        for f in pending:
-            f.cancel()
     bar.close()
     stats.kept = len(rows)
     return pd.DataFrame(rows), stats
@@ -140,4 +132,4 @@ def enumerate_designs(config: EnumerateConfig,
                       progress: str | None = "enumerate") -> tuple[pd.DataFrame, EnumerateStats]:
     """`config.n` distinct valid grammar designs with their contact features, and run statistics."""
     return collect(candidate, config.n, config.seed, (config.min_links, config.max_depth),
-                   config.workers, config.chunk, progress)
+                   config.workers, config.chunk, progress, config.address)

@@ -60,9 +60,9 @@ def nogram_candidate(seed: int, k: int, sizes: tuple[int, ...]) -> Outcome:
 
 
 def enumerate_nogram(config: NogramConfig, sizes: list[int], workers: int = 0, chunk: int = 64,
-                     progress: str | None = "nogram") -> tuple[pd.DataFrame, EnumerateStats]:
+                     progress: str | None = "nogram", address: str = "") -> tuple[pd.DataFrame, EnumerateStats]:
     """`config.n` distinct random-topology designs whose sizes are drawn from `sizes` (the grammar dataset's)."""
     if not sizes:
         raise ValueError("nogram: needs the link counts of the grammar dataset, got none")
     return collect(nogram_candidate, config.n, config.seed, (tuple(int(s) for s in sizes),), workers, chunk,
-                   progress)
+                   progress, address)
