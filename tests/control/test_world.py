@@ -58,3 +58,22 @@ def test_pushing_forward_on_ice_slides_further_than_on_flat(tree):
             world.run(np.zeros(world.dof), 120)
             travelled[task] = pb.getBasePositionAndOrientation(world.body, physicsClientId=world.client)[0][0] - start
     assert travelled["frozen_lake"] > travelled["flat"] > 0
+
+
+def test_run_reward_equals_the_per_step_reward_with_velocities(tree):
+    """Bullet integrates the base position with its velocity, so the summed velocity term is 2 dx / dt."""
+    targets = np.random.default_rng(1).normal(0, 1.0, (6, tree.n_joints))
+    with RobotWorld(tree, get_task("ridged")) as world:
+        state = world.save()
+        fast = sum(world.run(t, 16) for t in targets)
+        world.restore(state)
+        slow = 0.0
+        for t in targets:
+            pb.setJointMotorControlArray(world.body, world.hinges, pb.POSITION_CONTROL, targetPositions=list(t),
+                                         targetVelocities=[0.0] * world.dof, positionGains=[0.01] * world.dof,
+                                         velocityGains=[0.5] * world.dof, forces=[1.0] * world.dof,
+                                         physicsClientId=world.client)
+            for _ in range(16):
+                pb.stepSimulation(physicsClientId=world.client)
+                slow += world.reward_now()
+    assert fast == pytest.approx(slow, rel=1e-9, abs=1e-9) and abs(fast / 96 - 4.0) > 1e-3
