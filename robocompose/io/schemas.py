@@ -77,6 +77,21 @@ SCHEMAS: dict[str, pa.Schema] = {
     "teams_trajectories": pa.schema([_required(n, t) for n, t in [
         ("chip_id", pa.string()), ("robot", pa.int64()), ("species", pa.int16()), ("region", pa.int16()),
         ("step", pa.int16()), ("x", pa.float64()), ("y", pa.float64())]]),
+    # Modular robots (robocompose.modular). Every design (6-letter port string) on every test terrain: its
+    # fitness under the fitness rule, its measured distance (null when not simulated or unstable), status and
+    # the sim steps it cost.
+    "modular_exhaustive": pa.schema([
+        _required("terrain_seed", pa.int64()), _required("design", pa.string()), _required("fitness", pa.float64()),
+        pa.field("distance", pa.float64(), nullable=True), _required("status", pa.string()),
+        _required("sim_steps", pa.int64())]),
+    # One search run (GA-20, GA-50, GA-crowding, random sampling) on one test terrain: best design, distinct
+    # solutions of its final population, mean best fitness under emergency constraints (and the exhaustive
+    # optimum under the same constraints), designs evaluated and the sim steps they cost without a cache.
+    "modular_runs": pa.schema([_required(n, t) for n, t in [
+        ("method", pa.string()), ("terrain_seed", pa.int64()), ("seed", pa.int64()), ("best_design", pa.string()),
+        ("best_fitness", pa.float64()), ("distinct", pa.int64()), ("ec_fitness", pa.float64()),
+        ("ec_optimum", pa.float64()), ("optimum", pa.float64()), ("evaluations", pa.int64()),
+        ("sim_steps", pa.int64())]]),
 }
 
 # (table, column) -> exact number of values every row of that list column must hold.

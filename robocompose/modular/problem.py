@@ -1,0 +1,55 @@
+"""The modular-robot design problem on one terrain, for the generic searches in `robocompose.search`.
+
+Designs are port strings (6 letters of n/l/w/b); genes are ports; the distance is the Hamming distance; the
+fitness is the evaluator's distance under the fitness rule (see `robocompose.modular.evaluate`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from robocompose.evaluation.cache import EvaluationCache
+from robocompose.evaluation.executor import Executor
+from robocompose.modular.evaluate import EvalSettings, FitnessRule, evaluate_designs
+from robocompose.modular.robot import MODULE_LETTERS, N_PORTS, design_to_index, index_to_design
+
+
+def hamming(a: str, b: str) -> int:
+    return sum(x != y for x, y in zip(a, b, strict=True))
+
+
+class ModularProblem:
+    """Designs of the 6-port chassis on terrain `terrain_seed`, evaluated through the shared cache and executor."""
+
+    def __init__(self, terrain_seed: int, settings: EvalSettings, rule: FitnessRule,
+                 cache: EvaluationCache | None = None, executor: Executor | None = None):
+        self.terrain_seed = terrain_seed
+        self.settings = settings
+        self.rule = rule
+        self.cache = cache
+        self.executor = executor
+        self.sim_steps = 0  # steps the evaluations asked for would cost without a cache (repeats included)
+
+    def sample(self, rng: np.random.Generator, n: int) -> list[str]:
+        return [index_to_design(row) for row in rng.integers(len(MODULE_LETTERS), size=(n, N_PORTS))]
+
+    def mutate(self, design: str, rng: np.random.Generator, rate: float) -> str:
+        genes = design_to_index(design)
+        redraw = rng.random(N_PORTS) < rate
+        genes[redraw] = rng.integers(len(MODULE_LETTERS), size=int(redraw.sum()))
+        return index_to_design(genes)
+
+    def crossover(self, a: str, b: str, rng: np.random.Generator) -> tuple[str, str]:
+        swap = rng.random(N_PORTS) < 0.5
+        return ("".join(y if s else x for x, y, s in zip(a, b, swap, strict=True)),
+                "".join(x if s else y for x, y, s in zip(a, b, swap, strict=True)))
+
+    def distance(self, a: str, b: str) -> float:
+        return float(hamming(a, b))
+
+    def evaluate(self, designs: Sequence[str]) -> np.ndarray:
+        results = evaluate_designs(designs, self.terrain_seed, self.settings, self.rule, self.cache, self.executor)
+        self.sim_steps += sum(r.sim_steps for r in results)
+        return np.array([self.rule.fitness(r) for r in results], dtype=np.float64)
