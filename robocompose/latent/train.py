@@ -1,0 +1,231 @@
+"""Training the graph VAE: data split, the reference's schedules, checkpoints that resume, logs.
+
+Every random choice is a function of (seed, step): the batch of step s is a slice of the permutation
+of epoch s // steps_per_epoch, and its reparameterisation noise comes from a generator seeded with
+(seed, s). A run resumed from a checkpoint (model, optimiser, step, log) therefore continues exactly
+as the uninterrupted run would have (bit for bit at the same thread count).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import torch
+
+from robocompose.grammar.tree import DesignTree
+from robocompose.io import McapWriter, atomic_path, atomic_write_text, read_table
+from robocompose.latent.batch import collate
+from robocompose.latent.constraints import Replay, replay
+from robocompose.latent.model import GraphVAE, VAEConfig
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Optimisation settings (thesis: Adam 1e-3 x0.9 every 40k steps, clip 50, batch 32, 400k steps,
+    beta 0 for 40k steps then +0.002 every 2k steps, predictor weight 20)."""
+
+    steps: int = 400_000  # optimiser steps
+    batch_size: int = 32
+    lr: float = 1e-3
+    lr_decay: float = 0.9  # learning rate x lr_decay every lr_decay_every steps
+    lr_decay_every: int = 40_000
+    clip_norm: float = 50.0
+    beta_start: int = 40_000  # KL weight 0 until this step
+    beta_every: int = 2_000  # then + beta_increment every beta_every steps
+    beta_increment: float = 0.002
+    beta_max: float = 1.0
+    pred_weight: float = 20.0  # lambda of eq. 7.12 (ignored without a predictor)
+    holdout: float = 0.1  # fraction of designs held out for reconstruction accuracy
+    log_every: int = 100  # steps per logged row (losses averaged over them)
+    eval_every: int = 2_000  # steps between held-out reconstruction checks in the log
+    eval_designs: int = 200  # held-out designs decoded at each check
+    checkpoint_every: int = 1_000  # steps between checkpoints
+    seed: int = 0
+    threads: int = 2  # torch intra-op threads
+
+    def __post_init__(self) -> None:
+        for name in ("steps", "batch_size", "lr_decay_every", "beta_every", "log_every", "eval_every",
+                     "eval_designs", "checkpoint_every", "threads"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be a positive integer, got {getattr(self, name)}")
+        for name in ("eval_every", "checkpoint_every"):  # logged rows must not straddle a resume
+            if getattr(self, name) % self.log_every:
+                raise ValueError(f"{name} must be a multiple of log_every ({self.log_every}), "
+                                 f"got {getattr(self, name)}")
+        if not 0 < self.holdout < 1:
+            raise ValueError(f"holdout must lie in (0, 1), got {self.holdout}")
+
+
+@dataclass(frozen=True)
+class Designs:
+    """A designs table prepared for the VAE: trees, their decoder walks and contact vectors."""
+
+    ids: list[str]
+    trees: list[DesignTree]
+    replays: list[Replay]
+    contacts: np.ndarray  # (n, 16)
+
+    def subset(self, idx: np.ndarray) -> Designs:
+        return Designs([self.ids[i] for i in idx], [self.trees[i] for i in idx], [self.replays[i] for i in idx],
+                       self.contacts[idx])
+
+
+def load_designs(path: str | Path, constraints: str, max_nodes: int) -> Designs:
+    """Read a `designs` table; every design must satisfy the decoder's constraints (else ValueError)."""
+    table = read_table(path, "designs")
+    trees = [DesignTree(tuple(int(p) for p in row.parents), tuple(int(t) for t in row.tokens))
+             for row in table.itertuples()]
+    replays = []
+    for tree, design_id in zip(trees, table["design_id"], strict=True):
+        try:
+            replays.append(replay(tree, constraints, max_nodes))
+        except ValueError as err:
+            raise ValueError(f"{path}: design {design_id} cannot be decoded under {constraints!r}: {err}") from None
+    contacts = np.stack([np.asarray(c, dtype=np.float32) for c in table["contacts"]])
+    return Designs(list(table["design_id"]), trees, replays, contacts)
+
+
+def split(n: int, holdout: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """(train, held-out) indices: a seeded permutation, the first `holdout` fraction held out."""
+    perm = np.random.default_rng([seed, 1]).permutation(n)
+    k = max(1, round(holdout * n))
+    return np.sort(perm[k:]), np.sort(perm[:k])
+
+
+def batch_indices(step: int, n: int, batch_size: int, seed: int) -> np.ndarray:
+    """Rows of step `step`: consecutive slices of one permutation per epoch (the last partial slice dropped)."""
+    per_epoch = max(1, n // batch_size)
+    epoch, k = divmod(step, per_epoch)
+    perm = np.random.default_rng([seed, 2, epoch]).permutation(n)
+    return perm[k * batch_size: (k + 1) * batch_size]
+
+
+def beta_at(step: int, c: TrainConfig) -> float:
+    if step < c.beta_start:
+        return 0.0
+    return min(c.beta_max, c.beta_increment * ((step - c.beta_start) // c.beta_every + 1))
+
+
+def lr_at(step: int, c: TrainConfig) -> float:
+    return c.lr * c.lr_decay ** (step // c.lr_decay_every)
+
+
+def reconstruction_accuracy(model: GraphVAE, designs: Designs, chunk: int = 256) -> float:
+    """Fraction of designs whose latent mean decodes (greedily) to the same design."""
+    hits = 0
+    with torch.no_grad():
+        for lo in range(0, len(designs.ids), chunk):
+            part = designs.subset(np.arange(lo, min(lo + chunk, len(designs.ids))))
+            mean, _ = model.encoder(collate(part.replays, part.contacts))
+            walks = model.decoder.decode(mean)
+            hits += sum(w.tree().design_id == i for w, i in zip(walks, part.ids, strict=True))
+    return hits / len(designs.ids)
+
+
+def config_hash(*configs) -> str:
+    text = json.dumps([dataclasses.asdict(c) for c in configs], sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def save_model(model: GraphVAE, path: str | Path) -> Path:
+    with atomic_path(path) as tmp:
+        torch.save({"config": dataclasses.asdict(model.config), "state": model.state_dict()}, tmp)
+    return Path(path)
+
+
+def load_model(path: str | Path) -> GraphVAE:
+    path = Path(path)
+    if not path.exists():
+        raise FileNotFoundError(f"{path}: no such model file (train one with `dvc repro train_vae`)")
+    saved = torch.load(path, map_location="cpu", weights_only=True)
+    model = GraphVAE(VAEConfig(**saved["config"]))
+    model.load_state_dict(saved["state"])
+    return model.eval()
+
+
+LOG_FIELDS = ("step", "loss", "label_loss", "stop_loss", "kl", "pred_loss", "label_acc", "stop_acc", "beta", "lr",
+              "heldout_reconstruction")
+
+
+def write_logs(rows: list[dict], csv_path: Path, mcap_path: Path) -> None:
+    """The training curve as a CSV (DVC plots) and an MCAP log (one `/vae/train` message per row)."""
+    frame = pd.DataFrame(rows, columns=list(LOG_FIELDS))
+    atomic_write_text(csv_path, frame.to_csv(index=False, float_format="%.6g"))
+    with McapWriter(mcap_path) as log:
+        for row in rows:
+            log.scalars("/vae/train", float(row["step"]),
+                        {k: v for k, v in row.items() if k != "step" and v is not None and not math.isnan(v)})
+
+
+def train(model_config: VAEConfig, config: TrainConfig, designs: Designs, checkpoint: Path, csv_path: Path,
+          mcap_path: Path, progress: bool = False) -> tuple[GraphVAE, Designs, Designs]:
+    """Train (resuming from `checkpoint` when it holds a run of the same settings); returns the model and
+    the (train, held-out) designs."""
+    torch.set_num_threads(config.threads)
+    train_idx, test_idx = split(len(designs.ids), config.holdout, config.seed)
+    train_set, test_set = designs.subset(train_idx), designs.subset(test_idx)
+    eval_set = test_set.subset(np.arange(min(config.eval_designs, len(test_idx))))
+    torch.manual_seed(config.seed)
+    model = GraphVAE(model_config)
+    optimizer = torch.optim.Adam(model.parameters(), lr=config.lr)
+    key = config_hash(model_config, config) + f"-{len(designs.ids)}-{designs.ids[0]}"
+    start, rows = 0, []
+    if checkpoint.exists():
+        saved = torch.load(checkpoint, map_location="cpu", weights_only=False)
+        if saved["key"] == key:
+            model.load_state_dict(saved["model"])
+            optimizer.load_state_dict(saved["optimizer"])
+            start, rows = saved["step"], saved["rows"]
+            print(f"resuming from {checkpoint} at step {start}", flush=True)
+        else:
+            print(f"{checkpoint} holds a run with other settings: starting afresh", flush=True)
+
+    from tqdm import tqdm
+
+    running: dict[str, float] = {}
+    bar = tqdm(total=config.steps, initial=start, disable=not progress, desc="train_vae", mininterval=5.0)
+    for step in range(start, config.steps):
+        model.train()
+        idx = batch_indices(step, len(train_idx), config.batch_size, config.seed)
+        batch = collate([train_set.replays[i] for i in idx], train_set.contacts[idx])
+        noise = torch.randn(len(idx), model_config.latent, generator=torch.Generator().manual_seed(
+            config.seed * 1_000_003 + step))
+        beta, lr = beta_at(step, config), lr_at(step, config)
+        for group in optimizer.param_groups:
+            group["lr"] = lr
+        out = model(batch, beta, config.pred_weight, noise)
+        optimizer.zero_grad()
+        out["loss"].backward()
+        torch.nn.utils.clip_grad_norm_(model.parameters(), config.clip_norm)
+        optimizer.step()
+        for k, v in out.items():
+            running[k] = running.get(k, 0.0) + float(v.detach())
+        done = step + 1
+        if done % config.log_every == 0 or done == config.steps:
+            n = done - rows[-1]["step"] if rows else done
+            row = {k: running.get(k, math.nan) / n for k in LOG_FIELDS[1:8]}
+            row.update(step=done, beta=beta, lr=lr, heldout_reconstruction=math.nan)
+            if done % config.eval_every == 0 or done == config.steps:
+                model.eval()
+                row["heldout_reconstruction"] = reconstruction_accuracy(model, eval_set)
+            rows.append(row)
+            running = {}
+            bar.set_postfix(loss=f"{row['loss']:.2f}", rec=f"{row['heldout_reconstruction']:.2f}")
+        if done % config.checkpoint_every == 0 or done == config.steps:
+            checkpoint.parent.mkdir(parents=True, exist_ok=True)
+            with atomic_path(checkpoint) as tmp:
+                torch.save({"key": key, "step": done, "model": model.state_dict(),
+                            "optimizer": optimizer.state_dict(), "rows": rows}, tmp)
+            write_logs(rows, csv_path, mcap_path)
+        bar.update(1)
+    bar.close()
+    if start >= config.steps:  # already finished: make sure the logs exist
+        write_logs(rows, csv_path, mcap_path)
+    return model.eval(), train_set, test_set

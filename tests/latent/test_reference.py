@@ -1,0 +1,54 @@
+"""Two sweeps over a tree give the original's 20 synchronous iterations (and its depth-first decoder)."""
+
+import numpy as np
+import torch
+
+from robocompose.latent.batch import collate
+from robocompose.latent.constraints import replay
+from robocompose.latent.model import GraphVAE, VAEConfig, level_sweeps
+from robocompose.latent.reference import original, synchronous
+
+
+def _longest_path(tree) -> int:
+    depth = [0] * tree.n_links
+    for i in range(1, tree.n_links):
+        depth[i] = depth[tree.parents[i]] + 1
+    best = [0] * tree.n_links  # longest downward path from each node
+    longest = 0
+    for i in reversed(range(tree.n_links)):
+        kids = sorted((best[c] + 1 for c in tree.children(i)), reverse=True)
+        best[i] = kids[0] if kids else 0
+        longest = max(longest, sum(kids[:2]))
+    return longest
+
+
+def _losses_and_grads(model, batch, noise, propagate):
+    out = model(batch, 0.3, 20.0, noise, propagate=propagate)
+    grads = torch.autograd.grad(out["loss"], list(model.parameters()))
+    return out, grads
+
+
+def test_two_sweeps_equal_twenty_synchronous_iterations(trees):
+    torch.manual_seed(0)
+    assert max(_longest_path(t) for t in trees) < 20
+    batch = collate([replay(t, "grammar", 50) for t in trees], np.zeros((len(trees), 16)))
+    model = GraphVAE(VAEConfig(hidden=16, latent=4))
+    noise = torch.randn(len(trees), 4)
+    ours, g_ours = _losses_and_grads(model, batch, noise, level_sweeps)
+    ref, g_ref = _losses_and_grads(model, batch, noise, original())
+    for key in ("loss", "label_loss", "stop_loss", "kl", "pred_loss"):
+        torch.testing.assert_close(ours[key], ref[key], rtol=1e-5, atol=1e-5)
+    for a, b in zip(g_ours, g_ref, strict=True):
+        torch.testing.assert_close(a, b, rtol=1e-4, atol=1e-5)
+
+
+def test_synchronous_messages_are_final_after_longest_path_iterations(trees):
+    tree = max(trees, key=_longest_path)
+    longest = _longest_path(tree)
+    batch = collate([replay(tree, "grammar", 50)], np.zeros((1, 16)))
+    gru = GraphVAE(VAEConfig(hidden=8, latent=2)).encoder.gru
+    with torch.no_grad():
+        sweeps = gru.propagate(batch.encoder)
+        torch.testing.assert_close(synchronous(gru, batch.encoder, longest), sweeps)
+        early = synchronous(gru, batch.encoder, longest - 1)
+    assert not torch.allclose(early, sweeps)

@@ -1,0 +1,127 @@
+"""Training: schedules, a tiny model that learns, checkpoints, and resuming after a kill."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from robocompose.io import read_mcap, write_table
+from robocompose.latent.model import VAEConfig
+from robocompose.latent.train import (
+    TrainConfig,
+    batch_indices,
+    beta_at,
+    load_designs,
+    load_model,
+    lr_at,
+    reconstruction_accuracy,
+    save_model,
+    split,
+    train,
+)
+
+TINY = VAEConfig(hidden=16, latent=4, predictor_hidden=8, max_nodes=30)
+
+
+@pytest.fixture
+def write_designs(make_trees):
+    return lambda path, n, seed=0: _write_designs(path, make_trees(n, seed, min_links=3))
+
+
+def _write_designs(path: Path, trees: list) -> Path:
+    rows = [{"design_id": t.design_id, "rules": [], "parents": list(t.parents), "tokens": list(t.tokens),
+             "n_links": t.n_links, "n_joints": t.n_joints, "contacts": [float(t.n_links)] * 16}
+            for t in trees]
+    write_table(pd.DataFrame(rows), path, "designs")
+    return path
+
+
+def test_schedules_follow_the_reference():
+    c = TrainConfig()
+    assert beta_at(39_999, c) == 0.0 and beta_at(40_000, c) == pytest.approx(0.002)
+    assert beta_at(41_999, c) == pytest.approx(0.002) and beta_at(42_000, c) == pytest.approx(0.004)
+    assert beta_at(10**8, c) == 1.0
+    assert lr_at(39_999, c) == pytest.approx(1e-3) and lr_at(80_000, c) == pytest.approx(0.81e-3)
+
+
+def test_split_and_batches_are_deterministic_and_disjoint():
+    train_idx, test_idx = split(100, 0.1, seed=3)
+    assert len(test_idx) == 10 and not set(train_idx) & set(test_idx)
+    np.testing.assert_array_equal(split(100, 0.1, seed=3)[1], test_idx)
+    epoch = np.concatenate([batch_indices(s, 90, 30, seed=0) for s in range(3)])
+    assert sorted(epoch) == list(range(90))  # one epoch visits every row once
+
+
+def test_config_rejects_straddling_checkpoints():
+    with pytest.raises(ValueError, match="multiple of log_every"):
+        TrainConfig(log_every=10, checkpoint_every=15)
+
+
+def test_tiny_model_learns_its_designs_and_saves(tmp_path, write_designs):
+    designs = load_designs(write_designs(tmp_path / "d.parquet", 12), "grammar", TINY.max_nodes)
+    config = TrainConfig(steps=300, batch_size=8, lr=1e-2, beta_start=10**6, holdout=0.25, log_every=50,
+                         eval_every=300, checkpoint_every=300, threads=1)
+    model, train_set, _ = train(TINY, config, designs, tmp_path / "ck.pt", tmp_path / "log.csv", tmp_path / "log.mcap")
+    assert reconstruction_accuracy(model, train_set) >= 0.5  # memorises most of what it saw
+    log = pd.read_csv(tmp_path / "log.csv")
+    assert list(log["step"]) == [50, 100, 150, 200, 250, 300]
+    assert log["loss"].iloc[-1] < log["loss"].iloc[0]
+    assert len([m for m in read_mcap(tmp_path / "log.mcap") if m.topic == "/vae/train"]) == 6
+    again = load_model(save_model(model, tmp_path / "m.pt"))
+    assert reconstruction_accuracy(again, train_set) == reconstruction_accuracy(model, train_set)
+
+
+RUN = """
+import json, sys
+from pathlib import Path
+from robocompose.latent.train import TrainConfig, load_designs, train, reconstruction_accuracy
+from robocompose.latent.model import VAEConfig
+out = Path(sys.argv[1])
+model_config = VAEConfig(hidden=16, latent=4, predictor_hidden=8, max_nodes=30)
+designs = load_designs(sys.argv[2], "grammar", 30)
+config = TrainConfig(steps=200, batch_size=8, beta_start=50, beta_every=20, lr_decay_every=50, holdout=0.25,
+                     log_every=20, eval_every=100, checkpoint_every=40, threads=1)
+model, tr, te = train(model_config, config, designs, out / "ck.pt", out / "log.csv", out / "log.mcap")
+state = {k: v.sum().item() for k, v in model.state_dict().items()}
+(out / "result.json").write_text(json.dumps({"train": reconstruction_accuracy(model, tr), "state": state}))
+"""
+
+
+def _run(out: Path, data: Path, kill_after_checkpoint: bool) -> dict:
+    out.mkdir()
+    env = {**os.environ, "PYTHONPATH": str(Path.cwd())}
+    proc = subprocess.Popen([sys.executable, "-c", RUN, str(out), str(data)], env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT)
+    if kill_after_checkpoint:
+        while not (out / "ck.pt").exists():
+            assert proc.poll() is None, proc.stdout.read().decode()
+            time.sleep(0.05)
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        assert not (out / "result.json").exists()
+        return _resume(out, data, env)
+    assert proc.wait() == 0, proc.stdout.read().decode()
+    return json.loads((out / "result.json").read_text())
+
+
+def _resume(out: Path, data: Path, env: dict) -> dict:
+    done = subprocess.run([sys.executable, "-c", RUN, str(out), str(data)], env=env, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert "resuming from" in done.stdout
+    return json.loads((out / "result.json").read_text())
+
+
+def test_killed_run_resumes_to_the_same_model(tmp_path, write_designs):
+    data = write_designs(tmp_path / "d.parquet", 16, seed=1)
+    whole = _run(tmp_path / "whole", data, kill_after_checkpoint=False)
+    resumed = _run(tmp_path / "killed", data, kill_after_checkpoint=True)
+    assert resumed == whole  # same weights to the last bit, same accuracy
+    log_whole = pd.read_csv(tmp_path / "whole" / "log.csv")
+    pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "killed" / "log.csv"), log_whole)
