@@ -77,7 +77,7 @@ def _ga(args: argparse.Namespace) -> None:
 
     params = _params(args.params)
     workers = params.workers if args.workers is None else args.workers
-    cache = EvaluationCache(params.cache)
+    cache = EvaluationCache(params.cache or None)
     with Executor(workers=workers, address=params.address or None) as executor:
         run = run_method(args.variant, args.terrain_seed, args.seed, params, cache, executor)
     print(json.dumps({"variant": args.variant, "terrain_seed": args.terrain_seed, "seed": args.seed,

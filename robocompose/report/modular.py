@@ -1,0 +1,195 @@
+"""Report section for modular robot design (thesis 5.1): Table 5.2's GA rows and Table 5.1's random-sampling row
+beside ours, the exhaustive optimum of every test terrain with each method's regret, and a picture of the terrains
+with their best designs.
+
+Built from the outputs of the `modular_exhaustive` and `modular_baselines` stages; runtimes convert each run's
+simulation steps (its cost without the evaluation cache) to minutes at the single-core rate measured by
+`benchmarks/bench_modular.py` (reports/benchmarks.json, `modular.steps_per_s`).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from robocompose.io import read_table
+
+# Thesis Table 5.2 (learned modular controller): max distance (m), distinct solutions, runtime (min), each mean +- std.
+THESIS_TABLE_5_2 = {"ga20": ("4.21 ± 1.43", "1.8 ± 0.8", "25.4 ± 0.7"),
+                    "ga50": ("5.63 ± 0.34", "2.0 ± 1.4", "71.9 ± 1.3"),
+                    "crowding": ("5.33 ± 0.25", "6.4 ± 1.3", "97.6 ± 2.1")}
+# Thesis Table 5.1, random sampling: max distance, max distance under emergency constraints (learned controller);
+# and random sampling with the hand-crafted controller ("effect of the controller").
+THESIS_RANDOM = ("0.72 ± 0.64", "0.63 ± 0.69")
+THESIS_RANDOM_HANDCRAFTED = "0.86 ± 0.81"
+NAMES = {"ga20": "GA-20", "ga50": "GA-50", "crowding": "GA-crowding", "random": "Random sampling"}
+
+
+def _mean_std(values: pd.Series, digits: int = 2) -> str:
+    return f"{values.mean():.{digits}f} ± {values.std(ddof=0):.{digits}f}"
+
+
+def _steps_per_second(reports_dir: Path) -> float | None:
+    path = Path(reports_dir) / "benchmarks.json"
+    if not path.exists():
+        return None
+    return json.loads(path.read_text()).get("modular.steps_per_s")
+
+
+def section(reports_dir: Path, data_dir: Path) -> str:
+    """Markdown for the modular-robot section; the figure goes to reports_dir/figures/."""
+    paths = {"exhaustive": Path(data_dir) / "modular" / "exhaustive.parquet",
+             "runs": Path(data_dir) / "modular" / "runs.parquet"}
+    missing = [str(p) for p in paths.values() if not p.exists()]
+    if missing:
+        return ("## Modular robot design (thesis 5.1)\n\nNot run yet: missing " + ", ".join(missing)
+                + " (stages `modular_exhaustive` and `modular_baselines`).\n")
+    from robocompose.modular.experiments import truth_summary
+    from robocompose.modular.params import load_modular_params
+
+    truth = read_table(paths["exhaustive"], "modular_exhaustive")
+    runs = read_table(paths["runs"], "modular_runs")
+    runs["regret"] = runs.optimum - runs.best_fitness
+    params = load_modular_params("params.yaml") if Path("params.yaml").exists() else None
+    summary = truth_summary(truth, params.experiments.near_optimal if params else 0.5)
+    figures = Path(reports_dir) / "figures"
+    figures.mkdir(parents=True, exist_ok=True)
+    gallery = params.experiments.gallery if params else 2
+    if params is not None:
+        _plot_terrains(summary.head(gallery), params, figures / "modular_terrains.png")
+    rate = _steps_per_second(reports_dir)
+    n_terrains, n_seeds = runs.terrain_seed.nunique(), runs.seed.nunique()
+    episode = (f"{params.eval.control_steps} control steps x {params.eval.sim_steps_per_control} sim steps "
+               f"({params.eval.control_steps * params.eval.sim_steps_per_control * params.eval.time_step:.1f} s)"
+               if params else "see params.yaml")
+
+    lines = [
+        "## Modular robot design (thesis 5.1)",
+        "",
+        "Evaluator: pybullet rollouts of the 6-port chassis with leg / wheel / leg-wheel modules on seeded block "
+        f"terrains, driven by the hand-crafted alternating-tripod controller; episode {episode}; fitness = distance "
+        "travelled in x with the reference's early stops; designs the original called invalid (more than two empty "
+        "ports, or an empty corner port) score -10 unsimulated. The thesis's Table 5.1/5.2 used a learned modular "
+        "policy; its hand-crafted-controller experiment reports random sampling at "
+        f"{THESIS_RANDOM_HANDCRAFTED} m. Ours: {n_terrains} test terrains x {n_seeds} runs per method (thesis: "
+        "10 terrains x 20 runs).",
+        "",
+        "### Evolutionary baselines (Table 5.2)",
+        "",
+        "| method | max distance (m) | distinct solutions | regret to the optimum (m) | evaluations | runtime (min) "
+        "| thesis distance | thesis distinct | thesis runtime (min) |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for method in ("ga20", "ga50", "crowding"):
+        group = runs[runs.method == method]
+        if group.empty:
+            continue
+        runtime = _mean_std(group.sim_steps / rate / 60, 1) if rate else "n/a (run `make bench`)"
+        thesis = THESIS_TABLE_5_2[method]
+        lines.append(f"| {NAMES[method]} | {_mean_std(group.best_fitness)} | {_mean_std(group.distinct, 1)} | "
+                     f"{_mean_std(group.regret)} | {int(group.evaluations.mean())} | {runtime} | "
+                     f"{thesis[0]} | {thesis[1]} | {thesis[2]} |")
+    rate_note = (f"{rate:,.0f} sim steps/s on one core (benchmark)" if rate else "the benchmark rate (not measured)")
+    lines += [
+        "",
+        "Runtime = the simulation steps a run's evaluations cost without the cache (repeats included), at "
+        f"{rate_note}; the runs themselves read the test terrains from the cache the exhaustive stage filled. "
+        "Distinct solutions: the final population's designs at Hamming distance >= 1 whose fitness is within 0.5 m "
+        "of the population's best.",
+        "",
+        "### Random sampling (Table 5.1 row)",
+        "",
+        "| method | max distance (m) | max distance under emergency constraints (m) | EC optimum (m) "
+        "| thesis distance | thesis EC distance |",
+        "|---|---|---|---|---|---|",
+    ]
+    random_runs = runs[runs.method == "random"]
+    if not random_runs.empty:
+        lines.append(f"| Random sampling (10 designs) | {_mean_std(random_runs.best_fitness)} | "
+                     f"{_mean_std(random_runs.ec_fitness)} | {_mean_std(random_runs.ec_optimum)} | "
+                     f"{THESIS_RANDOM[0]} | {THESIS_RANDOM[1]} |")
+    lines += [
+        "",
+        "Emergency constraints: each draw caps one module type (leg, wheel or leg-wheel) at 0, 1 or 2; a method "
+        "answers with its best output design that satisfies the cap, else a random satisfying design. The EC optimum "
+        "is the best satisfying design of the exhaustive table under the same draws.",
+        "",
+        "### Exhaustive ground truth (not in the thesis)",
+        "",
+        "All 4096 designs on each test terrain (designs the rule skips score -10; the rest simulated).",
+        "",
+        "| terrain seed | simulated designs | optimum (m) | best design | designs within 0.5 m | "
+        + " | ".join(f"{NAMES[m]} regret (m)" for m in NAMES) + " |",
+        "|---|---|---|---|---|" + "---|" * len(NAMES),
+    ]
+    for row in summary.itertuples():
+        regrets = []
+        for method in NAMES:
+            group = runs[(runs.method == method) & (runs.terrain_seed == row.terrain_seed)]
+            regrets.append(_mean_std(group.regret) if len(group) else "n/a")
+        lines.append(f"| {row.terrain_seed} | {row.simulated} | {row.optimum:.2f} | `{row.best_design}` | "
+                     f"{row.near_optimal} | " + " | ".join(regrets) + " |")
+    found = runs.assign(hit=runs.regret <= 1e-9).groupby("method").hit.mean()
+    lines += [
+        "",
+        "Share of runs that found the exact optimum: "
+        + ", ".join(f"{NAMES[m]} {found[m]:.0%}" for m in NAMES if m in found) + ".",
+        "",
+        _status_line(truth),
+    ]
+    if params is not None:
+        lines += ["", "![test terrains and their best designs](figures/modular_terrains.png)", "",
+                  "Top: height maps of the test terrains (the 50 x 20 task encoding, x to the right). Bottom: each "
+                  "terrain's exhaustive best design at its start pose (ports: front-left, mid-left, back-left, "
+                  "back-right, mid-right, front-right; n none, l leg, w wheel, b leg-wheel)."]
+    return "\n".join(lines) + "\n"
+
+
+def _status_line(truth: pd.DataFrame) -> str:
+    counts = truth.status.value_counts().sort_index()
+    return "Statuses over the exhaustive table: " + ", ".join(f"{k} {v}" for k, v in counts.items()) + "."
+
+
+def _plot_terrains(summary: pd.DataFrame, params, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from robocompose.modular.terrain import generate_terrain, height_map
+
+    n = len(summary)
+    fig, axes = plt.subplots(2, n, figsize=(5 * n, 5.5), squeeze=False)
+    for k, row in enumerate(summary.itertuples()):
+        terrain = generate_terrain(row.terrain_seed, params.eval.terrain)
+        grid = height_map(terrain)
+        top = axes[0, k].imshow(grid.T, origin="lower", extent=[-1, 9, -2, 2], cmap="copper", vmin=0, vmax=0.08)
+        axes[0, k].set_title(f"terrain {row.terrain_seed} (max block {terrain.max_height * 100:.1f} cm)")
+        axes[0, k].set_xlabel("x (m)")
+        axes[0, k].set_ylabel("y (m)")
+        axes[1, k].imshow(_design_picture(row.best_design, terrain))
+        axes[1, k].set_title(f"best: {row.best_design} ({row.optimum:.2f} m)")
+        axes[1, k].axis("off")
+    fig.colorbar(top, ax=axes[0, :].tolist(), label="block height (m)", shrink=0.8)
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+
+
+def _design_picture(design: str, terrain) -> np.ndarray:
+    import pybullet as pb
+
+    from robocompose.modular.robot import build_robot
+    from robocompose.modular.terrain import add_terrain
+    from robocompose.sim.physics import connect
+    from robocompose.sim.render import camera_image
+
+    client = connect()
+    try:
+        add_terrain(client, terrain, visual=True)
+        build_robot(design, client, visual=True)
+        return camera_image(client, (0.3, 0.0, 0.15), distance=1.6, yaw=-60.0, pitch=-30.0)
+    finally:
+        pb.disconnect(physicsClientId=client)

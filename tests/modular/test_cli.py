@@ -1,0 +1,42 @@
+import json
+
+from robocompose.cli import main
+
+TINY = """
+modular:
+  eval: {control_steps: 3, settle_steps: 10}
+  experiments: {generations: 2, random_designs: 3}
+  workers: 1
+  cache: ""
+"""
+
+
+def test_evaluate_prints_one_json_object_and_writes_logs(tmp_path, capsys):
+    params = tmp_path / "params.yaml"
+    params.write_text(TINY)
+    code = main(["modular", "evaluate", "--design", "WWWWWW", "--terrain-seed", "3", "--params", str(params),
+                 "--mcap", str(tmp_path / "r.mcap"), "--gif", str(tmp_path / "r.gif")])
+    out = json.loads(capsys.readouterr().out)
+    assert code == 0 and out["design"] == "wwwwww" and out["status"] == "ok" and out["distance"] > 0
+    assert set(out) >= {"distance", "status", "seconds"}
+    assert (tmp_path / "r.mcap").stat().st_size > 0 and (tmp_path / "r.gif").stat().st_size > 0
+
+
+def test_invalid_design_scores_the_penalty_and_a_bad_string_exits_2(tmp_path, capsys):
+    params = tmp_path / "params.yaml"
+    params.write_text(TINY)
+    assert main(["modular", "evaluate", "--design", "nnnnnn", "--terrain-seed", "3", "--params", str(params)]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["status"] == "invalid" and out["distance"] is None and out["fitness"] == -10.0
+    assert main(["modular", "evaluate", "--design", "lwx", "--terrain-seed", "3", "--params", str(params)]) == 2
+    assert "front-left" in capsys.readouterr().err
+
+
+def test_ga_prints_the_best_design(tmp_path, capsys):
+    params = tmp_path / "params.yaml"
+    params.write_text(TINY)
+    assert main(["modular", "ga", "--variant", "random", "--terrain-seed", "3", "--seed", "1",
+                 "--params", str(params)]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["evaluations"] == 3 and len(out["best_design"]) == 6
+    assert set(out) >= {"best_design", "best_distance", "distinct", "evaluations", "seconds"}
