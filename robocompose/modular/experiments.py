@@ -124,16 +124,7 @@ def run_method(variant: str, terrain_seed: int, seed: int, params: ModularParams
     result = search(variant, problem, _seed(seed, terrain_seed, list(METHODS).index(variant)), params)
     seconds = time.perf_counter() - started
     distinct = distinct_solutions(result.population, result.fitness, problem.distance, DELTA, EPSILON)
-    steps_per_second = _stored_steps_per_second(result.population, terrain_seed, params, cache)
-    return MethodRun(variant, terrain_seed, seed, result, distinct, problem.sim_steps, seconds,
-                     problem.sim_steps / steps_per_second if steps_per_second else 0.0)
-
-
-def _stored_steps_per_second(designs, terrain_seed: int, params: ModularParams, cache) -> float:
-    """Sim steps per second over the stored evaluations of `designs` (0 when none were simulated)."""
-    results = evaluate_designs(designs, terrain_seed, params.eval, params.fitness, cache)
-    steps, seconds = sum(r.sim_steps for r in results), sum(r.seconds for r in results)
-    return steps / seconds if seconds > 0 else 0.0
+    return MethodRun(variant, terrain_seed, seed, result, distinct, problem.sim_steps, seconds, problem.sim_seconds)
 
 
 def emergency_constraints(rng: np.random.Generator, n: int) -> list[tuple[str, int]]:

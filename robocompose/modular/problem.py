@@ -31,6 +31,7 @@ class ModularProblem:
         self.cache = cache
         self.executor = executor
         self.sim_steps = 0  # steps the evaluations asked for would cost without a cache (repeats included)
+        self.sim_seconds = 0.0  # their measured simulation seconds (as recorded in the cache for hits)
 
     def sample(self, rng: np.random.Generator, n: int) -> list[str]:
         return [index_to_design(row) for row in rng.integers(len(MODULE_LETTERS), size=(n, N_PORTS))]
@@ -52,4 +53,5 @@ class ModularProblem:
     def evaluate(self, designs: Sequence[str]) -> np.ndarray:
         results = evaluate_designs(designs, self.terrain_seed, self.settings, self.rule, self.cache, self.executor)
         self.sim_steps += sum(r.sim_steps for r in results)
+        self.sim_seconds += sum(r.seconds for r in results)
         return np.array([self.rule.fitness(r) for r in results], dtype=np.float64)
