@@ -2,9 +2,10 @@
 
 import torch
 
+from robocompose.evaluation.executor import Executor
 from robocompose.io import read_table, write_table
 from robocompose.stage import run_stage
-from robocompose.teams.evaluator import EvaluationCache
+from robocompose.teams.evaluator import teams_cache
 from robocompose.teams.experiments import (
     coverage_baselines,
     decomposed_chips,
@@ -19,13 +20,15 @@ def main() -> None:
     params = load_teams_params("params.yaml")
     torch.set_num_threads(params.threads)
     test_chips = decomposed_chips(read_table("data/regions.parquet", "regions"), "test")
-    cache = EvaluationCache("data/teams/eval_cache.parquet")
-    runs, fronts = nsga2_runs(test_chips, params.coverage, params.experiments, cache)
+    cache = teams_cache("data/teams/eval_cache.parquet")
+    experiments = params.experiments
+    with Executor(experiments.workers, experiments.address or None) as executor:
+        runs, fronts = nsga2_runs(test_chips, params.coverage, experiments, cache, executor)
+        coverage = coverage_baselines(test_chips, params.coverage, experiments, executor)
     cache.save()
     write_table(runs, "data/teams/nsga2.parquet", "teams_nsga2")
     write_table(fronts, "data/teams/fronts.parquet", "teams_fronts")
-    write_table(coverage_baselines(test_chips, params.coverage, params.experiments),
-                "data/teams/coverage.parquet", "teams_coverage")
+    write_table(coverage, "data/teams/coverage.parquet", "teams_coverage")
     chip, seeds = test_chips[0]
     counts, seed = example_allocation(fronts, chip.chip_id, len(seeds))
     write_table(example_trajectories(chip, seeds, params.coverage, counts, seed),

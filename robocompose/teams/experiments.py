@@ -1,10 +1,15 @@
 """The experiments of thesis Tables 5.4 and 5.5 on the decomposed test chips.
 
 Table 5.4: NSGA-II with each population size, for each of the first `nsga2_chips` test chips and each
-seed; the runtime is the wall time of the run with an empty evaluation cache (as the thesis times a
-run from scratch); every evaluation is then merged into the stage's cache for later stages.
-Table 5.5: the baselines of baselines.py at each deployment budget, for the first `baseline_chips`
-test chips and each seed.
+seed; the runtime is the wall time of the run measured inside it, with an empty evaluation cache (as
+the thesis times a run from scratch); every evaluation is then merged into the stage's cache for later
+stages. Table 5.5: the baselines of baselines.py at each deployment budget, for the first
+`baseline_chips` test chips and each seed.
+
+The runs (chip x seed x population) and the per-chip baselines are independent tasks, fanned out
+through the project's Executor (local processes or a Dask cluster; None = in this process). Each task
+runs with the caller's torch thread count (the stage sets `teams.threads`, 1) and results are gathered
+in task order, so the tables do not depend on the backend or the number of workers.
 """
 
 from __future__ import annotations
@@ -13,12 +18,15 @@ import hashlib
 
 import numpy as np
 import pandas as pd
+import torch
 
+from robocompose.evaluation.cache import EvaluationCache
+from robocompose.evaluation.executor import Executor
 from robocompose.teams.baselines import no_decomposition_costs, random_allocation, random_species_counts
 from robocompose.teams.chips import Chip, read_chip
 from robocompose.teams.ergodic import CoverageConfig
-from robocompose.teams.evaluator import AllocationEvaluator, EvaluationCache, chip_coverage
-from robocompose.teams.nsga2 import NSGA2Config, run_nsga2
+from robocompose.teams.evaluator import AllocationEvaluator, chip_coverage
+from robocompose.teams.nsga2 import NSGA2Config, NSGA2Result, run_nsga2
 from robocompose.teams.params import ExperimentsConfig
 from robocompose.teams.species import SPECIES, deployment_cost
 
@@ -32,50 +40,71 @@ def decomposed_chips(regions: pd.DataFrame, split: str) -> list[tuple[Chip, np.n
     return chips
 
 
+def _nsga2_run(task: tuple[Chip, np.ndarray, CoverageConfig, NSGA2Config, int]
+               ) -> tuple[NSGA2Result, EvaluationCache]:
+    """One NSGA-II run on one chip (an executor task): its result and the cache of its evaluations."""
+    chip, seeds, coverage, nsga2, threads = task
+    torch.set_num_threads(threads)
+    evaluate = AllocationEvaluator(chip_coverage(chip, seeds, coverage), chip.chip_id, nsga2.seed)
+    result = run_nsga2(evaluate, len(seeds), len(SPECIES), coverage.robots_per_species, nsga2)
+    return result, evaluate.cache
+
+
 def nsga2_runs(chips: list[tuple[Chip, np.ndarray]], coverage: CoverageConfig, config: ExperimentsConfig,
-               cache: EvaluationCache) -> tuple[pd.DataFrame, pd.DataFrame]:
+               cache: EvaluationCache, executor: Executor | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Run NSGA-II per chip x seed x population; return the "teams_nsga2" and "teams_fronts" tables."""
+    tasks = [(chip, seeds, coverage,
+              NSGA2Config(population=population, generations=config.generations,
+                          crossover_probability=config.crossover_probability,
+                          mutation_rate=config.mutation_rate, seed=seed),
+              torch.get_num_threads())
+             for chip, seeds in chips[:config.nsga2_chips]
+             for seed in config.nsga2_seeds
+             for population in config.populations]
+    results = (executor or Executor(workers=1)).map(_nsga2_run, tasks)
     runs, fronts = [], []
-    for chip, seeds in chips[:config.nsga2_chips]:
-        problem = chip_coverage(chip, seeds, coverage)
-        for seed in config.nsga2_seeds:
-            for population in config.populations:
-                evaluate = AllocationEvaluator(problem, chip.chip_id, seed)
-                nsga2 = NSGA2Config(population=population, generations=config.generations,
-                                    crossover_probability=config.crossover_probability,
-                                    mutation_rate=config.mutation_rate, seed=seed)
-                result = run_nsga2(evaluate, len(seeds), len(SPECIES), coverage.robots_per_species, nsga2)
-                cache.merge(evaluate.cache)
-                runs.append((chip.chip_id, population, seed, config.generations, result.hypervolume,
-                             result.seconds, result.evaluations))
-                fronts += [(chip.chip_id, population, seed, cost, int(deploy), counts.ravel().tolist())
-                           for (cost, deploy), counts in zip(result.front, result.counts, strict=True)]
+    for (chip, _, _, nsga2, _), (result, evaluations) in zip(tasks, results, strict=True):
+        cache.merge(evaluations)  # in task order: a key evaluated by two runs keeps the later run's value
+        runs.append((chip.chip_id, nsga2.population, nsga2.seed, nsga2.generations, result.hypervolume,
+                     result.seconds, result.evaluations))
+        fronts += [(chip.chip_id, nsga2.population, nsga2.seed, cost, int(deploy), counts.ravel().tolist())
+                   for (cost, deploy), counts in zip(result.front, result.counts, strict=True)]
     return (pd.DataFrame(runs, columns=["chip_id", "population", "seed", "generations", "hypervolume",
                                         "seconds", "evaluations"]),
             pd.DataFrame(fronts, columns=["chip_id", "population", "seed", "coverage_cost",
                                           "deployment_cost", "counts"]))
 
 
-def coverage_baselines(chips: list[tuple[Chip, np.ndarray]], coverage: CoverageConfig,
-                       config: ExperimentsConfig) -> pd.DataFrame:
-    """Table 5.5 baselines per chip x seed x budget: the "teams_coverage" table."""
-    rows = []
+def _chip_baselines(task: tuple[Chip, np.ndarray, CoverageConfig, ExperimentsConfig, int]) -> list[tuple]:
+    """The Table 5.5 rows of one chip (an executor task), every seed x budget."""
+    chip, seeds, coverage, config, threads = task
+    torch.set_num_threads(threads)
+    problem = chip_coverage(chip, seeds, coverage)
     n_species, bank = len(SPECIES), coverage.robots_per_species
-    for chip, seeds in chips[:config.baseline_chips]:
-        problem = chip_coverage(chip, seeds, coverage)
-        chip_hash = int(hashlib.sha1(chip.chip_id.encode()).hexdigest()[:12], 16)
-        for seed in config.baseline_seeds:
-            rng = np.random.default_rng([seed, chip_hash])
-            allocations = np.stack([random_allocation(rng, b, len(seeds), n_species, bank)
-                                    for b in config.budgets])  # (n_budgets, K, O)
-            teams = np.stack([random_species_counts(rng, b, n_species, bank) for b in config.budgets])
-            random_costs, _, _ = problem.evaluate(allocations, seed)
-            joint_costs = no_decomposition_costs(problem, teams, seed)
-            for budget, random_cost, joint_cost, allocation, team in zip(
-                    config.budgets, random_costs, joint_costs, allocations, teams, strict=True):
-                rows.append(("dec_random_allocation", chip.chip_id, budget, seed, random_cost,
-                             int(deployment_cost(allocation))))
-                rows.append(("no_decomposition", chip.chip_id, budget, seed, joint_cost, int(team.sum())))
+    chip_hash = int(hashlib.sha1(chip.chip_id.encode()).hexdigest()[:12], 16)
+    rows = []
+    for seed in config.baseline_seeds:
+        rng = np.random.default_rng([seed, chip_hash])
+        allocations = np.stack([random_allocation(rng, b, len(seeds), n_species, bank)
+                                for b in config.budgets])  # (n_budgets, K, O)
+        teams = np.stack([random_species_counts(rng, b, n_species, bank) for b in config.budgets])
+        random_costs, _, _ = problem.evaluate(allocations, seed)
+        joint_costs = no_decomposition_costs(problem, teams, seed)
+        for budget, random_cost, joint_cost, allocation, team in zip(
+                config.budgets, random_costs, joint_costs, allocations, teams, strict=True):
+            rows.append(("dec_random_allocation", chip.chip_id, budget, seed, random_cost,
+                         int(deployment_cost(allocation))))
+            rows.append(("no_decomposition", chip.chip_id, budget, seed, joint_cost, int(team.sum())))
+    return rows
+
+
+def coverage_baselines(chips: list[tuple[Chip, np.ndarray]], coverage: CoverageConfig,
+                       config: ExperimentsConfig, executor: Executor | None = None) -> pd.DataFrame:
+    """Table 5.5 baselines per chip x seed x budget: the "teams_coverage" table."""
+    tasks = [(chip, seeds, coverage, config, torch.get_num_threads())
+             for chip, seeds in chips[:config.baseline_chips]]
+    per_chip = (executor or Executor(workers=1)).map(_chip_baselines, tasks)
+    rows = [row for chip_rows in per_chip for row in chip_rows]
     return pd.DataFrame(rows, columns=["method", "chip_id", "budget", "seed", "coverage_cost",
                                        "deployment_cost"])
 

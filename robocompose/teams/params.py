@@ -26,6 +26,12 @@ class ExperimentsConfig:
     budgets: list[int] = field(default_factory=lambda: [15, 30, 45])  # Table 5.5 deployment budgets
     baseline_chips: int = 6  # coverage baselines on the first baseline_chips test chips
     baseline_seeds: list[int] = field(default_factory=lambda: [0, 1, 2])  # random draws per chip
+    workers: int = 0  # processes running the independent runs; 0 = all cores, 1 = in the stage's process
+    address: str = ""  # a running Dask scheduler (e.g. tcp://10.0.0.5:8786) to fan out over; "" = local
+
+    def __post_init__(self) -> None:
+        if self.workers < 0:
+            raise ValueError(f"workers: expected >= 0 (0 = all cores), found {self.workers}")
 
 
 @dataclass(frozen=True)

@@ -10,7 +10,7 @@ teams:
   decompose: {n_regions: 3, test_fraction: 0.5}
   coverage: {iterations: 2, n_observations: 4}
   experiments: {populations: [20, 50], generations: 1, nsga2_chips: 1, nsga2_seeds: [0],
-                budgets: [15, 30, 45], baseline_chips: 1, baseline_seeds: [0]}
+                budgets: [15, 30, 45], baseline_chips: 1, baseline_seeds: [0], workers: 1}
 """
 
 

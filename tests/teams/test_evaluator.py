@@ -3,7 +3,7 @@ import numpy as np
 from robocompose.teams.chips import synthetic_chip
 from robocompose.teams.decompose import DecomposeConfig, chip_seeds
 from robocompose.teams.ergodic import ChipCoverage, CoverageConfig
-from robocompose.teams.evaluator import AllocationEvaluator, EvaluationCache, chip_coverage
+from robocompose.teams.evaluator import AllocationEvaluator, chip_coverage, teams_cache
 
 TINY = CoverageConfig(iterations=3, n_observations=5)
 
@@ -14,22 +14,22 @@ def tiny_coverage() -> ChipCoverage:
     return ChipCoverage(terrain, regions, 2, TINY)
 
 
-def test_cache_round_trips_through_parquet(tmp_path):
+def test_teams_cache_round_trips_both_costs_through_parquet(tmp_path):
     path = tmp_path / "cache.parquet"
-    cache = EvaluationCache(path)
-    cache.put(("a1", "chip", "s", 0), 0.5, 3)
-    cache.put(("a0", "chip", "s", 1), 0.25, 7)
+    cache = teams_cache(path)
+    cache.put(("a1", "chip", "s", 0), coverage_cost=0.5, deployment_cost=3)
+    cache.put(("a0", "chip", "s", 1), coverage_cost=0.25, deployment_cost=7)
     cache.save()
     first_bytes = path.read_bytes()
-    again = EvaluationCache(path)
-    assert len(again) == 2 and again.get(("a1", "chip", "s", 0)) == (0.5, 3)
+    again = teams_cache(path)
+    assert len(again) == 2 and again.get(("a1", "chip", "s", 0)) == {"coverage_cost": 0.5, "deployment_cost": 3}
     assert again.get(("a1", "chip", "s", 1)) is None
     again.save()
     assert path.read_bytes() == first_bytes
 
 
 def test_evaluator_optimises_each_distinct_allocation_once(tmp_path):
-    cache = EvaluationCache(tmp_path / "cache.parquet")
+    cache = teams_cache(tmp_path / "cache.parquet")
     evaluate = AllocationEvaluator(tiny_coverage(), "chip", seed=0, cache=cache, max_batch=2)
     counts = np.array([[[1, 0, 0], [0, 1, 0]], [[2, 0, 0], [0, 0, 1]], [[1, 0, 0], [0, 1, 0]]])
     objectives = evaluate(counts)
@@ -39,13 +39,13 @@ def test_evaluator_optimises_each_distinct_allocation_once(tmp_path):
     again = evaluate(counts[:1])
     assert evaluate.optimised == 2 and (again == objectives[:1]).all()
     cache.save()
-    reloaded = AllocationEvaluator(tiny_coverage(), "chip", seed=0, cache=EvaluationCache(cache.path))
+    reloaded = AllocationEvaluator(tiny_coverage(), "chip", seed=0, cache=teams_cache(cache.path))
     np.testing.assert_array_equal(reloaded(counts), objectives)
     assert reloaded.optimised == 0
 
 
 def test_other_settings_or_seed_miss_the_cache():
-    cache = EvaluationCache()
+    cache = teams_cache()
     counts = np.array([[[1, 0, 0], [0, 1, 0]]])
     AllocationEvaluator(tiny_coverage(), "chip", seed=0, cache=cache)(counts)
     other_seed = AllocationEvaluator(tiny_coverage(), "chip", seed=1, cache=cache)

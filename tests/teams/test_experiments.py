@@ -1,10 +1,14 @@
+import dataclasses
+
 import numpy as np
+import pandas as pd
 import pytest
 
+from robocompose.evaluation.executor import Executor
 from robocompose.teams.chips import ChipsConfig, prepare_chips
 from robocompose.teams.decompose import DecomposeConfig, regions_table
 from robocompose.teams.ergodic import CoverageConfig
-from robocompose.teams.evaluator import EvaluationCache
+from robocompose.teams.evaluator import teams_cache
 from robocompose.teams.experiments import (
     coverage_baselines,
     decomposed_chips,
@@ -33,7 +37,7 @@ def test_decomposed_test_chips_carry_their_seeds(test_chips):
 
 
 def test_nsga2_runs_record_every_population_and_a_front_per_run(test_chips):
-    cache = EvaluationCache()
+    cache = teams_cache()
     runs, fronts = nsga2_runs(test_chips, TINY, EXPERIMENTS, cache)
     assert runs.population.tolist() == [4, 6] and (runs.evaluations == [8, 12]).all()
     assert len(cache) > 0 and (runs.seconds > 0).all()
@@ -55,5 +59,19 @@ def test_coverage_baselines_deploy_exactly_the_budget(test_chips):
     assert len(table) == 2 * 2 * 2  # methods x budgets x seeds on one chip
     assert (table.deployment_cost == table.budget).all()
     assert np.isfinite(table.coverage_cost).all() and (table.coverage_cost > 0).all()
-    again = coverage_baselines(test_chips, TINY, EXPERIMENTS)
-    np.testing.assert_array_equal(table.coverage_cost, again.coverage_cost)
+
+
+def test_tables_and_cache_are_the_same_on_two_worker_processes_as_in_process(test_chips):
+    config = dataclasses.replace(EXPERIMENTS, baseline_chips=2)
+    serial_cache, parallel_cache = teams_cache(), teams_cache()
+    serial = [*nsga2_runs(test_chips, TINY, config, serial_cache), coverage_baselines(test_chips, TINY, config)]
+    with Executor(workers=2) as executor:
+        assert executor.backend == "processes"
+        parallel = [*nsga2_runs(test_chips, TINY, config, parallel_cache, executor),
+                    coverage_baselines(test_chips, TINY, config, executor)]
+    runs, fronts, coverage = serial
+    assert len(runs) == 2 and coverage.chip_id.nunique() == 2 and (parallel[0].seconds > 0).all()
+    serial[0], parallel[0] = runs.drop(columns="seconds"), parallel[0].drop(columns="seconds")  # wall times differ
+    for expected, got in zip(serial, parallel, strict=True):
+        pd.testing.assert_frame_equal(got, expected, check_exact=True)
+    pd.testing.assert_frame_equal(parallel_cache.frame(), serial_cache.frame(), check_exact=True)

@@ -10,7 +10,7 @@ teams:
   decompose: {n_regions: 3, test_fraction: 0.5}
   coverage: {iterations: 2, n_observations: 4}
   experiments: {populations: [4, 6], generations: 2, nsga2_chips: 1, nsga2_seeds: [0], budgets: [3, 6],
-                baseline_chips: 1, baseline_seeds: [0]}
+                baseline_chips: 1, baseline_seeds: [0], workers: 1}  # processes: test_experiments.py
 """
 
 
