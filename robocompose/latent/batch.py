@@ -29,11 +29,34 @@ MAX_INCOMING = 3  # incoming messages of one message (4 neighbours minus the rec
 
 @dataclass(frozen=True)
 class Levels:
-    """Message levels in computation order: level l computes messages bounds[l]..bounds[l+1]-1."""
+    """Message levels in computation order: level l computes messages bounds[l]..bounds[l+1]-1.
+
+    A level reads only a few earlier levels (`sources[l]`); `local` indexes its incoming messages in
+    [padding row, *those levels' rows], so that the gather's gradient is the size of what it read,
+    not of the whole message buffer.
+    """
 
     bounds: list[int]
     sender_tokens: torch.Tensor  # (M,) token of each message's sender, message m at row m-1
     incoming: torch.Tensor  # (M, 3) incoming message ids (0 = none)
+    sources: list[list[int]]
+    local: torch.Tensor  # (M, 3) incoming rows in the concatenation of padding and the source levels
+
+
+def _levels(bounds: list[int], sender: np.ndarray, incoming: np.ndarray) -> Levels:
+    first = np.array(bounds)
+    level_of = np.searchsorted(first, np.arange(bounds[-1]), side="right") - 1  # id -> level (id 0 -> -1)
+    local = np.zeros_like(incoming)
+    sources = []
+    for lo, hi in zip(bounds[:-1], bounds[1:], strict=True):
+        inc = incoming[lo - 1: hi - 1]
+        lv = level_of[inc]
+        used = np.unique(lv[inc > 0])
+        start = np.zeros(len(bounds), dtype=np.int64)  # first row of each source level in the concatenation
+        start[used] = 1 + np.concatenate([[0], np.cumsum(first[used + 1] - first[used])[:-1]])
+        local[lo - 1: hi - 1] = np.where(inc > 0, start[lv] + inc - first[lv], 0)
+        sources.append(used.tolist())
+    return Levels(bounds, torch.as_tensor(sender), torch.as_tensor(incoming), sources, torch.as_tensor(local))
 
 
 @dataclass(frozen=True)
@@ -141,7 +164,7 @@ def collate(replays: list[Replay], contacts: np.ndarray) -> TreeBatch:
     t = torch.as_tensor
     return TreeBatch(
         n_trees=len(replays), n_messages=n_msg,
-        encoder=Levels(bounds, t(sender), t(enc_in)), decoder=Levels(bounds, t(sender), t(dec_in)),
+        encoder=_levels(bounds, sender, enc_in), decoder=_levels(bounds, sender, dec_in),
         dfs_step=t(dfs_step),
         leaf_tokens=t(leaf_tokens), leaf_incoming=t(leaf_in), leaf_tree=t(leaf_tree),
         stop_tokens=t(stop_tokens), stop_incoming=t(np.array(stop_in, dtype=np.int64)), stop_tree=t(stop_tree),

@@ -20,7 +20,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
     decode = subparsers.add_parser("decode", help="decode one latent point, e.g. --z 0.1,-1.2,...")
     decode.add_argument("--model", required=True)
-    decode.add_argument("--z", required=True, help="comma-separated latent coordinates")
+    decode.add_argument("--z", required=True, help="comma-separated latent coordinates (--z=-0.3,... if negative)")
     decode.set_defaults(handler=_decode)
 
 

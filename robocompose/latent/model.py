@@ -80,12 +80,14 @@ class TreeGRU(nn.Module):
         """
         H = self.hidden
         terms = self.token_terms()[levels.sender_tokens]  # (M, 3H)
-        buf = terms.new_zeros(levels.bounds[-1], 2 * H)  # (M + 1, 2H)
-        for lo, hi in zip(levels.bounds[:-1], levels.bounds[1:], strict=True):
-            nei = buf[levels.incoming[lo - 1: hi - 1]]  # (n, 3, 2H)
+        pad = terms.new_zeros(1, 2 * H)
+        done: list[torch.Tensor] = []  # per level (n_l, 2H)
+        for lv, (lo, hi) in enumerate(zip(levels.bounds[:-1], levels.bounds[1:], strict=True)):
+            source = torch.cat([pad] + [done[k] for k in levels.sources[lv]])
+            nei = source[levels.local[lo - 1: hi - 1]]  # (n, 3, 2H)
             m = self.cell(terms[lo - 1: hi - 1], nei[..., :H], nei[..., H:])
-            buf[lo:hi] = torch.cat([m, self.U_r(m)], dim=1)
-        return buf
+            done.append(torch.cat([m, self.U_r(m)], dim=1))
+        return torch.cat([pad, *done])
 
 
 # How messages are computed: (gru, levels, batch) -> message buffer. `reference.py` has the original's.
@@ -180,8 +182,10 @@ class Decoder(nn.Module):
                 may_stop, may_expand, labels = walks[b].options()
                 expand.append(may_expand and (not may_stop or logit > 0))
                 options.append(labels)
-            # Expanding: the message to the new child; stopping: the message back to the parent.
-            gru_in = torch.tensor([_pad(incoming(b, e), MAX_INCOMING) for b, e in zip(active, expand, strict=True)])
+            # Expanding: the message to the new child; stopping: the message back to the parent (none
+            # from a root, whose row is computed from nothing and never read).
+            gru_in = torch.tensor([_pad(incoming(b, e) if e or walks[b].current else [], MAX_INCOMING)
+                                   for b, e in zip(active, expand, strict=True)])
             nei = buf[gru_in]  # (n, 3, 2H)
             m = self.gru.cell(terms[tokens], nei[..., :H], nei[..., H:])  # (n, H)
             ids = list(range(n_msg, n_msg + len(active)))

@@ -1,0 +1,27 @@
+"""DVC stage `train_vae@VARIANT`: params + designs -> models/vae_VARIANT.pt, its training log and metrics."""
+
+import sys
+from pathlib import Path
+
+from robocompose.io import atomic_write_json
+from robocompose.latent.metrics import vae_metrics
+from robocompose.latent.params import load_variant
+from robocompose.latent.train import load_designs, save_model, train
+from robocompose.report.timings import timed
+
+
+def main(name: str) -> None:
+    variant, model_config, train_config, metrics_config = load_variant(name)
+    designs = load_designs(variant.data, model_config.constraints, model_config.max_nodes)
+    with timed(f"train_vae@{name}") as timing:
+        model, train_set, test_set = train(
+            model_config, train_config, designs, Path(f"models/checkpoints/vae_{name}/last.pt"),
+            Path(f"reports/plots/vae_{name}.csv"), Path(f"models/vae_{name}.mcap"), progress=True)
+        timing["steps_per_s"] = round(train_config.steps / timing.elapsed(), 2)
+        save_model(model, f"models/vae_{name}.pt")
+        metrics = vae_metrics(model, train_set, test_set, metrics_config.prior_samples, metrics_config.seed)
+        atomic_write_json(f"reports/metrics/vae_{name}.json", {"variant": name, **metrics})
+
+
+if __name__ == "__main__":
+    main(sys.argv[1])
