@@ -92,6 +92,13 @@ SCHEMAS: dict[str, pa.Schema] = {
         ("best_fitness", pa.float64()), ("distinct", pa.int64()), ("ec_fitness", pa.float64()),
         ("ec_optimum", pa.float64()), ("optimum", pa.float64()), ("evaluations", pa.int64()),
         ("sim_steps", pa.int64())]]),
+    # The latent landscape (robocompose.latent.landscape, thesis Fig. 7.1): one row per (VAE variant, dataset
+    # design): the first two principal components of its latent mean (and the variance fraction each explains)
+    # and, for the scored subset, the evaluator's flat-terrain status and reward ("" / null when not scored).
+    "vae_landscape": pa.schema([
+        _required("variant", pa.string()), _required("design_id", pa.string()), _required("pc1", pa.float64()),
+        _required("pc2", pa.float64()), _required("explained1", pa.float64()), _required("explained2", pa.float64()),
+        _required("status", pa.string()), pa.field("reward", pa.float64(), nullable=True)]),
 }
 
 # (table, column) -> exact number of values every row of that list column must hold.
