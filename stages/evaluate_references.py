@@ -18,11 +18,11 @@ def main() -> None:
     config = load_section(ReferencesConfig, "evaluate_references")
     designs = read_table("data/designs.parquet", "designs")
     with timed("evaluate_references") as timing, evaluation.executor() as executor:
-        table = evaluate_references(designs, config, evaluation, evaluation.open_cache(), executor)
+        table = evaluate_references(designs, config, evaluation, evaluation.open_cache(), executor, save_every=8)
         timing["evaluations"] = len(table)
         timing["sim_steps"] = int(table["sim_steps"].sum())
         write_table(table, "data/reference_evals.parquet", "reference_evals")
-        record_best(table, designs, config, evaluation, Path("data/rollouts"))
+        record_best(table, designs, config, evaluation, Path("data/rollouts"), executor=executor)
         best = best_per_task(table)
         atomic_write_json("reports/metrics/evaluate_references.json", {
             "best_reward": {row.task: round(row.reward, 4) for row in best.itertuples()},

@@ -29,6 +29,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
+from typing import Protocol
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
@@ -70,7 +71,7 @@ class MPPIConfig:
         return (rollouts + self.episode) * self.interval
 
 
-class Simulator:
+class Simulator(Protocol):
     """What MPPI needs from a world (see `robocompose.control.world.RobotWorld`)."""
 
     dof: int

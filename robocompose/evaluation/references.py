@@ -14,8 +14,9 @@ import numpy as np
 import pandas as pd
 
 from robocompose.evaluation.cache import EvaluationCache
-from robocompose.evaluation.evaluate import OK, EvaluationConfig, evaluate, evaluate_designs, objective
+from robocompose.evaluation.evaluate import OK, EvalJob, EvaluationConfig, evaluate, evaluate_designs, objective
 from robocompose.evaluation.executor import Executor
+from robocompose.evaluation.rollout_log import RolloutRecorder
 from robocompose.grammar.derivation import derive, parse_rules
 from robocompose.grammar.tree import DesignTree
 from robocompose.sim.physics import PhysicsSettings
@@ -62,10 +63,12 @@ def candidate_designs(designs: pd.DataFrame, config: ReferencesConfig) -> pd.Dat
 
 
 def evaluate_references(designs: pd.DataFrame, config: ReferencesConfig, evaluation: EvaluationConfig,
-                        cache: EvaluationCache | None = None, executor: Executor | None = None) -> pd.DataFrame:
+                        cache: EvaluationCache | None = None, executor: Executor | None = None,
+                        save_every: int = 0) -> pd.DataFrame:
     """A `reference_evals` table: every candidate on every task with the evaluation seed."""
     candidates = candidate_designs(designs, config)
-    rows = evaluate_designs(list(candidates["tree"]), config.tasks, evaluation, [evaluation.seed], cache, executor)
+    rows = evaluate_designs(list(candidates["tree"]), config.tasks, evaluation, [evaluation.seed], cache, executor,
+                            save_every)
     names = candidates.loc[candidates.index.repeat(len(config.tasks)), ["name", "rules"]].reset_index(drop=True)
     table = pd.concat([names, rows.drop(columns=["seconds"])], axis=1)
     table["objective"] = [objective(row) for row in table.to_dict("records")]
@@ -78,18 +81,24 @@ def best_per_task(table: pd.DataFrame) -> pd.DataFrame:
     return ok.loc[ok.groupby("task", sort=False)["reward"].idxmax()]
 
 
-def record_best(table: pd.DataFrame, designs: pd.DataFrame, config: ReferencesConfig, evaluation: EvaluationConfig,
-                out_dir: Path, gif_size: tuple[int, int] = (320, 240)) -> list[Path]:
-    """Replay the best design of each task into out_dir/<task>.mcap and out_dir/<task>.gif."""
-    from robocompose.evaluation.rollout_log import RolloutRecorder
+def record_rollout(job: tuple[EvalJob, tuple[int, int]]) -> tuple[dict, RolloutRecorder]:
+    """Evaluate `job` again with a visual world and a recorder: (row, recorder). Runs in a worker."""
+    job, gif_size = job
+    recorder = RolloutRecorder(job.config.mppi.interval * PhysicsSettings().time_step, frame_every=2,
+                               image_size=gif_size)
+    return evaluate(job.tree, job.task, job.config, job.seed, observer=recorder, visual=True), recorder
 
+
+def record_best(table: pd.DataFrame, designs: pd.DataFrame, config: ReferencesConfig, evaluation: EvaluationConfig,
+                out_dir: Path, gif_size: tuple[int, int] = (320, 240), executor: Executor | None = None) -> list[Path]:
+    """Replay the best design of each task into out_dir/<task>.mcap and out_dir/<task>.gif."""
     candidates = candidate_designs(designs, config)
     trees = dict(zip(candidates["name"], candidates["tree"], strict=True))
-    step_seconds = evaluation.mppi.interval * PhysicsSettings().time_step
+    best = best_per_task(table)
+    jobs = [(EvalJob(trees[row.name], row.task, evaluation, int(row.seed)), gif_size) for row in best.itertuples()]
+    replays = (executor or Executor(workers=1)).map(record_rollout, jobs)
     written = []
-    for row in best_per_task(table).itertuples():
-        recorder = RolloutRecorder(step_seconds, frame_every=2, image_size=gif_size)
-        replay = evaluate(trees[row.name], row.task, evaluation, int(row.seed), observer=recorder, visual=True)
+    for row, (replay, recorder) in zip(best.itertuples(), replays, strict=True):
         if replay["reward"] != row.reward:
             raise RuntimeError(f"{row.name} on {row.task}: replay scored {replay['reward']}, the table {row.reward}"
                                " (the simulation is not deterministic here)")

@@ -4,6 +4,7 @@ import pytest
 
 from robocompose.control.mppi import MPPIConfig
 from robocompose.evaluation.evaluate import EvaluationConfig
+from robocompose.evaluation.executor import Executor
 from robocompose.evaluation.references import (
     REFERENCE_DESIGNS,
     ReferencesConfig,
@@ -52,6 +53,7 @@ def test_table_best_designs_and_their_logs(tmp_path, designs):
     best = best_per_task(table)
     assert list(best["task"]) == ["flat", "ridged"]
     assert best["reward"].iloc[0] == table.loc[ok & (table["task"] == "flat"), "reward"].max()
-    written = record_best(table, designs, config, TINY, tmp_path / "rollouts", gif_size=(32, 24))
+    with Executor(workers=2) as executor:  # replays run in workers and come back with their recorders
+        written = record_best(table, designs, config, TINY, tmp_path / "rollouts", (32, 24), executor)
     assert sorted(p.name for p in written) == ["flat.gif", "flat.mcap", "ridged.gif", "ridged.mcap"]
     assert any(m.topic == "/tf" for m in read_mcap(tmp_path / "rollouts" / "flat.mcap"))
