@@ -1,0 +1,24 @@
+"""DVC stage `vae_landscape`: latent means of dataset designs (full and nopred VAEs) in 2-D, with flat-terrain
+scores from the evaluator -> data/vae_landscape.parquet (thesis Fig. 7.1)."""
+
+from robocompose.evaluation.evaluate import EvaluationConfig
+from robocompose.io import write_table
+from robocompose.latent.landscape import LandscapeConfig, landscape
+from robocompose.latent.train import load_designs, load_model
+from robocompose.params import load_section
+from robocompose.report.timings import timed
+
+
+def main() -> None:
+    evaluation = load_section(EvaluationConfig, "evaluation")
+    config = load_section(LandscapeConfig, "train_vae.landscape")
+    models = {name: load_model(f"models/vae_{name}.pt") for name in ("full", "nopred")}
+    designs = load_designs("data/designs.parquet", "grammar", models["full"].config.max_nodes)
+    with timed("vae_landscape") as timing, evaluation.executor() as executor:
+        table = landscape(models, designs, config, evaluation, evaluation.open_cache(), executor)
+        timing["evaluated"] = config.evaluated
+        write_table(table, "data/vae_landscape.parquet", "vae_landscape")
+
+
+if __name__ == "__main__":
+    main()

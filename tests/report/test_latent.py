@@ -1,0 +1,45 @@
+import json
+
+import numpy as np
+import pandas as pd
+
+from robocompose.io import write_table
+from robocompose.latent.train import LOG_FIELDS
+from robocompose.report.latent import section
+
+PARAMS = """train_vae:
+  model: {hidden: 16, latent: 4}
+  train: {steps: 200, batch_size: 8, beta_start: 100, beta_increment: 0.001, beta_every: 10, pred_weight: 20.0,
+          holdout: 0.1}
+"""
+METRIC = {"reconstruction_accuracy": 0.75, "prior_validity": 1.0, "prior_grammar_valid": 1.0,
+          "prior_rest_valid": 0.8, "uniqueness": 0.9, "novelty": 0.5, "property_mse": 0.25, "prior_samples": 100}
+
+
+def test_section_reports_pending_without_metrics(tmp_path):
+    assert "Not run yet" in section(tmp_path, tmp_path, tmp_path / "params.yaml")
+
+
+def test_section_shows_metrics_curves_and_landscape(tmp_path):
+    (tmp_path / "params.yaml").write_text(PARAMS)
+    (tmp_path / "metrics").mkdir()
+    variants = {"full": METRIC, "nopred": {**METRIC, "property_mse": None}}
+    (tmp_path / "metrics" / "vae.json").write_text(json.dumps(variants))
+    (tmp_path / "plots").mkdir()
+    log = pd.DataFrame({k: np.linspace(1, 2, 4) for k in LOG_FIELDS})
+    log["step"] = [50, 100, 150, 200]
+    log.loc[:2, "heldout_reconstruction"] = np.nan
+    log.to_csv(tmp_path / "plots" / "vae_full.csv", index=False)
+    text = section(tmp_path, tmp_path, tmp_path / "params.yaml")
+    assert "| GLSO (with property predictor) | 0.750 | 1.000" in text and "| GLSO_nopred |" in text
+    assert "n/a" in text  # nopred has no property predictor
+    assert (tmp_path / "figures" / "vae_training.png").exists()
+    assert "Latent landscape (Fig. 7.1): pending" in text
+
+    rows = [{"variant": v, "design_id": f"d{i}", "pc1": float(i), "pc2": float(-i), "explained1": 0.5,
+             "explained2": 0.2, "status": ["ok", "self_collision", ""][i % 3], "reward": [4.5, None, None][i % 3]}
+            for v in ("full", "nopred") for i in range(9)]
+    write_table(pd.DataFrame(rows), tmp_path / "vae_landscape.parquet", "vae_landscape")
+    text = section(tmp_path, tmp_path, tmp_path / "params.yaml")
+    assert "figures/vae_landscape.png" in text and "6 of them scored" in text
+    assert (tmp_path / "figures" / "vae_landscape.png").exists()
