@@ -2,6 +2,7 @@ import pandas as pd
 import yaml
 from PIL import Image
 
+from robocompose.evaluation.cache import EvaluationCache
 from robocompose.io import write_table
 from robocompose.report.evaluation import section
 
@@ -19,11 +20,18 @@ def test_section_tabulates_rewards_statuses_settings_and_gifs(tmp_path):
     (data / "rollouts").mkdir()
     Image.new("RGB", (8, 8)).save(data / "rollouts" / "flat.gif")
     params = tmp_path / "params.yaml"
-    params.write_text(yaml.safe_dump({"evaluation": {"mppi": {"samples": 16, "horizon": 8}}}))
+    cache = EvaluationCache(tmp_path / "cache.parquet")
+    for row in rows:
+        seconds = {"flat": 6.0, "wall": 12.0}[row["task"]] if row["sim_steps"] else 0.1
+        cache.put((row["design_id"], row["task"], "h", 0), reward=row["reward"], status=row["status"],
+                  sim_steps=row["sim_steps"], seconds=seconds)
+    cache.save()
+    params.write_text(yaml.safe_dump({"evaluation": {"mppi": {"samples": 16, "horizon": 8}, "cache": str(cache.path)}}))
     text = section(reports, data, params)
     assert "| robogrammar_flat | 5.25 | 4.50 |" in text and "| random_0 | self collision | 4.75 |" in text
     assert "flat 5.25 vs 3.80; wall 4.50 vs 4.75" in text
     assert "| samples | 64 | 16 |" in text and "0.00 M / 0.00 M" in text
+    assert "| 6 / 12 s |" in text  # measured seconds of the simulated evaluations, from the cache
     assert "(figures/rollout_flat.gif)" in text and (reports / "figures" / "rollout_flat.gif").exists()
     assert "robogrammar_flat, reward 5.25" in text
 
