@@ -31,6 +31,9 @@ from robocompose.sim.render import camera_image
 
 _Z_TO_X = (0.0, np.sqrt(0.5), 0.0, np.sqrt(0.5))  # rotates a primitive's z axis onto the link's x axis
 TERRAIN_COLOR = (0.75, 0.75, 0.72, 1.0)
+# Camera (distance m, yaw deg, pitch deg) following the robot; on the wall task it looks down from above
+# the 1 m walls, from inside the side walls (a side view would show only the side wall).
+CAMERA = {"default": (1.4, 30.0, -20.0), "wall": (1.8, 30.0, -65.0)}
 
 
 class RolloutRecorder:
@@ -56,7 +59,8 @@ class RolloutRecorder:
         if self.images and step % self.frame_every == 0:
             position = self.poses[-1][0][0]
             width, height = self.image_size
-            self.frames.append(camera_image(world.client, position, distance=1.4, yaw=30.0, pitch=-20.0,
+            distance, yaw, pitch = CAMERA.get(world.task.name, CAMERA["default"])
+            self.frames.append(camera_image(world.client, position, distance=distance, yaw=yaw, pitch=pitch,
                                             width=width, height=height))
 
     def write_mcap(self, path: str | Path) -> Path:

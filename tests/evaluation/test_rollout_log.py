@@ -59,3 +59,11 @@ def test_link_frames_place_each_child_at_its_joint_on_the_parent():
         joint = pb.multiplyTransforms(parent_pos, parent_orn, [link.joint_pos * links[link.parent].length, 0, 0],
                                       [0, 0, 0, 1])[0]
         np.testing.assert_allclose(frames[i][0], joint, atol=1e-5)
+
+
+def test_wall_task_gif_sees_the_robot_over_the_walls(tmp_path):
+    tree = derive(parse_rules(RIDGED_BEST)).tree
+    recorder = RolloutRecorder(step_seconds=16 / 240, frame_every=1, image_size=(64, 48))
+    evaluate(tree, "wall", CONFIG, seed=0, observer=recorder, visual=True)
+    frames = np.stack(recorder.frames).astype(int)
+    assert np.abs(np.diff(frames, axis=0)).sum() > 0  # the robot moves in view (a side wall would hide it)
