@@ -31,7 +31,7 @@ from dataclasses import asdict, dataclass, field
 import pandas as pd
 
 from robocompose.control.mppi import MPPIConfig, run_episode
-from robocompose.evaluation.cache import EvaluationCache
+from robocompose.evaluation.cache import EVAL_KEY_COLUMNS, EvaluationCache
 from robocompose.evaluation.executor import Executor, evaluate_many
 from robocompose.grammar.tree import DesignTree
 from robocompose.params import build_config
@@ -117,10 +117,6 @@ def run_job(job: EvalJob) -> dict:
     return evaluate(job.tree, job.task, job.config, job.seed)
 
 
-def job_key(job: EvalJob) -> tuple[str, str, str, int]:
-    return job.key
-
-
 def evaluate_designs(trees: Sequence[DesignTree], tasks: Iterable[str], config: EvaluationConfig,
                      seeds: Iterable[int] = (0,), cache: EvaluationCache | None = None,
                      executor: Executor | None = None, save_every: int = 0) -> pd.DataFrame:
@@ -128,6 +124,6 @@ def evaluate_designs(trees: Sequence[DesignTree], tasks: Iterable[str], config: 
     (design-major order)."""
     tasks, seeds = [get_task(t).name for t in tasks], list(seeds)
     jobs = [EvalJob(tree, task, config, seed) for tree in trees for task in tasks for seed in seeds]
-    rows = evaluate_many(run_job, jobs, job_key, cache=cache, executor=executor, save_every=save_every)
-    keys = pd.DataFrame([job.key for job in jobs], columns=["design_id", "task", "settings_hash", "seed"])
+    rows = evaluate_many(run_job, jobs, lambda job: job.key, cache=cache, executor=executor, save_every=save_every)
+    keys = pd.DataFrame([job.key for job in jobs], columns=list(EVAL_KEY_COLUMNS))
     return pd.concat([keys, pd.DataFrame(rows)], axis=1)
