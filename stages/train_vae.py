@@ -5,18 +5,23 @@ from pathlib import Path
 
 from robocompose.io import atomic_write_json
 from robocompose.latent.metrics import vae_metrics
-from robocompose.latent.params import load_variant
+from robocompose.latent.params import VARIANTS, load_variant
 from robocompose.latent.train import load_designs, save_model, train
 from robocompose.report.timings import timed
+from robocompose.stage import run_stage
 
 
-def main(name: str) -> None:
+def main() -> None:
+    if len(sys.argv) != 2:
+        raise ValueError(f"usage: train_vae.py VARIANT (one of {', '.join(VARIANTS)})")
+    name = sys.argv[1]
     variant, model_config, train_config, metrics_config = load_variant(name)
     designs = load_designs(variant.data, model_config.constraints, model_config.max_nodes)
+    extra = load_designs(variant.extra, model_config.constraints, model_config.max_nodes) if variant.extra else None
     with timed(f"train_vae@{name}") as timing:
         model, train_set, test_set = train(
             model_config, train_config, designs, Path(f"models/checkpoints/vae_{name}/last.pt"),
-            Path(f"reports/plots/vae_{name}.csv"), Path(f"models/vae_{name}.mcap"), progress=True)
+            Path(f"reports/plots/vae_{name}.csv"), Path(f"models/vae_{name}.mcap"), extra, progress=True)
         timing["steps_per_s"] = round(train_config.steps / timing.elapsed(), 2)
         save_model(model, f"models/vae_{name}.pt")
         metrics = vae_metrics(model, train_set, test_set, metrics_config.prior_samples, metrics_config.seed)
@@ -24,4 +29,4 @@ def main(name: str) -> None:
 
 
 if __name__ == "__main__":
-    main(sys.argv[1])
+    run_stage(main)

@@ -7,6 +7,7 @@ from robocompose.latent.landscape import LandscapeConfig, landscape
 from robocompose.latent.train import load_designs, load_model
 from robocompose.params import load_section
 from robocompose.report.timings import timed
+from robocompose.stage import run_stage
 
 
 def main() -> None:
@@ -21,4 +22,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_stage(main)

@@ -5,6 +5,7 @@ from pathlib import Path
 
 from robocompose.io import atomic_write_json
 from robocompose.latent.params import VARIANTS
+from robocompose.stage import run_stage
 
 
 def main() -> None:
@@ -13,4 +14,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_stage(main)

@@ -249,8 +249,9 @@ class GraphVAE(nn.Module):
         out["kl"] = -0.5 * torch.sum(1 + log_var - mean.pow(2) - log_var.exp()) / B
         out["label_loss"], out["stop_loss"] = out["label_loss"] / B, out["stop_loss"] / B
         loss = out["label_loss"] + out["stop_loss"] + beta * out["kl"]
-        if self.predictor is not None:
-            out["pred_loss"] = F.mse_loss(self.predictor(mean), batch.contacts)
+        measured = ~torch.isnan(batch.contacts).any(1)  # designs without rest contacts train no predictor
+        if self.predictor is not None and bool(measured.any()):
+            out["pred_loss"] = F.mse_loss(self.predictor(mean[measured]), batch.contacts[measured])
             loss = loss + pred_weight * out["pred_loss"]
         out["loss"] = loss
         return out

@@ -16,9 +16,22 @@ VARIANTS = ("full", "nopred", "nogram")
 class Variant:
     """One VAE of the ablation: its dataset, whether it has a predictor, its decoding constraints."""
 
-    data: str  # designs table
+    data: str  # designs table (split into training and held-out designs)
+    extra: str  # more designs of the same kind, for training only ("" = none)
     predictor: bool
     constraints: str  # grammar | tree
+
+
+@dataclass(frozen=True)
+class ExtraConfig:
+    """The `train_vae.extra:` section: more designs from the dataset's own generators, for training only."""
+
+    n: int = 0  # grammar designs (same enumeration as the dataset, another seed) and as many no-grammar ones
+    seed: int = 1000
+
+    def __post_init__(self) -> None:
+        if self.n < 0:
+            raise ValueError(f"n must be >= 0, got {self.n}")
 
 
 @dataclass(frozen=True)

@@ -72,6 +72,10 @@ class Designs:
     replays: list[Replay]
     contacts: np.ndarray  # (n, 16)
 
+    def join(self, other: Designs) -> Designs:
+        return Designs(self.ids + other.ids, self.trees + other.trees, self.replays + other.replays,
+                       np.concatenate([self.contacts, other.contacts]))
+
     def subset(self, idx: np.ndarray) -> Designs:
         return Designs([self.ids[i] for i in idx], [self.trees[i] for i in idx], [self.replays[i] for i in idx],
                        self.contacts[idx])
@@ -88,7 +92,7 @@ def load_designs(path: str | Path, constraints: str, max_nodes: int) -> Designs:
             replays.append(replay(tree, constraints, max_nodes))
         except ValueError as err:
             raise ValueError(f"{path}: design {design_id} cannot be decoded under {constraints!r}: {err}") from None
-    contacts = np.stack([np.asarray(c, dtype=np.float32) for c in table["contacts"]])
+    contacts = np.array([np.asarray(c, dtype=np.float32) for c in table["contacts"]]).reshape(len(table), 16)
     return Designs(list(table["design_id"]), trees, replays, contacts)
 
 
@@ -165,17 +169,21 @@ def write_logs(rows: list[dict], csv_path: Path, mcap_path: Path) -> None:
 
 
 def train(model_config: VAEConfig, config: TrainConfig, designs: Designs, checkpoint: Path, csv_path: Path,
-          mcap_path: Path, progress: bool = False) -> tuple[GraphVAE, Designs, Designs]:
+          mcap_path: Path, extra: Designs | None = None, progress: bool = False) -> tuple[GraphVAE, Designs, Designs]:
     """Train (resuming from `checkpoint` when it holds a run of the same settings); returns the model and
-    the (train, held-out) designs."""
+    the (train, held-out) designs. `extra` designs join the training split (any that are held out are dropped)."""
     torch.set_num_threads(config.threads)
     train_idx, test_idx = split(len(designs.ids), config.holdout, config.seed)
     train_set, test_set = designs.subset(train_idx), designs.subset(test_idx)
+    if extra is not None:
+        held_out = set(test_set.ids)
+        train_set = train_set.join(extra.subset(np.array([i for i, d in enumerate(extra.ids) if d not in held_out],
+                                                         dtype=np.int64)))
     eval_set = test_set.subset(np.arange(min(config.eval_designs, len(test_idx))))
     torch.manual_seed(config.seed)
     model = GraphVAE(model_config)
     optimizer = torch.optim.Adam(model.parameters(), lr=config.lr)
-    key = config_hash(model_config, config) + f"-{len(designs.ids)}-{designs.ids[0]}"
+    key = config_hash(model_config, config) + f"-{len(designs.ids)}-{designs.ids[0]}-{len(train_set.ids)}"
     start, rows = 0, []
     if checkpoint.exists():
         saved = torch.load(checkpoint, map_location="cpu", weights_only=False)
@@ -193,7 +201,7 @@ def train(model_config: VAEConfig, config: TrainConfig, designs: Designs, checkp
     bar = tqdm(total=config.steps, initial=start, disable=not progress, desc="train_vae", mininterval=5.0)
     for step in range(start, config.steps):
         model.train()
-        idx = batch_indices(step, len(train_idx), config.batch_size, config.seed)
+        idx = batch_indices(step, len(train_set.ids), config.batch_size, config.seed)
         batch = collate([train_set.replays[i] for i in idx], train_set.contacts[idx])
         noise = torch.randn(len(idx), model_config.latent, generator=torch.Generator().manual_seed(
             config.seed * 1_000_003 + step))

@@ -125,3 +125,16 @@ def test_killed_run_resumes_to_the_same_model(tmp_path, write_designs):
     assert resumed == whole  # same weights to the last bit, same accuracy
     log_whole = pd.read_csv(tmp_path / "whole" / "log.csv")
     pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "killed" / "log.csv"), log_whole)
+
+
+def test_extra_designs_train_without_contacts_and_never_leak_held_out(tmp_path, write_designs):
+    designs = load_designs(write_designs(tmp_path / "d.parquet", 12, seed=2), "grammar", TINY.max_nodes)
+    extra = designs.subset(np.arange(12))  # all of them again, contacts unknown
+    extra = type(extra)(extra.ids, extra.trees, extra.replays, np.full_like(extra.contacts, np.nan))
+    config = TrainConfig(steps=20, batch_size=8, holdout=0.25, log_every=10, eval_every=20, checkpoint_every=20,
+                         threads=1)
+    _, train_set, test_set = train(TINY, config, designs, tmp_path / "ck.pt", tmp_path / "log.csv",
+                                   tmp_path / "log.mcap", extra=extra)
+    assert not set(test_set.ids) & set(train_set.ids)
+    assert len(train_set.ids) == 2 * 9  # 9 training designs, and their 9 copies without contacts
+    assert np.isfinite(pd.read_csv(tmp_path / "log.csv")["pred_loss"]).all()
