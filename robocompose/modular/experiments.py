@@ -8,12 +8,14 @@
 
 Emergency constraints (thesis 5.1): a draw caps the count of one module type (leg, wheel or leg-wheel, uniform)
 at 0, 1 or 2 (uniform), i.e. a shortage of that module. A method answers with its best output design (final
-population; random sampling: its samples) that satisfies the cap; if none does, with a uniformly drawn design
-that satisfies it. The exhaustive optimum under the same draw is the best satisfying design of the table.
+population; random sampling: its samples) that satisfies the cap; if none does, with a uniformly drawn feasible
+design (satisfies the cap, and is not one the fitness rule rejects unsimulated). The exhaustive optimum under
+the same draw is the best satisfying design of the table.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -139,8 +141,9 @@ def satisfies(design: str, constraint: tuple[str, int]) -> bool:
 
 
 def ec_answers(designs: list[str], fitness: np.ndarray, constraints: list[tuple[str, int]],
-               rng: np.random.Generator) -> list[str]:
-    """The design a method answers each constraint with: its best satisfying output, else a random satisfying one."""
+               rng: np.random.Generator, feasible: Callable[[str], bool] = lambda design: True) -> list[str]:
+    """The design a method answers each constraint with: its best satisfying output, else a random feasible one
+    (satisfying the constraint and `feasible`)."""
     order = np.argsort(-np.asarray(fitness), kind="stable")
     answers = []
     for constraint in constraints:
@@ -148,9 +151,9 @@ def ec_answers(designs: list[str], fitness: np.ndarray, constraints: list[tuple[
         if ok:
             answers.append(ok[0])
             continue
-        while True:  # rejection sampling: every cap admits at least 3^6 designs, so this ends fast
+        while True:  # rejection sampling: every cap admits hundreds of feasible designs, so this ends fast
             design = "".join("nlwb"[int(i)] for i in rng.integers(4, size=6))
-            if satisfies(design, constraint):
+            if satisfies(design, constraint) and feasible(design):
                 answers.append(design)
                 break
     return answers
@@ -171,7 +174,8 @@ def baseline_runs(params: ModularParams, truth: pd.DataFrame, cache: EvaluationC
                 run = run_method(variant, terrain_seed, seed, params, cache, executor)
                 rng = np.random.default_rng(_seed(seed, terrain_seed, 7919))  # the same draws for every method
                 constraints = emergency_constraints(rng, e.ec_draws)
-                answers = ec_answers(run.result.population, run.result.fitness, constraints, rng)
+                answers = ec_answers(run.result.population, run.result.fitness, constraints, rng,
+                                     feasible=lambda design: not params.fitness.skips(design))
                 problem = ModularProblem(terrain_seed, params.eval, params.fitness, cache, executor)
                 ec_fitness = problem.evaluate(answers)
                 ec_optimum = [max(f for d, f in fitness_of.items() if satisfies(d, c)) for c in constraints]

@@ -15,6 +15,7 @@ from robocompose.modular.experiments import (
     truth_summary,
 )
 from robocompose.modular.params import ExperimentsConfig, ModularParams
+from robocompose.modular.robot import valid_in_original
 
 TINY = ModularParams(EvalSettings(control_steps=3, settle_steps=10), FitnessRule(),
                      ExperimentsConfig(test_terrains=[7], ga_seeds=[0], generations=2, random_designs=4, ec_draws=3))
@@ -51,6 +52,8 @@ def test_emergency_answers_respect_the_cap():
     answers = ec_answers(["llllll", "wwwwww"], np.array([5.0, 1.0]), [("w", 0), ("l", 0), ("l", 1)], rng)
     assert answers[0] == "llllll" and answers[1] == "wwwwww"
     assert satisfies(answers[2], ("l", 1)) and answers[2] not in ("llllll",)  # no output qualifies: random
+    feasible = ec_answers(["llllll"], np.array([5.0]), [("l", 0)] * 30, rng, feasible=valid_in_original)
+    assert all(valid_in_original(d) and "l" not in d for d in feasible) and len(set(feasible)) > 10
 
 
 def test_baseline_runs_table_has_every_method_and_regret_inputs():
