@@ -47,7 +47,8 @@ def _step(model, optimizer, replays, propagate) -> None:
 
 
 def _rate(model, optimizer, batches, propagate, min_seconds: float) -> float:
-    _step(model, optimizer, batches[0], propagate)  # warm-up
+    for replays in batches:  # warm-up: first touches of each batch's buffers
+        _step(model, optimizer, replays, propagate)
     steps, started = 0, time.perf_counter()
     while steps < 2 or time.perf_counter() - started < min_seconds:
         _step(model, optimizer, batches[steps % len(batches)], propagate)

@@ -76,18 +76,27 @@ class TreeGRU(nn.Module):
     def propagate(self, levels: Levels) -> torch.Tensor:
         """All messages, level by level; returns rows [m, U^r m] per message id (row 0: padding).
 
-        U^r m is stored with each message because every message is read by up to three others.
+        U^r m is kept with each message because every message is read by up to three others. Per level,
+        only the token table and the source levels are indexed, so that the backward pass accumulates
+        into small tensors instead of zero-filling the whole buffer once per level.
         """
-        H = self.hidden
-        terms = self.token_terms()[levels.sender_tokens]  # (M, 3H)
-        pad = terms.new_zeros(1, 2 * H)
-        done: list[torch.Tensor] = []  # per level (n_l, 2H)
+        table = self.token_terms()  # (42, 3H)
+        pad = table.new_zeros(1, self.hidden)
+        messages: list[torch.Tensor] = []  # per level (n_l, H)
+        gated: list[torch.Tensor] = []  # per level U^r m (n_l, H)
         for lv, (lo, hi) in enumerate(zip(levels.bounds[:-1], levels.bounds[1:], strict=True)):
-            source = torch.cat([pad] + [done[k] for k in levels.sources[lv]])
-            nei = source[levels.local[lo - 1: hi - 1]]  # (n, 3, 2H)
-            m = self.cell(terms[lo - 1: hi - 1], nei[..., :H], nei[..., H:])
-            done.append(torch.cat([m, self.U_r(m)], dim=1))
-        return torch.cat([pad, *done])
+            index = levels.local[lo - 1: hi - 1]  # (n, 3)
+            nei = gather(torch.cat([pad] + [messages[k] for k in levels.sources[lv]]), index)  # (n, 3, H)
+            nei_r = gather(torch.cat([pad] + [gated[k] for k in levels.sources[lv]]), index)
+            m = self.cell(gather(table, levels.sender_tokens[lo - 1: hi - 1]), nei, nei_r)
+            messages.append(m)
+            gated.append(self.U_r(m))
+        return torch.cat([torch.cat([pad, *messages]), torch.cat([pad, *gated])], dim=1)
+
+
+def gather(source: torch.Tensor, index: torch.Tensor) -> torch.Tensor:
+    """source[index] via index_select, whose backward (index_add) is cheaper than advanced indexing's."""
+    return source.index_select(0, index.reshape(-1)).view(*index.shape, *source.shape[1:])
 
 
 # How messages are computed: (gru, levels, batch) -> message buffer. `reference.py` has the original's.
@@ -112,7 +121,7 @@ class Encoder(nn.Module):
         messages = propagate(self.gru, batch.encoder, batch)[:, :H]  # (M + 1, H)
         x = self.gru.embedding(batch.leaf_tokens)
         # A leaf's only incoming message is its parent's (eq. 7.7 summed over one neighbour).
-        h_leaf = F.relu(self.W_e(x) + self.U_e(messages[batch.leaf_incoming]))  # (L, H)
+        h_leaf = F.relu(self.W_e(x) + self.U_e(gather(messages, batch.leaf_incoming)))  # (L, H)
         h_tree = h_leaf.new_zeros(batch.n_trees, H).index_add(0, batch.leaf_tree, h_leaf)  # (B, H) eq. 7.8
         return self.mean(h_tree), -torch.abs(self.log_var(h_tree))
 
@@ -142,11 +151,12 @@ class Decoder(nn.Module):
         """Teacher-forced losses (summed over the batch's decisions) and accuracies."""
         H = self.gru.hidden
         messages = propagate(self.gru, batch.decoder, batch)[:, :H]  # (M + 1, H)
-        incoming = messages[batch.stop_incoming].sum(1)  # (P, H)
-        stop = self.stop_logits(batch.stop_tokens, z[batch.stop_tree], incoming)  # (P,)
+        incoming = gather(messages, batch.stop_incoming).sum(1)  # (P, H)
+        stop = self.stop_logits(batch.stop_tokens, gather(z, batch.stop_tree), incoming)  # (P,)
         free = batch.stop_free
         stop_loss = F.binary_cross_entropy_with_logits(stop[free], batch.stop_target[free], reduction="sum")
-        labels = self.label_logits(z[batch.label_tree], messages[batch.label_incoming], batch.label_mask)  # (N, 42)
+        labels = self.label_logits(gather(z, batch.label_tree), gather(messages, batch.label_incoming),
+                                   batch.label_mask)  # (N, 42)
         label_loss = F.cross_entropy(labels, batch.label_target, reduction="sum")
         return {
             "label_loss": label_loss, "stop_loss": stop_loss,
