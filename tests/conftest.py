@@ -2,10 +2,10 @@
 
 import pytest
 
-from robocompose.report.dataset import REFERENCE_DESIGNS
+from robocompose.evaluation.references import REFERENCE_DESIGNS
 
-FLAT_REFERENCE = REFERENCE_DESIGNS["flat (reference)"]
-RIDGED_REFERENCE = REFERENCE_DESIGNS["ridged (reference)"]
+FLAT_REFERENCE = REFERENCE_DESIGNS["robogrammar_flat"]
+RIDGED_REFERENCE = REFERENCE_DESIGNS["robogrammar_ridged"]
 
 
 @pytest.fixture(params=[FLAT_REFERENCE, RIDGED_REFERENCE], ids=["flat", "ridged"])

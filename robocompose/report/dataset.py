@@ -7,13 +7,9 @@ from pathlib import Path
 
 import numpy as np
 
+from robocompose.evaluation.references import REFERENCE_DESIGNS
 from robocompose.io import read_table
 
-# Best designs of the RoboGrammar/GLSO papers (rule sequences), pictured beside the random ones.
-REFERENCE_DESIGNS = {
-    "flat (reference)": "0,12,7,1,12,3,10,1,3,1,12,12,1,3,10,2,16,8,1,3,12,4,1,3,2,12,18,9,18,8,5,5,1,12,6,3",
-    "ridged (reference)": "0,7,1,13,1,2,16,12,13,6,4,19,4,17,5,3,2,16,4,5,18,9,8,9,9,8",
-}
 PAD_X = 2.0  # scaled x of a padding contact point
 
 

@@ -3,6 +3,7 @@ import re
 import numpy as np
 import pytest
 
+from robocompose.evaluation.references import REFERENCE_DESIGNS
 from robocompose.grammar.derivation import (
     DerivationError,
     applicable_rules,
@@ -11,7 +12,6 @@ from robocompose.grammar.derivation import (
     random_derivation,
 )
 from robocompose.grammar.rules import START_GRAPH
-from robocompose.report.dataset import REFERENCE_DESIGNS
 
 
 def test_reference_designs_derive_to_complete_designs(reference_rules):
@@ -22,8 +22,8 @@ def test_reference_designs_derive_to_complete_designs(reference_rules):
 
 
 def test_reference_designs_have_expected_structure():
-    flat = derive(parse_rules(REFERENCE_DESIGNS["flat (reference)"])).tree
-    ridged = derive(parse_rules(REFERENCE_DESIGNS["ridged (reference)"])).tree
+    flat = derive(parse_rules(REFERENCE_DESIGNS["robogrammar_flat"])).tree
+    ridged = derive(parse_rules(REFERENCE_DESIGNS["robogrammar_ridged"])).tree
     # flat: 8 chained bodies + 2 leg pairs of (mount + 2 links); ridged: 3 bodies with 3 leg pairs.
     assert (flat.n_links, flat.n_joints) == (18, 11)
     assert (ridged.n_links, ridged.n_joints) == (17, 12)

@@ -4,10 +4,10 @@ import pytest
 import torch
 
 from robocompose.cli import main
+from robocompose.evaluation.references import REFERENCE_DESIGNS
 from robocompose.grammar.derivation import derive
 from robocompose.latent.model import GraphVAE, VAEConfig
 from robocompose.latent.train import save_model
-from robocompose.report.dataset import REFERENCE_DESIGNS
 
 
 @pytest.fixture(scope="module")
@@ -32,7 +32,7 @@ def test_sample_prints_designs_whose_rules_derive_them(model_path, capsys):
 
 
 def test_encode_then_decode_round_trips_through_the_cli(model_path, capsys):
-    rules = REFERENCE_DESIGNS["flat (reference)"]
+    rules = REFERENCE_DESIGNS["robogrammar_flat"]
     assert main(["encode", "--model", model_path, "--rules", rules]) == 0
     encoded = _lines(capsys)[0]
     assert encoded["design_id"] == derive([int(r) for r in rules.split(",")]).tree.design_id
