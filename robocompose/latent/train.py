@@ -133,8 +133,15 @@ def reconstruction_accuracy(model: GraphVAE, designs: Designs, chunk: int = 256)
     return hits / len(designs.ids)
 
 
-def config_hash(*configs) -> str:
-    text = json.dumps([dataclasses.asdict(c) for c in configs], sort_keys=True)
+# Settings that do not change what step s computes: a checkpoint of a run that differs only in these
+# continues (so raising `steps` extends a finished run instead of starting again).
+BOOKKEEPING = ("steps", "log_every", "eval_every", "eval_designs", "checkpoint_every")
+
+
+def run_key(model_config: VAEConfig, config: TrainConfig, designs: Designs, train_set: Designs) -> str:
+    """What a checkpoint must match to be resumed: the model, the training settings except bookkeeping, the data."""
+    settings = {k: v for k, v in dataclasses.asdict(config).items() if k not in BOOKKEEPING}
+    text = json.dumps([dataclasses.asdict(model_config), settings, designs.ids, train_set.ids], sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -183,11 +190,11 @@ def train(model_config: VAEConfig, config: TrainConfig, designs: Designs, checkp
     torch.manual_seed(config.seed)
     model = GraphVAE(model_config)
     optimizer = torch.optim.Adam(model.parameters(), lr=config.lr)
-    key = config_hash(model_config, config) + f"-{len(designs.ids)}-{designs.ids[0]}-{len(train_set.ids)}"
+    key = run_key(model_config, config, designs, train_set)
     start, rows = 0, []
     if checkpoint.exists():
         saved = torch.load(checkpoint, map_location="cpu", weights_only=False)
-        if saved["key"] == key:
+        if saved["key"] == key and saved["step"] <= config.steps:
             model.load_state_dict(saved["model"])
             optimizer.load_state_dict(saved["optimizer"])
             start, rows = saved["step"], saved["rows"]

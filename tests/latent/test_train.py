@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+import torch
 
 from robocompose.io import read_mcap, write_table
 from robocompose.latent.model import VAEConfig
@@ -138,3 +139,21 @@ def test_extra_designs_train_without_contacts_and_never_leak_held_out(tmp_path, 
     assert not set(test_set.ids) & set(train_set.ids)
     assert len(train_set.ids) == 2 * 9  # 9 training designs, and their 9 copies without contacts
     assert np.isfinite(pd.read_csv(tmp_path / "log.csv")["pred_loss"]).all()
+
+
+def test_raising_steps_extends_a_finished_run(tmp_path, write_designs):
+    designs = load_designs(write_designs(tmp_path / "d.parquet", 12, seed=3), "grammar", TINY.max_nodes)
+    short = TrainConfig(steps=30, batch_size=8, beta_start=10, beta_every=5, holdout=0.25, log_every=10,
+                        eval_every=30, checkpoint_every=10, threads=1)
+    long = TrainConfig(**{**short.__dict__, "steps": 60, "eval_every": 20})  # bookkeeping may change too
+
+    def run(folder: str, config: TrainConfig):
+        model, _, _ = train(TINY, config, designs, tmp_path / folder / "ck.pt", tmp_path / folder / "log.csv",
+                            tmp_path / folder / "log.mcap")
+        return {k: v.clone() for k, v in model.state_dict().items()}
+
+    run("extended", short)
+    extended, straight = run("extended", long), run("straight", long)
+    assert all(torch.equal(extended[k], straight[k]) for k in straight)
+    changed = TrainConfig(**{**long.__dict__, "lr": 0.002})  # a real change starts afresh
+    assert not all(torch.equal(run("extended", changed)[k], straight[k]) for k in straight)
