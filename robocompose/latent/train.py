@@ -140,7 +140,8 @@ BOOKKEEPING = ("steps", "log_every", "eval_every", "eval_designs", "checkpoint_e
 
 def run_key(model_config: VAEConfig, config: TrainConfig, designs: Designs, train_set: Designs) -> str:
     """What a checkpoint must match to be resumed: the model, the training settings except bookkeeping, the data."""
-    settings = {k: v for k, v in dataclasses.asdict(config).items() if k not in BOOKKEEPING}
+    unused = ("pred_weight",) if not model_config.predictor else ()
+    settings = {k: v for k, v in dataclasses.asdict(config).items() if k not in BOOKKEEPING + unused}
     text = json.dumps([dataclasses.asdict(model_config), settings, designs.ids, train_set.ids], sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
