@@ -165,4 +165,5 @@ def run_episode(sim: Simulator, config: MPPIConfig, seed: int, horizon: int | No
         plan = np.roll(plan, -1, axis=1)
         plan[:, -1] = 0.0
     rewards = np.array(step_rewards)
-    return Episode(float(rewards.mean()), config.episode, np.array(inputs).reshape(-1, sim.dof), rewards)
+    # (episode, dof); reshape by length, not -1, so a robot without hinges (dof 0) works too
+    return Episode(float(rewards.mean()), config.episode, np.array(inputs).reshape(len(inputs), sim.dof), rewards)

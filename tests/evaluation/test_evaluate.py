@@ -65,3 +65,16 @@ def test_evaluate_designs_on_processes_fills_the_cache(tmp_path, tree):
     assert table["design_id"].tolist() == [tree.design_id] * 2 and len(EvaluationCache(cache.path)) == 2
     inline = evaluate(tree, "frozen_lake", config, seed=0)
     assert table["reward"].iloc[1] == inline["reward"]  # same result in a worker process
+
+
+def test_design_without_hinges_is_scored_and_makes_no_progress():
+    from robocompose.control.mppi import MPPIConfig
+    from robocompose.evaluation.evaluate import EvaluationConfig, evaluate
+    from robocompose.grammar.derivation import derive, parse_rules
+
+    tree = derive(parse_rules("0,7,1,10,3,3,6")).tree  # two bodies joined by a fixed joint
+    assert tree.n_joints == 0
+    config = EvaluationConfig(mppi=MPPIConfig(samples=2, first_samples=2, horizon=2, episode=4))
+    row = evaluate(tree, "flat", config, seed=0)
+    assert row["status"] == "ok"
+    assert abs(row["reward"] - 4.0) < 0.05  # upright and facing forward, but no velocity term
