@@ -105,13 +105,19 @@ def collect(make: Callable[..., Outcome], n: int, seed: int, args: tuple, worker
 
     stats, rows, seen = EnumerateStats(), [], set()
     bar = tqdm(total=n, desc=progress, unit="design", disable=progress is None, mininterval=1.0)
-    start = 0
     with Executor(workers=workers, address=address or None) as executor:
         per_round = 4 * executor.workers if executor.backend != "dask" else 64
+
+        def submit(round_index: int):
+            first = round_index * per_round * chunk
+            return executor.imap(_chunk, [(make, seed, first + i * chunk, first + (i + 1) * chunk, args)
+                                          for i in range(per_round)])
+
+        current, round_index = submit(0), 0
         while len(rows) < n:
-            tasks = [(make, seed, start + i * chunk, start + (i + 1) * chunk, args) for i in range(per_round)]
-            start += per_round * chunk
-            for reason, row in (outcome for batch in executor.imap(_chunk, tasks) for outcome in batch):
+            round_index += 1
+            following = submit(round_index)  # queued now, so no worker idles while this round is read
+            for reason, row in (outcome for batch in current for outcome in batch):
                 if len(rows) == n:
                     break
                 stats.candidates += 1
@@ -123,6 +129,7 @@ def collect(make: Callable[..., Outcome], n: int, seed: int, args: tuple, worker
                     seen.add(row["design_id"])
                     rows.append(row)
                     bar.update(1)
+            current = following
     bar.close()
     stats.kept = len(rows)
     return pd.DataFrame(rows), stats
