@@ -11,10 +11,12 @@ the straight pairing) and replaces it only if strictly fitter. `generations` x `
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
-from robocompose.search.problem import CountingProblem, Problem, SearchResult
+from robocompose.search.evolve import evolve
+from robocompose.search.problem import Problem, SearchResult
 
 
 @dataclass(frozen=True)
@@ -59,12 +61,5 @@ def crowding_generation(problem: Problem, population: list, fitness: np.ndarray,
 
 
 def run_crowding(problem: Problem, config: CrowdingConfig) -> SearchResult:
-    rng = np.random.default_rng(config.seed)
-    counted = CountingProblem(problem)
-    population = problem.sample(rng, config.population)
-    fitness = counted.evaluate(population)
-    history = [counted.best_fitness]
-    for _ in range(config.generations - 1):
-        population, fitness = crowding_generation(counted, population, fitness, rng, config)
-        history.append(counted.best_fitness)
-    return counted.result(population, fitness, history)
+    return evolve(problem, partial(crowding_generation, config=config), config.population, config.generations,
+                  config.seed)

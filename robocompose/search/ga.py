@@ -10,10 +10,12 @@ generation is evaluated in one batch: `generations` x `population` evaluations i
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
-from robocompose.search.problem import CountingProblem, Problem, SearchResult
+from robocompose.search.evolve import evolve
+from robocompose.search.problem import Problem, SearchResult
 
 
 @dataclass(frozen=True)
@@ -36,21 +38,19 @@ def tournament(fitness: np.ndarray, rng: np.random.Generator) -> int:
     return int(i if fitness[i] >= fitness[j] else j)
 
 
+def ga_generation(problem: Problem, population: list, fitness: np.ndarray, rng: np.random.Generator,
+                  config: GAConfig) -> tuple[list, np.ndarray]:
+    """One GA generation (the elite, then bred children); returns the new population and its (P,) fitness."""
+    order = np.argsort(-fitness, kind="stable")
+    children = [population[k] for k in order[:config.elite]]
+    while len(children) < config.population:
+        a, b = population[tournament(fitness, rng)], population[tournament(fitness, rng)]
+        if rng.random() < config.crossover_rate:
+            a, b = problem.crossover(a, b, rng)
+        children += [problem.mutate(a, rng, config.mutation_rate), problem.mutate(b, rng, config.mutation_rate)]
+    children = children[:config.population]
+    return children, np.asarray(problem.evaluate(children), dtype=np.float64)
+
+
 def run_ga(problem: Problem, config: GAConfig) -> SearchResult:
-    rng = np.random.default_rng(config.seed)
-    counted = CountingProblem(problem)
-    population = problem.sample(rng, config.population)
-    fitness = counted.evaluate(population)
-    history = [counted.best_fitness]
-    for _ in range(config.generations - 1):
-        order = np.argsort(-fitness, kind="stable")
-        children = [population[k] for k in order[:config.elite]]
-        while len(children) < config.population:
-            a, b = population[tournament(fitness, rng)], population[tournament(fitness, rng)]
-            if rng.random() < config.crossover_rate:
-                a, b = problem.crossover(a, b, rng)
-            children += [problem.mutate(a, rng, config.mutation_rate), problem.mutate(b, rng, config.mutation_rate)]
-        population = children[:config.population]
-        fitness = counted.evaluate(population)
-        history.append(counted.best_fitness)
-    return counted.result(population, fitness, history)
+    return evolve(problem, partial(ga_generation, config=config), config.population, config.generations, config.seed)
