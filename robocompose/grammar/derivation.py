@@ -60,18 +60,20 @@ def applicable_rules(graph: Graph) -> list[int]:
     return [r for r, rule in enumerate(RULES) if first_match(rule, graph) is not None]
 
 
+# Many rules share a left side (same matches): each distinct one is matched once per step.
+_MATCH_KEYS = list(dict.fromkeys(rule.match_key for rule in RULES))
+_SHARED_LEFT_SIDE = tuple(_MATCH_KEYS.index(rule.match_key) for rule in RULES)  # rule -> its left side
+_LEFT_SIDES = tuple(RULES[_SHARED_LEFT_SIDE.index(k)] for k in range(len(_MATCH_KEYS)))  # one rule per left side
+
+
 def random_derivation(rng: np.random.Generator, max_depth: int = MAX_DEPTH) -> Derivation | None:
     """Choose uniformly among the applicable rules until complete; None past `max_depth` rules."""
     graph, rules = START_GRAPH, []
     while not graph.complete:
         if len(rules) >= max_depth:
             return None
-        choices, matches = [], {}
-        for r, rule in enumerate(RULES):
-            if rule.match_key not in matches:  # many rules share a left side: match it once
-                matches[rule.match_key] = first_match(rule, graph)
-            if matches[rule.match_key] is not None:
-                choices.append((r, matches[rule.match_key]))
+        matches = [first_match(rule, graph) for rule in _LEFT_SIDES]
+        choices = [(r, matches[k]) for r, k in enumerate(_SHARED_LEFT_SIDE) if matches[k] is not None]
         r, match = choices[int(rng.integers(len(choices)))]
         graph = apply_rule(RULES[r], graph, match)
         rules.append(r)

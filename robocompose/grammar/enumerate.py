@@ -84,7 +84,7 @@ def candidate(seed: int, k: int, min_links: int, max_depth: int) -> Outcome:
     tree = derivation.tree
     if tree.n_links < min_links:
         return "too_few_links", None
-    contacts = contact_features(tree, _client())
+    contacts = contact_features(tree, _client(), rest_self_penetrating=False)
     if not contacts.valid:
         return contacts.reason, None
     return "", design_row(tree, derivation.rules, contacts.features)

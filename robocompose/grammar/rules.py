@@ -65,9 +65,8 @@ class Graph:
 
     @property
     def complete(self) -> bool:
-        return not any(n.label in NONTERMINAL_NODE_LABELS for n in self.nodes) and not any(
-            e.label in NONTERMINAL_EDGE_LABELS for _, _, e in self.edges
-        )
+        return NONTERMINAL_NODE_LABELS.isdisjoint(self.nodes_by_label) and NONTERMINAL_EDGE_LABELS.isdisjoint(
+            self.edges_by_label)
 
     @cached_property
     def nodes_by_label(self) -> dict[str, list[int]]:
@@ -77,11 +76,29 @@ class Graph:
         return out
 
     @cached_property
-    def edge_labels(self) -> dict[tuple[int, int], list[str]]:
-        """(tail, head) -> labels of the edges between them."""
-        out: dict[tuple[int, int], list[str]] = {}
+    def edges_by_label(self) -> dict[str, list[tuple[int, int]]]:
+        """label -> (tail, head) of the edges that carry it."""
+        out: dict[str, list[tuple[int, int]]] = {}
         for t, h, e in self.edges:
-            out.setdefault((t, h), []).append(e.label)
+            out.setdefault(e.label, []).append((t, h))
+        return out
+
+    @cached_property
+    def edges_between(self) -> dict[tuple[int, int], list[int]]:
+        """(tail, head) -> indices of the edges between them, ascending."""
+        out: dict[tuple[int, int], list[int]] = {}
+        for k, (t, h, _) in enumerate(self.edges):
+            out.setdefault((t, h), []).append(k)
+        return out
+
+    @cached_property
+    def incident(self) -> dict[int, list[int]]:
+        """node -> indices of the edges that touch it."""
+        out: dict[int, list[int]] = {}
+        for k, (t, h, _) in enumerate(self.edges):
+            out.setdefault(t, []).append(k)
+            if h != t:
+                out.setdefault(h, []).append(k)
         return out
 
     @cached_property
@@ -138,6 +155,17 @@ class Rule:
     def match_key(self) -> tuple:
         """Rules with equal keys have the same applicable matches (same L pattern, same removals)."""
         return (tuple((n.require_label, n.rhs) for n in self.lhs_nodes), tuple(self.lhs_edges))
+
+    @cached_property
+    def removed(self) -> tuple[int, ...]:
+        """Positions in `lhs_nodes` of the nodes the rule deletes."""
+        return tuple(i for i, n in enumerate(self.lhs_nodes) if not n.rhs)
+
+    @cached_property
+    def required_labels(self) -> tuple[frozenset[str], frozenset[str]]:
+        """(node labels, edge labels) a target graph must contain for the rule to match at all."""
+        return (frozenset(n.require_label for n in self.lhs_nodes if n.require_label),
+                frozenset(label for _, _, label in self.lhs_edges if label))
 
     @cached_property
     def lhs_edges(self) -> list[tuple[int, int, str]]:
@@ -257,7 +285,7 @@ def find_matches(rule: Rule, graph: Graph):
     looking them up by label or by edge only skips targets that would fail its checks.
     """
     lhs_nodes, lhs_edges = rule.lhs_nodes, rule.lhs_edges
-    edge_labels = graph.edge_labels
+    edges, edges_between = graph.edges, graph.edges_between
     all_nodes = range(len(graph.nodes))
 
     def candidates(i: int, mapping: list[int]):
@@ -269,6 +297,9 @@ def find_matches(rule: Rule, graph: Graph):
                 return graph.successors.get(mapping[tail], ())
             if tail == i and head < i:
                 return graph.predecessors.get(mapping[head], ())
+        for tail, head, label in lhs_edges:  # an edge label to a later L node: only its ends can match
+            if label and i in (tail, head):
+                return sorted({pair[0 if tail == i else 1] for pair in graph.edges_by_label.get(label, ())})
         return all_nodes
 
     def extend(mapping: list[int]):
@@ -287,8 +318,8 @@ def find_matches(rule: Rule, graph: Graph):
                     key = (j, (j if head == i else mapping[head]))
                 else:
                     continue
-                labels = edge_labels.get(key, ())
-                if not labels or (label and label not in labels):
+                between = edges_between.get(key, ())
+                if not between or (label and all(edges[k][2].label != label for k in between)):
                     ok = False
                     break
             if ok:
@@ -299,20 +330,24 @@ def find_matches(rule: Rule, graph: Graph):
 
 def _matched_edges(rule: Rule, graph: Graph, mapping: tuple[int, ...]) -> list[list[int]]:
     """For each L edge, the indices of all target edges it matches (RoboGrammar's edge_mapping)."""
-    return [[k for k, (t, h, a) in enumerate(graph.edges)
-             if t == mapping[tail] and h == mapping[head] and _edge_matches(a, label)]
+    return [[k for k in graph.edges_between.get((mapping[tail], mapping[head]), ())
+             if _edge_matches(graph.edges[k][2], label)]
             for tail, head, label in rule.lhs_edges]
 
 
 def applicable(rule: Rule, graph: Graph, mapping: tuple[int, ...]) -> bool:
     """The dangling condition: no edge outside the match may touch a node the rule removes."""
-    removed = {mapping[i] for i, n in enumerate(rule.lhs_nodes) if not n.rhs}
+    if not rule.removed:
+        return True
     in_lhs = {k for ks in _matched_edges(rule, graph, mapping) for k in ks}
-    return not any(k not in in_lhs and (t in removed or h in removed) for k, (t, h, _) in enumerate(graph.edges))
+    return all(k in in_lhs for i in rule.removed for k in graph.incident.get(mapping[i], ()))
 
 
 def first_match(rule: Rule, graph: Graph) -> tuple[int, ...] | None:
     """The first applicable match, or None if the rule cannot be applied."""
+    node_labels, edge_labels = rule.required_labels
+    if not node_labels <= graph.nodes_by_label.keys() or not edge_labels <= graph.edges_by_label.keys():
+        return None
     return next((m for m in find_matches(rule, graph) if applicable(rule, graph, m)), None)
 
 
@@ -330,9 +365,12 @@ def apply_rule(rule: Rule, graph: Graph, mapping: tuple[int, ...]) -> Graph:
     for rn in rule.nodes:  # common nodes, in rule order, move to the end
         if rn.lhs and rn.rhs:
             j = mapping[lhs_index[rn.name]]
-            node = replace(graph.nodes[j], **{k: v for k, v in rn.attrs.items() if k != "label"})
+            node = graph.nodes[j]
+            changes = {k: v for k, v in rn.attrs.items() if k != "label"}
             if rn.require_label:
-                node = replace(node, label=rn.attrs.get("label", ""))
+                changes["label"] = rn.attrs.get("label", "")
+            if changes:
+                node = replace(node, **changes)
             target_to_result[j] = rule_to_result[rn.name] = len(nodes)
             nodes.append(node)
     for rn in rule.nodes:  # new nodes

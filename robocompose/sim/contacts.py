@@ -31,17 +31,20 @@ class ContactResult:
     reason: str  # "" when valid, else why not
 
 
-def contact_features(tree: DesignTree, client: int) -> ContactResult:
+def contact_features(tree: DesignTree, client: int, rest_self_penetrating: bool = True) -> ContactResult:
     """Rest the robot on a flat floor for 10 coarse steps and read its ground contacts.
 
     Points are the 2D contact locations on the ground (forward x, lateral y), relative to the root
     link's centre of mass, in metres x 10, sorted by x (the thesis's contact vector). A design is valid
     when it does not self-penetrate, its rest state is finite, it touches the ground at >= 4 points and
-    every contact lies on the floor plane.
+    every contact lies on the floor plane. With `rest_self_penetrating` False, a self-penetrating design
+    is returned at once with padding features (callers that reject it save the rest steps).
     """
     configure(client, REST_SETTINGS)
     floor = add_floor(client, friction=FLOOR_FRICTION)
     robot = build_at_rest(tree, client)
+    if robot.self_penetrating and not rest_self_penetrating:
+        return ContactResult(np.tile(np.float32(PAD), MAX_POINTS), 0, False, "self_collision")
     for _ in range(REST_STEPS):
         pb.stepSimulation(physicsClientId=client)
     ref = np.array(pb.getBasePositionAndOrientation(robot.body, physicsClientId=client)[0])
