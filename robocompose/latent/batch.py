@@ -84,92 +84,122 @@ class TreeBatch:
     contacts: torch.Tensor  # (B, 16)
 
 
+@dataclass(frozen=True)
+class TreeArrays:
+    """One tree's share of a batch, computed once per design (`Replay.arrays`) so that `collate` only
+    concatenates. Its 2(n-1) messages have local ids j = 1..2(n-1): up from node c is c, down to node c
+    is n-1+c; message references hold local ids (0 = none) until `collate` maps them to batch ids."""
+
+    phase: np.ndarray  # (m,) 0 up, 1 down
+    level: np.ndarray  # (m,) up: -depth of the sender; down: depth of the sender
+    node: np.ndarray  # (m,) the child node of the message's edge
+    sender: np.ndarray  # (m,) sender token
+    enc_in: np.ndarray  # (m, 3) local ids of incoming messages, encoder
+    dec_in: np.ndarray  # (m, 3) decoder
+    dfs_step: np.ndarray  # (m,)
+    leaf_tokens: np.ndarray  # (l,)
+    leaf_in: np.ndarray  # (l,)
+    stop_tokens: np.ndarray  # (p,)
+    stop_in: np.ndarray  # (p, 4)
+    stop_target: np.ndarray  # (p,) float32
+    stop_free: np.ndarray  # (p,) bool
+    label_in: np.ndarray  # (n,)
+    label_target: np.ndarray  # (n,)
+    label_mask: np.ndarray  # (n, 42) bool
+
+
+def tree_arrays(r: Replay) -> TreeArrays:
+    """The per-tree arrays of `collate` (see `TreeArrays`)."""
+    n = len(r.tokens)
+    depth = [0] * n
+    for i in range(1, n):
+        depth[i] = depth[r.parents[i]] + 1
+    up = lambda c: c  # noqa: E731
+    down = lambda c: n - 1 + c if c else 0  # noqa: E731
+    nodes = list(range(1, n))
+    m = 2 * (n - 1)
+    enc_in = np.zeros((m, MAX_INCOMING), dtype=np.int64)
+    dec_in = np.zeros((m, MAX_INCOMING), dtype=np.int64)
+    for c in nodes:
+        kids = r.children[c]  # c -> p sees c's children
+        enc_in[up(c) - 1, : len(kids)] = dec_in[up(c) - 1, : len(kids)] = [up(k) for k in kids]
+        p = r.parents[c]  # p -> c sees p's parent and c's siblings (the decoder: earlier siblings only)
+        siblings = r.children[p]
+        above = [down(p)] if p else []
+        enc = above + [up(s) for s in siblings if s != c]
+        dec = above + [up(s) for s in siblings[: siblings.index(c)]]
+        enc_in[down(c) - 1, : len(enc)] = enc
+        dec_in[down(c) - 1, : len(dec)] = dec
+    dfs_step = np.zeros(m, dtype=np.int64)
+    step = 0
+
+    def visit(x: int) -> None:  # depth-first traversal: down to each child, later back up
+        nonlocal step
+        for c in r.children[x]:
+            dfs_step[down(c) - 1] = step
+            step += 1
+            visit(c)
+            dfs_step[up(c) - 1] = step
+            step += 1
+
+    visit(0)
+    leaves = [i for i in range(n) if not r.children[i]]
+    limbs = [i for i in leaves if r.tokens[i] // 14 != BODY_LINK_TYPE]
+    readout = limbs or leaves
+    stops = stop_predictions(r.children)
+    stop_in = np.zeros((len(stops), MAX_INCOMING + 1), dtype=np.int64)
+    for row, (x, k) in enumerate(stops):
+        incoming = ([down(x)] if x else []) + [up(c) for c in r.children[x][:k]]
+        stop_in[row, : len(incoming)] = incoming
+    i64 = lambda x: np.array(x, dtype=np.int64)  # noqa: E731
+    return TreeArrays(
+        phase=i64([0] * (n - 1) + [1] * (n - 1)),
+        level=i64([-depth[c] for c in nodes] + [depth[c] - 1 for c in nodes]),
+        node=i64(nodes + nodes),
+        sender=i64([r.tokens[c] for c in nodes] + [r.tokens[r.parents[c]] for c in nodes]),
+        enc_in=enc_in, dec_in=dec_in, dfs_step=dfs_step,
+        leaf_tokens=i64([r.tokens[i] for i in readout]), leaf_in=i64([down(i) for i in readout]),
+        stop_tokens=i64([r.tokens[x] for x, _ in stops]), stop_in=stop_in,
+        stop_target=np.array([k < len(r.children[x]) for x, k in stops], dtype=np.float32),
+        stop_free=np.asarray(r.stop_free, dtype=bool),
+        label_in=i64([down(i) for i in range(n)]), label_target=i64(r.tokens),
+        label_mask=np.asarray(r.label_masks, dtype=bool).reshape(n, N_TOKENS),
+    )
+
+
 def collate(replays: list[Replay], contacts: np.ndarray) -> TreeBatch:
     """Index tensors for a batch of trees walked in decoder order (`constraints.replay`)."""
-    # Directed messages: (phase, level, tree, child node); phase 0 up (level = -depth), 1 down.
-    keys, depth_of = [], []
-    for b, r in enumerate(replays):
-        depth = [0] * len(r.tokens)
-        for i in range(1, len(r.tokens)):
-            depth[i] = depth[r.parents[i]] + 1
-        depth_of.append(depth)
-        for c in range(1, len(r.tokens)):
-            keys += [(0, -depth[c], b, c), (1, depth[c] - 1, b, c)]
-    keys.sort()
-    msg_id = {(phase, b, c): m + 1 for m, (phase, _, b, c) in enumerate(keys)}
-    up = lambda b, c: msg_id[(0, b, c)]  # noqa: E731
-    down = lambda b, c: msg_id.get((1, b, c), 0)  # noqa: E731
+    trees = [r.arrays for r in replays]
+    cat = lambda name: np.concatenate([getattr(a, name) for a in trees])  # noqa: E731
+    tree_of = lambda name: np.repeat(np.arange(len(trees)), [len(getattr(a, name)) for a in trees])  # noqa: E731
+    # Batch message ids: sorted by (phase, level, tree, node), numbered from 1 (0 is padding).
+    phase, level, node, tree = cat("phase"), cat("level"), cat("node"), tree_of("phase")
+    order = np.lexsort((node, tree, level, phase))
+    n_msg = len(order)
+    offset = np.cumsum([0] + [len(a.phase) for a in trees])  # first row of each tree in the concatenation
+    batch_id = np.zeros(n_msg + 1, dtype=np.int64)  # [0, batch id of concatenated row 0, 1, ...]
+    batch_id[1 + order] = np.arange(1, n_msg + 1)
 
-    n_msg = len(keys)
-    sender = np.zeros(n_msg, dtype=np.int64)
-    enc_in = np.zeros((n_msg, MAX_INCOMING), dtype=np.int64)
-    dec_in = np.zeros((n_msg, MAX_INCOMING), dtype=np.int64)
-    dfs_step = np.zeros(n_msg, dtype=np.int64)
-    for m, (phase, _, b, c) in enumerate(keys):
-        r = replays[b]
-        p = r.parents[c]
-        if phase == 0:  # c -> p sees c's children
-            sender[m] = r.tokens[c]
-            enc_in[m, : len(r.children[c])] = dec_in[m, : len(r.children[c])] = [up(b, k) for k in r.children[c]]
-        else:  # p -> c sees p's parent and c's siblings (the decoder: earlier siblings only)
-            sender[m] = r.tokens[p]
-            siblings = r.children[p]
-            before = siblings[: siblings.index(c)]
-            above = [down(b, p)] if p else []
-            enc = above + [up(b, s) for s in siblings if s != c]
-            dec = above + [up(b, s) for s in before]
-            enc_in[m, : len(enc)] = enc
-            dec_in[m, : len(dec)] = dec
-    for b, r in enumerate(replays):  # depth-first traversal: down to each child, later back up
-        step = 0
+    def ids(name: str) -> np.ndarray:  # a reference field, local ids -> batch ids
+        local = cat(name)
+        shift = offset[tree_of(name)].reshape(-1, *[1] * (local.ndim - 1))
+        return batch_id[np.where(local > 0, local + shift, 0)]
 
-        def visit(x: int, b: int = b, r: Replay = r) -> None:
-            nonlocal step
-            for c in r.children[x]:
-                dfs_step[down(b, c) - 1] = step
-                step += 1
-                visit(c)
-                dfs_step[up(b, c) - 1] = step
-                step += 1
-
-        visit(0)
-
-    levels = [(ph, lv) for ph, lv, _, _ in keys]
-    bounds = [0] + [m for m in range(1, n_msg) if levels[m] != levels[m - 1]] + [n_msg]
+    sender = cat("sender")[order]
+    ph, lv = phase[order], level[order]
+    change = np.flatnonzero((ph[1:] != ph[:-1]) | (lv[1:] != lv[:-1])) + 1
+    bounds = [0, *change.tolist(), n_msg]
     bounds = [x + 1 for x in bounds]  # message ids start at 1
-
-    leaf_tokens, leaf_in, leaf_tree = [], [], []
-    stop_tokens, stop_in, stop_tree, stop_target, stop_free = [], [], [], [], []
-    label_in, label_tree, label_target, label_mask = [], [], [], []
-    for b, r in enumerate(replays):
-        leaves = [i for i in range(len(r.tokens)) if not r.children[i]]
-        limbs = [i for i in leaves if r.tokens[i] // 14 != BODY_LINK_TYPE]
-        for i in limbs or leaves:
-            leaf_tokens.append(r.tokens[i])
-            leaf_in.append(down(b, i) if i else 0)
-            leaf_tree.append(b)
-        for (x, k), free in zip(stop_predictions(r.children), r.stop_free, strict=True):
-            incoming = ([down(b, x)] if x else []) + [up(b, c) for c in r.children[x][:k]]
-            stop_tokens.append(r.tokens[x])
-            stop_in.append(incoming + [0] * (MAX_INCOMING + 1 - len(incoming)))
-            stop_tree.append(b)
-            stop_target.append(float(k < len(r.children[x])))
-            stop_free.append(bool(free))
-        for i in range(len(r.tokens)):
-            label_in.append(down(b, i) if i else 0)
-            label_tree.append(b)
-            label_target.append(r.tokens[i])
-        label_mask.append(r.label_masks)
 
     t = torch.as_tensor
     return TreeBatch(
         n_trees=len(replays), n_messages=n_msg,
-        encoder=_levels(bounds, sender, enc_in), decoder=_levels(bounds, sender, dec_in),
-        dfs_step=t(dfs_step),
-        leaf_tokens=t(leaf_tokens), leaf_incoming=t(leaf_in), leaf_tree=t(leaf_tree),
-        stop_tokens=t(stop_tokens), stop_incoming=t(np.array(stop_in, dtype=np.int64)), stop_tree=t(stop_tree),
-        stop_target=t(stop_target, dtype=torch.float32), stop_free=t(stop_free),
-        label_incoming=t(label_in), label_tree=t(label_tree), label_target=t(label_target),
-        label_mask=t(np.concatenate(label_mask).reshape(-1, N_TOKENS)),
+        encoder=_levels(bounds, sender, ids("enc_in")[order]), decoder=_levels(bounds, sender, ids("dec_in")[order]),
+        dfs_step=t(cat("dfs_step")[order]),
+        leaf_tokens=t(cat("leaf_tokens")), leaf_incoming=t(ids("leaf_in")), leaf_tree=t(tree_of("leaf_tokens")),
+        stop_tokens=t(cat("stop_tokens")), stop_incoming=t(ids("stop_in")), stop_tree=t(tree_of("stop_tokens")),
+        stop_target=t(cat("stop_target")), stop_free=t(cat("stop_free")),
+        label_incoming=t(ids("label_in")), label_tree=t(tree_of("label_in")), label_target=t(cat("label_target")),
+        label_mask=t(cat("label_mask")),
         contacts=t(np.asarray(contacts, dtype=np.float32)).reshape(len(replays), -1),
     )

@@ -20,6 +20,7 @@ each non-terminal finished before the next is made, so that every rule's first m
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -176,6 +177,13 @@ class Replay:
     children: list[list[int]]  # in preorder numbering, decoder order
     label_masks: np.ndarray  # (n, 42) labels allowed for each node when it is placed
     stop_free: np.ndarray  # (2n - 1,) both decisions allowed; predictions in order (node, k) by preorder
+
+    @cached_property
+    def arrays(self):  # -> batch.TreeArrays
+        """This tree's share of a training batch, computed once (`batch.tree_arrays`); `collate` concatenates."""
+        from robocompose.latent.batch import tree_arrays
+
+        return tree_arrays(self)
 
 
 def replay(tree: DesignTree, kind: str, max_nodes: int) -> Replay:
