@@ -31,40 +31,32 @@ MAX_INCOMING = 3  # incoming messages of one message (4 neighbours minus the rec
 class Levels:
     """Message levels in computation order: level l computes messages bounds[l]..bounds[l+1]-1.
 
-    A level reads only a few earlier levels (`sources[l]`); `local` indexes its incoming messages in
-    [padding row, *those levels' rows], so that the gather's gradient is the size of what it read,
-    not of the whole message buffer.
+    Encoder and decoder messages share ids, senders and levels and differ only in what they read
+    (`incoming[0]`, `incoming[1]`), so `model.Sweeps` computes level l of both GRUs together, from one
+    buffer holding the encoder's M + 1 message rows followed by the decoder's.
     """
 
     bounds: list[int]
     sender_tokens: torch.Tensor  # (M,) token of each message's sender, message m at row m-1
-    incoming: torch.Tensor  # (M, 3) incoming message ids (0 = none)
-    sources: list[list[int]]
-    local: torch.Tensor  # (M, 3) incoming rows in the concatenation of padding and the source levels
+    incoming: torch.Tensor  # (2, M, 3) incoming message ids (0 = none) of [encoder, decoder]
+    # Per level (3, 2, n_l): [k, g, j] is the buffer row of the k-th message into the level's j-th
+    # message for GRU g (encoder: its id; decoder: M + 1 + its id). Slot-major, so that summing over
+    # the incoming messages adds three contiguous blocks.
+    index: list[torch.Tensor]
 
 
 def _levels(bounds: list[int], sender: np.ndarray, incoming: np.ndarray) -> Levels:
-    first = np.array(bounds)
-    level_of = np.searchsorted(first, np.arange(bounds[-1]), side="right") - 1  # id -> level (id 0 -> -1)
-    local = np.zeros_like(incoming)
-    sources = []
-    for lo, hi in zip(bounds[:-1], bounds[1:], strict=True):
-        inc = incoming[lo - 1: hi - 1]
-        lv = level_of[inc]
-        used = np.unique(lv[inc > 0])
-        start = np.zeros(len(bounds), dtype=np.int64)  # first row of each source level in the concatenation
-        start[used] = 1 + np.concatenate([[0], np.cumsum(first[used + 1] - first[used])[:-1]])
-        local[lo - 1: hi - 1] = np.where(inc > 0, start[lv] + inc - first[lv], 0)
-        sources.append(used.tolist())
-    return Levels(bounds, torch.as_tensor(sender), torch.as_tensor(incoming), sources, torch.as_tensor(local))
+    stacked = incoming + np.array([0, bounds[-1]])[:, None, None]  # (2, M, 3); bounds[-1] = M + 1
+    index = [torch.as_tensor(np.ascontiguousarray(stacked[:, lo - 1: hi - 1].transpose(2, 0, 1)))
+             for lo, hi in zip(bounds[:-1], bounds[1:], strict=True)]
+    return Levels(bounds, torch.as_tensor(sender), torch.as_tensor(incoming), index)
 
 
 @dataclass(frozen=True)
 class TreeBatch:
     n_trees: int
     n_messages: int
-    encoder: Levels
-    decoder: Levels
+    levels: Levels
     dfs_step: torch.Tensor  # (M,) step of each message in its tree's depth-first traversal
     # Encoder readout (eqs. 7.7-7.8): leaves that are not body links (all leaves if a tree has none).
     leaf_tokens: torch.Tensor  # (L,)
@@ -194,7 +186,7 @@ def collate(replays: list[Replay], contacts: np.ndarray) -> TreeBatch:
     t = torch.as_tensor
     return TreeBatch(
         n_trees=len(replays), n_messages=n_msg,
-        encoder=_levels(bounds, sender, ids("enc_in")[order]), decoder=_levels(bounds, sender, ids("dec_in")[order]),
+        levels=_levels(bounds, sender, np.stack([ids("enc_in")[order], ids("dec_in")[order]])),
         dfs_step=t(cat("dfs_step")[order]),
         leaf_tokens=t(cat("leaf_tokens")), leaf_incoming=t(ids("leaf_in")), leaf_tree=t(tree_of("leaf_tokens")),
         stop_tokens=t(cat("stop_tokens")), stop_incoming=t(ids("stop_in")), stop_tree=t(tree_of("stop_tokens")),

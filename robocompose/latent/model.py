@@ -73,38 +73,109 @@ class TreeGRU(nn.Module):
         m_tilde = torch.tanh(xh + self.U((r * nei).sum(1)))  # eq. 7.5
         return (1 - z) * s + z * m_tilde  # eq. 7.6
 
-    def propagate(self, levels: Levels) -> torch.Tensor:
-        """All messages, level by level; returns rows [m, U^r m] per message id (row 0: padding).
-
-        U^r m is kept with each message because every message is read by up to three others. Per level,
-        only the token table and the source levels are indexed, so that the backward pass accumulates
-        into small tensors instead of zero-filling the whole buffer once per level.
-        """
-        table = self.token_terms()  # (42, 3H)
-        pad = table.new_zeros(1, self.hidden)
-        messages: list[torch.Tensor] = []  # per level (n_l, H)
-        gated: list[torch.Tensor] = []  # per level U^r m (n_l, H)
-        for lv, (lo, hi) in enumerate(zip(levels.bounds[:-1], levels.bounds[1:], strict=True)):
-            index = levels.local[lo - 1: hi - 1]  # (n, 3)
-            nei = gather(torch.cat([pad] + [messages[k] for k in levels.sources[lv]]), index)  # (n, 3, H)
-            nei_r = gather(torch.cat([pad] + [gated[k] for k in levels.sources[lv]]), index)
-            m = self.cell(gather(table, levels.sender_tokens[lo - 1: hi - 1]), nei, nei_r)
-            messages.append(m)
-            gated.append(self.U_r(m))
-        return torch.cat([torch.cat([pad, *messages]), torch.cat([pad, *gated])], dim=1)
-
 
 def gather(source: torch.Tensor, index: torch.Tensor) -> torch.Tensor:
     """source[index] via index_select, whose backward (index_add) is cheaper than advanced indexing's."""
     return source.index_select(0, index.reshape(-1)).view(*index.shape, *source.shape[1:])
 
 
-# How messages are computed: (gru, levels, batch) -> message buffer. `reference.py` has the original's.
-Propagate = Callable[[TreeGRU, Levels, TreeBatch], torch.Tensor]
+def level_sweeps(grus: list[TreeGRU], batch: TreeBatch) -> torch.Tensor:
+    """Messages of the encoder's GRU, or of the encoder's and the decoder's ([encoder.gru, decoder.gru]).
+
+    Returns (G, M + 1, H): the messages of each of the G GRUs by id (row 0: padding). See `Sweeps`.
+    """
+    table = torch.stack([g.token_terms() for g in grus])  # (G, 42, 3H): W^z x, W^r x, W x
+    U_zr = torch.stack([torch.cat([g.U_z.weight, g.U_r.weight]).t() for g in grus])  # (G, H, 2H)
+    U = torch.stack([g.U.weight.t() for g in grus])  # (G, H, H)
+    return Sweeps.apply(batch.levels, table, U_zr, U)
 
 
-def level_sweeps(gru: TreeGRU, levels: Levels, batch: TreeBatch) -> torch.Tensor:
-    return gru.propagate(levels)
+class Sweeps(torch.autograd.Function):
+    """Eqs. 7.2-7.6 level by level for G GRUs at once, with the backward pass written out.
+
+    At this size (H = 128, ~60 messages per level) a step costs per-op overhead and memory traffic as
+    much as arithmetic, so:
+    - both GRUs compute level l together (same senders): their weights are stacked and every op of a
+      level serves both (bmm over G);
+    - each message is stored with U^z m and U^r m, because every message is read by up to three
+      others: U^z s = sum_k U^z m_k (eq. 7.3, U^z is linear) and eq. 7.4's U^r m_k then cost one
+      matmul per message instead of one per reader;
+    - the backward pass is written out instead of recorded by autograd (~14 plain ops per level
+      instead of ~50 tracked ones), scatters into one gradient buffer, and computes each weight's
+      gradient with one matmul over all messages at the end.
+    The tests check losses and gradients against `reference.py` (autograd through `TreeGRU.cell`).
+    """
+
+    @staticmethod
+    def forward(ctx, levels: Levels, table: torch.Tensor, U_zr: torch.Tensor, U: torch.Tensor) -> torch.Tensor:
+        G, H = U.shape[:2]
+        K = MAX_INCOMING
+        rows = table.new_zeros(G * levels.bounds[-1], 3 * H)  # [m, U^z m, U^r m] of GRU g, id i at g (M + 1) + i
+        buf = rows.view(G, -1, 3 * H)  # (G, M + 1, 3H)
+        x_all = table.index_select(1, levels.sender_tokens)  # (G, M, 3H): W^z x, W^r x, W x of every sender
+        saved = []
+        for lv, (lo, hi) in enumerate(zip(levels.bounds[:-1], levels.bounds[1:], strict=True)):
+            n = hi - lo
+            nei = rows.index_select(0, levels.index[lv][:, :G].reshape(-1)).view(K, G, n, 3 * H)
+            m_in, uz_in, ur_in = nei.split(H, dim=3)  # (3, G, n, H) each: incoming m_k, U^z m_k, U^r m_k
+            xz, xr, xh = x_all[:, lo - 1: hi - 1].split(H, dim=2)  # (G, n, H)
+            s = m_in.sum(0)  # (G, n, H) eq. 7.2
+            z = torch.sigmoid(xz + uz_in.sum(0))  # eq. 7.3
+            r = torch.sigmoid(xr + ur_in)  # (3, G, n, H) eq. 7.4
+            q = (r * m_in).sum(0)  # (G, n, H)
+            # eq. 7.5: m~ = tanh(.) = 2 sigma(2 .) - 1 (torch's float tanh is several times slower than sigmoid)
+            h = torch.sigmoid(torch.baddbmm(xh, q, U, beta=2, alpha=2)).mul_(2).sub_(1)
+            d = h - s
+            m = torch.addcmul(s, z, d, out=buf[:, lo:hi, :H])  # eq. 7.6: (1 - z) s + z m~
+            torch.bmm(m, U_zr, out=buf[:, lo:hi, H:])
+            saved.append((m_in, r, z, h, d, q))
+        ctx.levels, ctx.saved, ctx.buf = levels, saved, buf
+        ctx.save_for_backward(U_zr, U)
+        return buf[..., :H]
+
+    @staticmethod
+    def backward(ctx, grad: torch.Tensor) -> tuple:
+        """grad (G, M + 1, H) of the messages -> gradients of table, U_zr and U.
+
+        Levels in reverse: when level l is reached, every reader of its messages (a later level, or the
+        heads via `grad`) has added its part to the level's rows of `grads`. With a = pre-activation:
+        m = s + z (m~ - s), m~ = tanh(a_h), z = sigma(a_z), r_k = sigma(a_r,k),
+        a_h = W x + U q, q = sum_k r_k m_k, a_z = W^z x + sum_k U^z m_k, a_r,k = W^r x + U^r m_k.
+        """
+        levels, buf = ctx.levels, ctx.buf
+        U_zr, U = ctx.saved_tensors
+        G, H = U.shape[:2]
+        grads = grad.new_zeros(G * levels.bounds[-1], 3 * H)  # gradient of every stored row
+        gbuf = grads.view(G, -1, 3 * H)
+        gbuf[..., :H] = grad
+        d_x, d_pre_h = [], []  # per level, last level first
+        for lv in reversed(range(len(levels.bounds) - 1)):
+            lo, hi = levels.bounds[lv], levels.bounds[lv + 1]
+            m_in, r, z, h, d, q = ctx.saved[lv]
+            g = gbuf[:, lo:hi]  # complete: every reader of this level is a later level, already done
+            dm = torch.baddbmm(g[..., :H], g[..., H:], U_zr.transpose(1, 2))  # (G, n, H) direct + via U^z m, U^r m
+            dh = dm * z
+            dpre_h = torch.ops.aten.tanh_backward(dh, h)  # dh (1 - m~^2)
+            dpre_z = torch.ops.aten.sigmoid_backward(dm * d, z)  # dm (m~ - s) z (1 - z)
+            dq = torch.bmm(dpre_h, U.transpose(1, 2))  # (G, n, H)
+            dm_in = torch.addcmul(dm - dh, dq, r)  # (3, G, n, H): via s (dm (1 - z)) and via r m_k
+            dpre_r = torch.ops.aten.sigmoid_backward(dq * m_in, r)  # (3, G, n, H)
+            # Rows [m_k, U^z m_k, U^r m_k] read by this level get [dm_in, dpre_z, dpre_r].
+            d_nei = torch.cat([dm_in, dpre_z.expand_as(dm_in), dpre_r], dim=3)
+            grads.index_add_(0, levels.index[lv][:, :G].reshape(-1), d_nei.view(-1, 3 * H))
+            d_x.append(torch.cat([dpre_z, dpre_r.sum(0), dpre_h], dim=2))  # (G, n, 3H)
+            d_pre_h.append(dpre_h)
+        tokens = levels.sender_tokens
+        d_table = grad.new_zeros(G, N_TOKENS, 3 * H).index_add_(1, tokens, torch.cat(d_x[::-1], dim=1))
+        q_all = torch.cat([q for *_, q in ctx.saved], dim=1)  # (G, M, H)
+        d_U = torch.bmm(q_all.transpose(1, 2), torch.cat(d_pre_h[::-1], dim=1))
+        d_U_zr = torch.bmm(buf[:, 1:, :H].transpose(1, 2), gbuf[:, 1:, H:])
+        return None, d_table, d_U_zr, d_U
+
+
+# How messages are computed: ([encoder.gru] or [encoder.gru, decoder.gru], batch) -> (G, M + 1, H).
+# `reference.py` has the original's.
+Propagate = Callable[[list[TreeGRU], TreeBatch], torch.Tensor]
 
 
 class Encoder(nn.Module):
@@ -116,12 +187,15 @@ class Encoder(nn.Module):
         self.mean = nn.Linear(hidden, latent)
         self.log_var = nn.Linear(hidden, latent)
 
-    def forward(self, batch: TreeBatch, propagate: Propagate = level_sweeps) -> tuple[torch.Tensor, torch.Tensor]:
+    def forward(self, batch: TreeBatch, messages: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
+        """Latent mean and log-variance (B, latent); `messages` (M + 1, H) if already computed."""
         H = self.gru.hidden
-        messages = propagate(self.gru, batch.encoder, batch)[:, :H]  # (M + 1, H)
-        x = self.gru.embedding(batch.leaf_tokens)
-        # A leaf's only incoming message is its parent's (eq. 7.7 summed over one neighbour).
-        h_leaf = F.relu(self.W_e(x) + self.U_e(gather(messages, batch.leaf_incoming)))  # (L, H)
+        if messages is None:
+            messages = level_sweeps([self.gru], batch)[0]  # (M + 1, H)
+        # A leaf's only incoming message is its parent's (eq. 7.7 summed over one neighbour); W_e x is
+        # computed once per token (42 rows) instead of once per leaf.
+        x_terms = gather(self.W_e(self.gru.embedding.weight), batch.leaf_tokens)  # (L, H)
+        h_leaf = F.relu(x_terms + self.U_e(gather(messages, batch.leaf_incoming)))  # (L, H)
         h_tree = h_leaf.new_zeros(batch.n_trees, H).index_add(0, batch.leaf_tree, h_leaf)  # (B, H) eq. 7.8
         return self.mean(h_tree), -torch.abs(self.log_var(h_tree))
 
@@ -139,23 +213,30 @@ class Decoder(nn.Module):
         self.label_h = nn.Linear(hidden, hidden, bias=False)
         self.label_u = nn.Linear(hidden, N_TOKENS)
 
-    def stop_logits(self, tokens: torch.Tensor, z: torch.Tensor, incoming_sum: torch.Tensor) -> torch.Tensor:
-        x = self.gru.embedding(tokens)
-        return self.stop_u(F.relu(self.stop_x(x) + self.stop_z(z) + self.stop_h(incoming_sum))).squeeze(1)
+    # The x and z terms are computed once per token (42 rows) and per tree (B rows), then gathered for
+    # each prediction (the same numbers as applying the layers to every prediction's row).
 
-    def label_logits(self, z: torch.Tensor, message: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
-        logits = self.label_u(F.relu(self.label_z(z) + self.label_h(message)))
+    def stop_logits(self, tokens: torch.Tensor, tree: torch.Tensor, z: torch.Tensor,
+                    incoming_sum: torch.Tensor) -> torch.Tensor:
+        """(P,) from each prediction's node token, tree (row of z) and sum of incoming messages (P, H)."""
+        x_terms = gather(self.stop_x(self.gru.embedding.weight), tokens)  # (P, H)
+        z_terms = gather(self.stop_z(z), tree)
+        return self.stop_u(F.relu(x_terms + z_terms + self.stop_h(incoming_sum))).squeeze(1)
+
+    def label_logits(self, z: torch.Tensor, tree: torch.Tensor, message: torch.Tensor,
+                     mask: torch.Tensor) -> torch.Tensor:
+        """(N, 42) from each new node's tree (row of z), the message to it (N, H) and allowed labels."""
+        logits = self.label_u(F.relu(gather(self.label_z(z), tree) + self.label_h(message)))
         return logits.masked_fill(~mask, float("-inf"))
 
-    def forward(self, batch: TreeBatch, z: torch.Tensor, propagate: Propagate = level_sweeps) -> dict:
-        """Teacher-forced losses (summed over the batch's decisions) and accuracies."""
-        H = self.gru.hidden
-        messages = propagate(self.gru, batch.decoder, batch)[:, :H]  # (M + 1, H)
+    def forward(self, batch: TreeBatch, z: torch.Tensor, messages: torch.Tensor) -> dict:
+        """Teacher-forced losses (summed over the batch's decisions) and accuracies, from the decoder's
+        messages (M + 1, H) (`level_sweeps`, computed with the encoder's)."""
         incoming = gather(messages, batch.stop_incoming).sum(1)  # (P, H)
-        stop = self.stop_logits(batch.stop_tokens, gather(z, batch.stop_tree), incoming)  # (P,)
+        stop = self.stop_logits(batch.stop_tokens, batch.stop_tree, z, incoming)  # (P,)
         free = batch.stop_free
         stop_loss = F.binary_cross_entropy_with_logits(stop[free], batch.stop_target[free], reduction="sum")
-        labels = self.label_logits(gather(z, batch.label_tree), gather(messages, batch.label_incoming),
+        labels = self.label_logits(z, batch.label_tree, gather(messages, batch.label_incoming),
                                    batch.label_mask)  # (N, 42)
         label_loss = F.cross_entropy(labels, batch.label_target, reduction="sum")
         return {
@@ -170,7 +251,7 @@ class Decoder(nn.Module):
         H, B = self.gru.hidden, len(z)
         walks = [Walk(self.constraints, self.max_nodes) for _ in range(B)]
         root_mask = torch.as_tensor(np.stack([w.root_labels() for w in walks]))
-        roots = self.label_logits(z, z.new_zeros(B, H), root_mask).argmax(1)
+        roots = self.label_logits(z, torch.arange(B), z.new_zeros(B, H), root_mask).argmax(1)
         for w, token in zip(walks, roots.tolist(), strict=True):
             w.push(token)
         terms = self.gru.token_terms()  # (42, 3H)
@@ -186,7 +267,7 @@ class Decoder(nn.Module):
 
             stop_in = torch.tensor([_pad(incoming(b, True), MAX_INCOMING + 1) for b in active])
             tokens = torch.tensor([walks[b].tokens[walks[b].current] for b in active])
-            stop = self.stop_logits(tokens, z[active], buf[stop_in, :H].sum(1)).tolist()
+            stop = self.stop_logits(tokens, torch.tensor(active), z, buf[stop_in, :H].sum(1)).tolist()
             expand, options = [], []
             for b, logit in zip(active, stop, strict=True):
                 may_stop, may_expand, labels = walks[b].options()
@@ -204,7 +285,7 @@ class Decoder(nn.Module):
             grow = [i for i, e in enumerate(expand) if e]
             if grow:
                 mask = torch.as_tensor(np.stack([options[i] for i in grow]))
-                picked = self.label_logits(z[[active[i] for i in grow]], m[grow], mask).argmax(1).tolist()
+                picked = self.label_logits(z, torch.tensor([active[i] for i in grow]), m[grow], mask).argmax(1).tolist()
             for i, b in enumerate(active):
                 w = walks[b]
                 if expand[i]:
@@ -253,9 +334,10 @@ class GraphVAE(nn.Module):
         `noise` (B, latent) is the reparameterisation's standard normal draw; None decodes from the mean.
         """
         B = batch.n_trees
-        mean, log_var = self.encoder(batch, propagate)  # (B, latent) each
+        encoder_messages, decoder_messages = propagate([self.encoder.gru, self.decoder.gru], batch)
+        mean, log_var = self.encoder(batch, encoder_messages)  # (B, latent) each
         z = mean if noise is None else mean + torch.exp(0.5 * log_var) * noise
-        out = self.decoder(batch, z, propagate)
+        out = self.decoder(batch, z, decoder_messages)
         out["kl"] = -0.5 * torch.sum(1 + log_var - mean.pow(2) - log_var.exp()) / B
         out["label_loss"], out["stop_loss"] = out["label_loss"] / B, out["stop_loss"] / B
         loss = out["label_loss"] + out["stop_loss"] + beta * out["kl"]

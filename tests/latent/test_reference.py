@@ -5,7 +5,7 @@ import torch
 
 from robocompose.latent.batch import collate
 from robocompose.latent.constraints import replay
-from robocompose.latent.model import GraphVAE, VAEConfig, level_sweeps
+from robocompose.latent.model import GraphVAE, Sweeps, VAEConfig, level_sweeps
 from robocompose.latent.reference import original, synchronous
 
 
@@ -48,7 +48,21 @@ def test_synchronous_messages_are_final_after_longest_path_iterations(trees):
     batch = collate([replay(tree, "grammar", 50)], np.zeros((1, 16)))
     gru = GraphVAE(VAEConfig(hidden=8, latent=2)).encoder.gru
     with torch.no_grad():
-        sweeps = gru.propagate(batch.encoder)
-        torch.testing.assert_close(synchronous(gru, batch.encoder, longest), sweeps)
-        early = synchronous(gru, batch.encoder, longest - 1)
+        sweeps = level_sweeps([gru], batch)[0]
+        torch.testing.assert_close(synchronous(gru, batch, longest), sweeps)
+        early = synchronous(gru, batch, longest - 1)
     assert not torch.allclose(early, sweeps)
+
+
+def test_written_out_backward_matches_finite_differences(trees, nogram_trees):
+    """Sweeps' hand-written backward, for the encoder alone (G = 1) and both GRUs (G = 2), in float64."""
+    replays = [replay(t, "grammar", 50) for t in trees[:4]] + [replay(t, "tree", 50) for t in nogram_trees[:4]]
+    levels = collate(replays, np.zeros((len(replays), 16))).levels
+    gen = torch.Generator().manual_seed(0)
+    for G in (1, 2):
+        H = 4
+        inputs = [torch.randn(G, 42, 3 * H, generator=gen, dtype=torch.float64),
+                  0.5 * torch.randn(G, H, 2 * H, generator=gen, dtype=torch.float64),
+                  0.5 * torch.randn(G, H, H, generator=gen, dtype=torch.float64)]
+        inputs = [x.requires_grad_() for x in inputs]
+        assert torch.autograd.gradcheck(lambda *x: Sweeps.apply(levels, *x), inputs, fast_mode=True)
