@@ -190,7 +190,7 @@ def train(model_config: VAEConfig, config: TrainConfig, designs: Designs, checkp
     eval_set = test_set.subset(np.arange(min(config.eval_designs, len(test_idx))))
     torch.manual_seed(config.seed)
     model = GraphVAE(model_config)
-    optimizer = torch.optim.Adam(model.parameters(), lr=config.lr)
+    optimizer = torch.optim.Adam(model.parameters(), lr=config.lr, fused=True)  # one kernel, not one loop per tensor
     key = run_key(model_config, config, designs, train_set)
     start, rows = 0, []
     if checkpoint.exists():
