@@ -85,9 +85,8 @@ def level_sweeps(grus: list[TreeGRU], batch: TreeBatch) -> torch.Tensor:
     Returns (G, M + 1, H): the messages of each of the G GRUs by id (row 0: padding). See `Sweeps`.
     """
     table = torch.stack([g.token_terms() for g in grus])  # (G, 42, 3H): W^z x, W^r x, W x
-    U_zr = torch.stack([torch.cat([g.U_z.weight, g.U_r.weight]).t() for g in grus])  # (G, H, 2H)
-    U = torch.stack([g.U.weight.t() for g in grus])  # (G, H, H)
-    return Sweeps.apply(batch.levels, table, U_zr, U)
+    U_z, U_r, U = (torch.stack([getattr(g, name).weight.t() for g in grus]) for name in ("U_z", "U_r", "U"))
+    return Sweeps.apply(batch.levels, table, U_z, U_r, U)  # weights (G, H, H), transposed: x @ U^T
 
 
 class Sweeps(torch.autograd.Function):
@@ -97,80 +96,83 @@ class Sweeps(torch.autograd.Function):
     much as arithmetic, so:
     - both GRUs compute level l together (same senders): their weights are stacked and every op of a
       level serves both (bmm over G);
-    - each message is stored with U^z m and U^r m, because every message is read by up to three
-      others: U^z s = sum_k U^z m_k (eq. 7.3, U^z is linear) and eq. 7.4's U^r m_k then cost one
-      matmul per message instead of one per reader;
-    - the backward pass is written out instead of recorded by autograd (~14 plain ops per level
+    - each message is stored with U^r m, because every message is read by up to three others: eq.
+      7.4's U^r m_k then costs one matmul per message instead of one per reader;
+    - the backward pass is written out instead of recorded by autograd (~15 plain ops per level
       instead of ~50 tracked ones), scatters into one gradient buffer, and computes each weight's
       gradient with one matmul over all messages at the end.
     The tests check losses and gradients against `reference.py` (autograd through `TreeGRU.cell`).
     """
 
     @staticmethod
-    def forward(ctx, levels: Levels, table: torch.Tensor, U_zr: torch.Tensor, U: torch.Tensor) -> torch.Tensor:
+    def forward(ctx, levels: Levels, table: torch.Tensor, U_z: torch.Tensor, U_r: torch.Tensor,
+                U: torch.Tensor) -> torch.Tensor:
         G, H = U.shape[:2]
         K = MAX_INCOMING
-        rows = table.new_zeros(G * levels.bounds[-1], 3 * H)  # [m, U^z m, U^r m] of GRU g, id i at g (M + 1) + i
-        buf = rows.view(G, -1, 3 * H)  # (G, M + 1, 3H)
+        rows = table.new_zeros(G * levels.bounds[-1], 2 * H)  # [m, U^r m] of GRU g, message id i at g (M + 1) + i
+        buf = rows.view(G, -1, 2 * H)  # (G, M + 1, 2H)
         x_all = table.index_select(1, levels.sender_tokens)  # (G, M, 3H): W^z x, W^r x, W x of every sender
         saved = []
         for lv, (lo, hi) in enumerate(zip(levels.bounds[:-1], levels.bounds[1:], strict=True)):
             n = hi - lo
-            nei = rows.index_select(0, levels.index[lv][:, :G].reshape(-1)).view(K, G, n, 3 * H)
-            m_in, uz_in, ur_in = nei.split(H, dim=3)  # (3, G, n, H) each: incoming m_k, U^z m_k, U^r m_k
+            nei = rows.index_select(0, levels.index[lv][:, :G].reshape(-1)).view(K, G, n, 2 * H)
+            m_in, ur_in = nei.split(H, dim=3)  # (3, G, n, H) each: incoming m_k and U^r m_k
             xz, xr, xh = x_all[:, lo - 1: hi - 1].split(H, dim=2)  # (G, n, H)
             s = m_in.sum(0)  # (G, n, H) eq. 7.2
-            z = torch.sigmoid(xz + uz_in.sum(0))  # eq. 7.3
+            z = torch.sigmoid(torch.baddbmm(xz, s, U_z))  # eq. 7.3
             r = torch.sigmoid(xr + ur_in)  # (3, G, n, H) eq. 7.4
             q = (r * m_in).sum(0)  # (G, n, H)
             # eq. 7.5: m~ = tanh(.) = 2 sigma(2 .) - 1 (torch's float tanh is several times slower than sigmoid)
             h = torch.sigmoid(torch.baddbmm(xh, q, U, beta=2, alpha=2)).mul_(2).sub_(1)
             d = h - s
             m = torch.addcmul(s, z, d, out=buf[:, lo:hi, :H])  # eq. 7.6: (1 - z) s + z m~
-            torch.bmm(m, U_zr, out=buf[:, lo:hi, H:])
-            saved.append((m_in, r, z, h, d, q))
+            torch.bmm(m, U_r, out=buf[:, lo:hi, H:])
+            saved.append((m_in, r, s, z, h, d, q))
         ctx.levels, ctx.saved, ctx.buf = levels, saved, buf
-        ctx.save_for_backward(U_zr, U)
+        ctx.save_for_backward(U_z, U_r, U)
         return buf[..., :H]
 
     @staticmethod
     def backward(ctx, grad: torch.Tensor) -> tuple:
-        """grad (G, M + 1, H) of the messages -> gradients of table, U_zr and U.
+        """grad (G, M + 1, H) of the messages -> gradients of table, U_z, U_r and U.
 
         Levels in reverse: when level l is reached, every reader of its messages (a later level, or the
         heads via `grad`) has added its part to the level's rows of `grads`. With a = pre-activation:
         m = s + z (m~ - s), m~ = tanh(a_h), z = sigma(a_z), r_k = sigma(a_r,k),
-        a_h = W x + U q, q = sum_k r_k m_k, a_z = W^z x + sum_k U^z m_k, a_r,k = W^r x + U^r m_k.
+        a_h = W x + U q, q = sum_k r_k m_k, a_z = W^z x + U^z s, a_r,k = W^r x + U^r m_k.
         """
         levels, buf = ctx.levels, ctx.buf
-        U_zr, U = ctx.saved_tensors
+        U_z, U_r, U = ctx.saved_tensors
         G, H = U.shape[:2]
-        grads = grad.new_zeros(G * levels.bounds[-1], 3 * H)  # gradient of every stored row
-        gbuf = grads.view(G, -1, 3 * H)
+        grads = grad.new_zeros(G * levels.bounds[-1], 2 * H)  # gradient of every stored row [m, U^r m]
+        gbuf = grads.view(G, -1, 2 * H)
         gbuf[..., :H] = grad
-        d_x, d_pre_h = [], []  # per level, last level first
+        d_x, d_pre_z, d_pre_h = [], [], []  # per level, last level first
         for lv in reversed(range(len(levels.bounds) - 1)):
             lo, hi = levels.bounds[lv], levels.bounds[lv + 1]
-            m_in, r, z, h, d, q = ctx.saved[lv]
+            m_in, r, s, z, h, d, q = ctx.saved[lv]
             g = gbuf[:, lo:hi]  # complete: every reader of this level is a later level, already done
-            dm = torch.baddbmm(g[..., :H], g[..., H:], U_zr.transpose(1, 2))  # (G, n, H) direct + via U^z m, U^r m
+            dm = torch.baddbmm(g[..., :H], g[..., H:], U_r.transpose(1, 2))  # (G, n, H): direct and via U^r m
             dh = dm * z
             dpre_h = torch.ops.aten.tanh_backward(dh, h)  # dh (1 - m~^2)
             dpre_z = torch.ops.aten.sigmoid_backward(dm * d, z)  # dm (m~ - s) z (1 - z)
+            ds = torch.baddbmm(dm - dh, dpre_z, U_z.transpose(1, 2))  # dm (1 - z) + via U^z s
             dq = torch.bmm(dpre_h, U.transpose(1, 2))  # (G, n, H)
-            dm_in = torch.addcmul(dm - dh, dq, r)  # (3, G, n, H): via s (dm (1 - z)) and via r m_k
+            dm_in = torch.addcmul(ds, dq, r)  # (3, G, n, H): via s and via r_k m_k
             dpre_r = torch.ops.aten.sigmoid_backward(dq * m_in, r)  # (3, G, n, H)
-            # Rows [m_k, U^z m_k, U^r m_k] read by this level get [dm_in, dpre_z, dpre_r].
-            d_nei = torch.cat([dm_in, dpre_z.expand_as(dm_in), dpre_r], dim=3)
-            grads.index_add_(0, levels.index[lv][:, :G].reshape(-1), d_nei.view(-1, 3 * H))
+            # Rows [m_k, U^r m_k] read by this level get [dm_in, dpre_r].
+            d_nei = torch.cat([dm_in, dpre_r], dim=3)
+            grads.index_add_(0, levels.index[lv][:, :G].reshape(-1), d_nei.view(-1, 2 * H))
             d_x.append(torch.cat([dpre_z, dpre_r.sum(0), dpre_h], dim=2))  # (G, n, 3H)
+            d_pre_z.append(dpre_z)
             d_pre_h.append(dpre_h)
         tokens = levels.sender_tokens
         d_table = grad.new_zeros(G, N_TOKENS, 3 * H).index_add_(1, tokens, torch.cat(d_x[::-1], dim=1))
-        q_all = torch.cat([q for *_, q in ctx.saved], dim=1)  # (G, M, H)
+        s_all, q_all = (torch.cat([x[i] for x in ctx.saved], dim=1) for i in (2, 6))  # (G, M, H)
+        d_U_z = torch.bmm(s_all.transpose(1, 2), torch.cat(d_pre_z[::-1], dim=1))
+        d_U_r = torch.bmm(buf[:, 1:, :H].transpose(1, 2), gbuf[:, 1:, H:])
         d_U = torch.bmm(q_all.transpose(1, 2), torch.cat(d_pre_h[::-1], dim=1))
-        d_U_zr = torch.bmm(buf[:, 1:, :H].transpose(1, 2), gbuf[:, 1:, H:])
-        return None, d_table, d_U_zr, d_U
+        return None, d_table, d_U_z, d_U_r, d_U
 
 
 # How messages are computed: ([encoder.gru] or [encoder.gru, decoder.gru], batch) -> (G, M + 1, H).

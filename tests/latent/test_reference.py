@@ -61,8 +61,7 @@ def test_written_out_backward_matches_finite_differences(trees, nogram_trees):
     gen = torch.Generator().manual_seed(0)
     for G in (1, 2):
         H = 4
-        inputs = [torch.randn(G, 42, 3 * H, generator=gen, dtype=torch.float64),
-                  0.5 * torch.randn(G, H, 2 * H, generator=gen, dtype=torch.float64),
-                  0.5 * torch.randn(G, H, H, generator=gen, dtype=torch.float64)]
+        inputs = [torch.randn(G, 42, 3 * H, generator=gen, dtype=torch.float64)]
+        inputs += [0.5 * torch.randn(G, H, H, generator=gen, dtype=torch.float64) for _ in range(3)]
         inputs = [x.requires_grad_() for x in inputs]
         assert torch.autograd.gradcheck(lambda *x: Sweeps.apply(levels, *x), inputs, fast_mode=True)
