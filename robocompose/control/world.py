@@ -53,6 +53,7 @@ class RobotWorld:
         except BaseException:
             pb.disconnect(physicsClientId=self.client)
             raise
+        self.tree = self.robot.tree  # canonical order: the tree whose nodes pb_link and hinges index
         self.body = self.robot.body
         self.hinges = list(self.robot.hinges)
         self.dof = len(self.hinges)

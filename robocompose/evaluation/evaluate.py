@@ -38,7 +38,7 @@ from robocompose.params import build_config
 from robocompose.sim.physics import PhysicsSettings
 from robocompose.tasks.terrains import get_task
 
-EVALUATOR_VERSION = "robogrammar-mppi-2"
+EVALUATOR_VERSION = "robogrammar-mppi-3"  # 3: designs built in canonical sibling order
 OK, SELF_COLLISION, UNSTABLE = "ok", "self_collision", "unstable"
 STATUSES = (OK, SELF_COLLISION, UNSTABLE)
 BLOWUP_REWARD = 10.0  # any mean reward at or above this is a simulation blow-up

@@ -121,6 +121,26 @@ class DesignTree:
         kids = sorted(self.canonical(j) for j in self.children(i))
         return f"{self.tokens[i]}" + (f"({','.join(kids)})" if kids else "")
 
+    def canonical_order(self) -> DesignTree:
+        """The same design with siblings sorted by their canonical form, in breadth-first order.
+
+        Every ordering of one design gives this one tree, so it builds one multibody (pybullet link
+        order, and MPPI's noise-to-joint assignment, follow node order). Equal sibling forms are equal
+        subtrees, so ties cannot change the result.
+        """
+        forms = [""] * self.n_links
+        for i in reversed(range(self.n_links)):  # children after parents: bottom-up
+            kids = sorted(forms[j] for j in self.children(i))
+            forms[i] = f"{self.tokens[i]}" + (f"({','.join(kids)})" if kids else "")
+        order, parents, queue = [], [], [(0, -1)]
+        while queue:
+            node, parent = queue.pop(0)
+            parents.append(parent)
+            order.append(node)
+            new = len(order) - 1
+            queue.extend((j, new) for j in sorted(self.children(node), key=forms.__getitem__))
+        return DesignTree(tuple(parents), tuple(self.tokens[i] for i in order))
+
     @property
     def design_id(self) -> str:
         """Canonical id: the first 16 hex digits of the SHA-256 of the canonical form."""

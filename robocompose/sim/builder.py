@@ -47,8 +47,9 @@ BASE_ORIENTATION = _matrix_to_xyzw(ROBOT_TO_WORLD)
 
 @dataclass(frozen=True)
 class BuiltRobot:
-    """A robot in a pybullet world."""
+    """A robot in a pybullet world, built from `tree` (the canonical order of the design it was given)."""
 
+    tree: DesignTree
     client: int
     body: int
     pb_link: tuple[int, ...]  # pybullet link index of each tree node (-1 for the root, the base)
@@ -169,8 +170,13 @@ def self_penetrating(body: int, client: int) -> bool:
 
 def build_at_rest(tree: DesignTree, client: int, floor_top: float = 0.0, front_x: float = 0.0,
                   visual: bool = False) -> BuiltRobot:
-    """Build the robot in `client`, resting on the floor with its front at `front_x`."""
+    """Build the robot in `client`, resting on the floor with its front at `front_x`.
+
+    The design is built in its canonical order, so every ordering of its siblings gives one robot;
+    `pb_link` and `hinges` index the nodes of `BuiltRobot.tree`.
+    """
+    tree = tree.canonical_order()
     body, pb_link = build(tree, client, visual=visual)
     place_on_floor(body, client, floor_top, front_x)
     hinges = tuple(pb_link[i] for i, lk in enumerate(tree.links()) if lk.joint_kind == "hinge")
-    return BuiltRobot(client, body, pb_link, hinges, self_penetrating(body, client))
+    return BuiltRobot(tree, client, body, pb_link, hinges, self_penetrating(body, client))

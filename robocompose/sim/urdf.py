@@ -49,6 +49,7 @@ def design_urdf(tree: DesignTree, name: str) -> str:
     lines = ['<?xml version="1.0"?>', f"<robot name={quoteattr(name)}>",
              f"<!-- robocompose design {tree.design_id}; motors: position servo kp={KP} kd={KD} "
              f"max torque {MAX_TORQUE} N m; link frames are RoboGrammar's (x along the link, y up). -->"]
+    tree = tree.canonical_order()  # the build order of the simulator
     links = tree.links()
     for i, lk in enumerate(links):
         ixx, iyy, izz = _capsule_inertia(lk.mass, lk.length, lk.radius)

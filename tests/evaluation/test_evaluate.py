@@ -78,3 +78,10 @@ def test_design_without_hinges_is_scored_and_makes_no_progress():
     row = evaluate(tree, "flat", config, seed=0)
     assert row["status"] == "ok"
     assert abs(row["reward"] - 4.0) < 0.05  # upright and facing forward, but no velocity term
+
+
+def test_every_sibling_order_of_a_design_builds_one_robot_and_scores_the_same(tree, reorder):
+    other = reorder(tree)  # the ridged reference with every node's children reversed
+    assert other.tokens != tree.tokens and other.design_id == tree.design_id
+    a, b = evaluate(tree, "ridged", TINY, seed=3), evaluate(other, "ridged", TINY, seed=3)
+    assert a["reward"] == b["reward"] and a["sim_steps"] == b["sim_steps"]

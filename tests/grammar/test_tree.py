@@ -46,3 +46,15 @@ def test_only_the_root_has_the_root_joint():
         DesignTree((-1, 0), (14, 14))
     with pytest.raises(ValueError, match="root joint type"):
         DesignTree((-1, 0), (15, 29))
+
+
+def test_canonical_order_is_the_same_for_every_sibling_order(reorder):
+    from robocompose.evaluation.references import REFERENCE_DESIGNS
+    from robocompose.grammar.derivation import derive, parse_rules
+
+    tree = derive(parse_rules(REFERENCE_DESIGNS["robogrammar_ridged"])).tree
+    other = reorder(tree)
+    assert other.tokens != tree.tokens and other.design_id == tree.design_id
+    assert other.canonical_order() == tree.canonical_order()
+    assert tree.canonical_order().canonical_order() == tree.canonical_order()
+    assert tree.canonical_order().design_id == tree.design_id

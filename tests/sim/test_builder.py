@@ -36,9 +36,10 @@ def test_reference_designs_build_rest_on_floor_without_self_penetration(client, 
 def test_link_map_follows_tree_parents(client, reference_rules):
     tree = derive(parse_rules(reference_rules)).tree
     robot = build_at_rest(tree, client)
+    assert robot.tree == tree.canonical_order()
     for node in range(1, tree.n_links):
         parent_link = pb.getJointInfo(robot.body, robot.pb_link[node], physicsClientId=client)[16]
-        assert parent_link == robot.pb_link[tree.parents[node]]
+        assert parent_link == robot.pb_link[robot.tree.parents[node]]
     assert sorted(depth_first_order(tree)) == list(range(tree.n_links))
 
 
