@@ -1,0 +1,85 @@
+"""What code a result came from: a module's import closure inside the project, and a digest of its source.
+
+Cache and checkpoint keys include `code_digest(...)` of the modules that compute the result, so a change
+of code invalidates them with no version to bump by hand; the DVC deps test uses `import_closure` to
+check that each stage lists every project module it imports.
+"""
+
+from __future__ import annotations
+
+import ast
+import functools
+import hashlib
+from pathlib import Path
+
+PACKAGE = "robocompose"
+PACKAGE_DIR = Path(__file__).resolve().parents[1]  # .../robocompose
+ROOT = PACKAGE_DIR.parent
+
+
+def module_path(name: str) -> Path | None:
+    """The source file of project module `name` (a package's `__init__.py`), or None if it is not one."""
+    if name != PACKAGE and not name.startswith(PACKAGE + "."):
+        return None
+    base = ROOT.joinpath(*name.split("."))
+    for path in (base.with_suffix(".py"), base / "__init__.py"):
+        if path.is_file():
+            return path
+    return None
+
+
+def _imported_names(path: Path, module: str) -> set[str]:
+    """Project modules named by the import statements of one file (function-level imports included)."""
+    package = module if path.name == "__init__.py" else module.rpartition(".")[0]
+    names: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        if isinstance(node, ast.Import):
+            names.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                parts = package.split(".")
+                base = ".".join(parts[: len(parts) - node.level + 1] + ([node.module] if node.module else []))
+            else:
+                base = node.module or ""
+            names.add(base)
+            names.update(f"{base}.{alias.name}" for alias in node.names)  # `from pkg import submodule`
+    return {n for n in names if module_path(n) is not None}
+
+
+def _with_parents(name: str) -> list[str]:
+    """A module and the packages above it: importing `a.b.c` runs `a/__init__`, `a/b/__init__` too."""
+    parts = name.split(".")
+    return [".".join(parts[:i]) for i in range(1, len(parts) + 1)]
+
+
+@functools.cache
+def import_closure(*entries: str | Path) -> tuple[Path, ...]:
+    """Every project source file that importing the given modules or scripts runs, sorted.
+
+    An entry is a module name (`robocompose.grammar.tree`) or the path of a script (`stages/enumerate.py`),
+    whose own file is not part of the result.
+    """
+    stack: list[str] = []
+    for entry in entries:
+        if isinstance(entry, Path) or str(entry).endswith(".py"):
+            stack += _imported_names(Path(entry), "__main__")
+        else:
+            stack.append(str(entry))
+    seen: dict[str, Path] = {}
+    while stack:
+        name = stack.pop()
+        path = module_path(name)
+        if name in seen or path is None:
+            continue
+        seen[name] = path
+        stack += _with_parents(name)[:-1] + sorted(_imported_names(path, name))
+    return tuple(sorted(set(seen.values())))
+
+
+@functools.cache
+def code_digest(*modules: str) -> str:
+    """SHA-256 (16 hex digits) over the path and bytes of every file in the modules' import closure."""
+    digest = hashlib.sha256()
+    for path in import_closure(*modules):
+        digest.update(path.relative_to(ROOT).as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
+    return digest.hexdigest()[:16]
