@@ -1,6 +1,7 @@
 """Training: schedules, a tiny model that learns, checkpoints, and resuming after a kill."""
 
 import json
+import math
 import os
 import signal
 import subprocess
@@ -16,6 +17,7 @@ import torch
 from robocompose.io import read_mcap, write_table
 from robocompose.latent.model import VAEConfig
 from robocompose.latent.train import (
+    LOG_FIELDS,
     TrainConfig,
     batch_indices,
     beta_at,
@@ -26,6 +28,7 @@ from robocompose.latent.train import (
     save_model,
     split,
     train,
+    write_logs,
 )
 
 TINY = VAEConfig(hidden=16, latent=4, predictor_hidden=8, max_nodes=30)
@@ -157,3 +160,10 @@ def test_raising_steps_extends_a_finished_run(tmp_path, write_designs):
     assert all(torch.equal(extended[k], straight[k]) for k in straight)
     changed = TrainConfig(**{**long.__dict__, "lr": 0.002})  # a real change starts afresh
     assert not all(torch.equal(run("extended", changed)[k], straight[k]) for k in straight)
+
+
+def test_training_log_validates_against_its_schema(tmp_path, valid_foxglove_log):
+    rows = [{field: 0.5 for field in LOG_FIELDS} | {"step": step, "heldout_reconstruction": math.nan}
+            for step in (50, 100)]
+    write_logs(rows, tmp_path / "log.csv", tmp_path / "log.mcap")
+    assert valid_foxglove_log(tmp_path / "log.mcap") == 2
