@@ -53,6 +53,7 @@ LADDER: dict[str, tuple[int, int, int, int]] = {
 SCREEN = MPPIConfig(samples=8, first_samples=32, horizon=8, episode=24)  # the quick search's cheap setting
 DESIGN_COLUMNS = ("name", "kind", "design_id", "rules", "screen_reward")
 SCORE_COLUMNS = ("task", "rung", "name", "design_id", "reward", "status", "objective", "sim_steps", "seconds")
+MEASURE_ORDER = ("reference", "screened", "random")  # kinds of design, measured in this order
 DESIGNS_FILE = "designs.csv"
 SCORES_DIR = "scores"
 
@@ -178,17 +179,25 @@ def _append(path: Path, row: dict) -> None:
             f.write(",".join(SCORE_COLUMNS) + "\n")
     values = ["" if row[c] is None else (repr(row[c]) if isinstance(row[c], float) else str(row[c]))
               for c in SCORE_COLUMNS]
+    with open(path, "rb") as f:  # a line cut off by a crash: end it, so it stays one bad line, ignored
+        f.seek(-1, os.SEEK_END)
+        cut = f.read(1) != b"\n"
     fd = os.open(path, os.O_WRONLY | os.O_APPEND)
     try:
-        os.write(fd, (",".join(values) + "\n").encode())
+        os.write(fd, (("\n" if cut else "") + ",".join(values) + "\n").encode())
         os.fsync(fd)
     finally:
         os.close(fd)
 
 
 def measure(config: FidelityConfig, designs: pd.DataFrame) -> int:
-    """Score every (task, rung, design) not yet in the pieces, in config order; the number scored now."""
+    """Score every (task, rung, design) not yet in the pieces; the number scored now.
+
+    Order: task, then rung (config order), then design by `MEASURE_ORDER` of kinds: the designs the
+    ladder must rank correctly (the strong ones) are measured first, so a partial run is most useful.
+    """
     trees = {row.design_id: derive(parse_rules(row.rules)).tree for row in designs.itertuples()}
+    designs = designs.sort_values("kind", key=lambda kind: kind.map(MEASURE_ORDER.index), kind="stable")
     jobs = []
     for task in config.tasks:
         for rung in config.rungs:
