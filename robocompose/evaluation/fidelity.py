@@ -31,10 +31,11 @@ import pandas as pd
 from tqdm import tqdm
 
 from robocompose.control.mppi import MPPIConfig
-from robocompose.evaluation.evaluate import OK, EvaluationConfig, evaluate, objective
+from robocompose.evaluation.evaluate import EVALUATOR_VERSION, OK, EvaluationConfig, evaluate, objective
 from robocompose.evaluation.references import REFERENCE_DESIGNS
 from robocompose.grammar.derivation import derive, parse_rules
 from robocompose.grammar.tree import DesignTree
+from robocompose.io import atomic_write_text
 from robocompose.tasks.terrains import get_task
 
 THESIS = "thesis"
@@ -52,9 +53,10 @@ LADDER: dict[str, tuple[int, int, int, int]] = {
 }
 SCREEN = MPPIConfig(samples=8, first_samples=32, horizon=8, episode=24)  # the quick search's cheap setting
 DESIGN_COLUMNS = ("name", "kind", "design_id", "rules", "screen_reward")
-SCORE_COLUMNS = ("task", "rung", "name", "design_id", "reward", "status", "objective", "sim_steps", "seconds")
+SCORE_COLUMNS = ("task", "rung", "name", "design_id", "reward", "status", "objective", "sim_steps", "seconds",
+                 "evaluator")  # evaluator: EVALUATOR_VERSION of the simulation that produced the row
 MEASURE_ORDER = ("reference", "screened", "random")  # kinds of design, measured in this order
-DESIGNS_FILE = "designs.csv"
+DESIGNS_FILE, SUMMARY_FILE = "designs.csv", "summary.csv"
 SCORES_DIR = "scores"
 
 
@@ -130,12 +132,11 @@ def build_design_set(config: FidelityConfig) -> pd.DataFrame:
 
 
 def write_design_set(table: pd.DataFrame, directory: str | Path) -> Path:
-    path = Path(directory) / DESIGNS_FILE
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".tmp")
-    table.to_csv(tmp, index=False, float_format="%.6f")
-    os.replace(tmp, path)
-    return path
+    return atomic_write_text(Path(directory) / DESIGNS_FILE, table.to_csv(index=False, float_format="%.6f"))
+
+
+def write_summary(summary: pd.DataFrame, directory: str | Path) -> Path:
+    return atomic_write_text(Path(directory) / SUMMARY_FILE, summary.to_csv(index=False, float_format="%.6g"))
 
 
 def read_design_set(directory: str | Path) -> pd.DataFrame:
@@ -155,7 +156,11 @@ def piece_path(directory: str | Path, task: str, rung: str) -> Path:
 
 
 def read_piece(path: Path) -> pd.DataFrame:
-    """The complete rows of a score piece (a line cut off by a crash mid-write is ignored)."""
+    """The complete rows of a score piece measured by the current simulation (`EVALUATOR_VERSION`).
+
+    A line cut off by a crash mid-write is ignored; rows of another evaluator version are left out (a
+    changed simulation is re-measured, never mixed in).
+    """
     if not path.exists():
         return pd.DataFrame(columns=list(SCORE_COLUMNS))
     text = path.read_text(encoding="utf-8")
@@ -168,7 +173,7 @@ def read_piece(path: Path) -> pd.DataFrame:
     for column in ("reward", "objective", "seconds"):  # an empty reward is a result without one (not ok)
         table[column] = pd.to_numeric(table[column].replace("", np.nan))
     table["sim_steps"] = table["sim_steps"].astype(int)
-    return table
+    return table[table["evaluator"] == EVALUATOR_VERSION].reset_index(drop=True)
 
 
 def _append(path: Path, row: dict) -> None:
@@ -210,7 +215,7 @@ def measure(config: FidelityConfig, designs: pd.DataFrame) -> int:
         row = evaluate(trees[design_id], task, evaluation, config.seed)
         _append(piece_path(config.directory, task, rung),
                 {"task": task, "rung": rung, "name": name, "design_id": design_id, **row,
-                 "objective": objective(row)})
+                 "objective": objective(row), "evaluator": EVALUATOR_VERSION})
     return len(jobs)
 
 
