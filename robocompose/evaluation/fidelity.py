@@ -198,18 +198,16 @@ def _append(path: Path, row: dict) -> None:
 def measure(config: FidelityConfig, designs: pd.DataFrame) -> int:
     """Score every (task, rung, design) not yet in the pieces; the number scored now.
 
-    Order: task, then rung (config order), then design by `MEASURE_ORDER` of kinds: the designs the
-    ladder must rank correctly (the strong ones) are measured first, so a partial run is most useful.
+    Order: task, then design, then rung (config order). Designs go by `MEASURE_ORDER` of their kinds: the
+    strong designs that the ladder must rank correctly come first. Design-major order makes a partial run
+    useful: every design measured so far has a score at every rung, so a Spearman over them exists.
     """
     trees = {row.design_id: derive(parse_rules(row.rules)).tree for row in designs.itertuples()}
     designs = designs.sort_values("kind", key=lambda kind: kind.map(MEASURE_ORDER.index), kind="stable")
-    jobs = []
-    for task in config.tasks:
-        for rung in config.rungs:
-            path = piece_path(config.directory, task, rung)
-            done = set(read_piece(path)["design_id"])
-            jobs += [(task, rung, row.name, row.design_id) for row in designs.itertuples()
-                     if row.design_id not in done]
+    done = {(task, rung): set(read_piece(piece_path(config.directory, task, rung))["design_id"])
+            for task in config.tasks for rung in config.rungs}
+    jobs = [(task, rung, row.name, row.design_id) for task in config.tasks for row in designs.itertuples()
+            for rung in config.rungs if row.design_id not in done[task, rung]]
     for task, rung, name, design_id in tqdm(jobs, desc="fidelity", unit="eval"):
         evaluation = EvaluationConfig(mppi=rung_config(rung), seed=config.seed)
         row = evaluate(trees[design_id], task, evaluation, config.seed)
