@@ -9,8 +9,8 @@ teams:
   chips: {n_synthetic: 4, seed: 1}
   decompose: {n_regions: 3, test_fraction: 0.5}
   coverage: {iterations: 2, n_observations: 4}
-  experiments: {populations: [20, 50], generations: 1, nsga2_chips: 1, nsga2_seeds: [0],
-                budgets: [15, 30, 45], baseline_chips: 1, baseline_seeds: [0], workers: 1}
+  experiments: {populations: [20, 50], generations: 1, test_chips: 1, seeds: [0],
+                budgets: [15, 30, 45], workers: 1}
 """
 
 
