@@ -1,6 +1,7 @@
 """Training: schedules, a tiny model that learns, checkpoints, and resuming after a kill."""
 
 import json
+import math
 import os
 import signal
 import subprocess
@@ -16,6 +17,7 @@ import torch
 from robocompose.io import read_mcap, write_table
 from robocompose.latent.model import VAEConfig
 from robocompose.latent.train import (
+    LOG_FIELDS,
     TrainConfig,
     batch_indices,
     beta_at,
@@ -26,6 +28,7 @@ from robocompose.latent.train import (
     save_model,
     split,
     train,
+    write_logs,
 )
 
 TINY = VAEConfig(hidden=16, latent=4, predictor_hidden=8, max_nodes=30)
@@ -157,3 +160,31 @@ def test_raising_steps_extends_a_finished_run(tmp_path, write_designs):
     assert all(torch.equal(extended[k], straight[k]) for k in straight)
     changed = TrainConfig(**{**long.__dict__, "lr": 0.002})  # a real change starts afresh
     assert not all(torch.equal(run("extended", changed)[k], straight[k]) for k in straight)
+
+
+def test_same_ids_with_changed_contacts_or_changed_code_retrain(tmp_path, write_designs, monkeypatch):
+    import robocompose.latent.train as train_module
+
+    designs = load_designs(write_designs(tmp_path / "d.parquet", 12, seed=4), "grammar", TINY.max_nodes)
+    config = TrainConfig(steps=20, batch_size=8, holdout=0.25, log_every=10, eval_every=20, checkpoint_every=20,
+                         threads=1)
+
+    def run(data):
+        model, _, _ = train(TINY, config, data, tmp_path / "ck.pt", tmp_path / "log.csv", tmp_path / "log.mcap")
+        return {k: v.clone() for k, v in model.state_dict().items()}
+
+    first = run(designs)
+    assert all(torch.equal(run(designs)[k], first[k]) for k in first)  # an unchanged setup resumes: same weights
+    moved = type(designs)(designs.ids, designs.trees, designs.replays, designs.contacts + 0.5)  # same ids
+    assert not all(torch.equal(run(moved)[k], first[k]) for k in first)
+    run(designs)  # back to the first checkpoint's data
+    key = train_module.run_key(TINY, config, designs, designs)
+    monkeypatch.setattr(train_module, "code_digest", lambda *modules: "changed-source")
+    assert train_module.run_key(TINY, config, designs, designs) != key
+
+
+def test_training_log_validates_against_its_schema(tmp_path, valid_foxglove_log):
+    rows = [{field: 0.5 for field in LOG_FIELDS} | {"step": step, "heldout_reconstruction": math.nan}
+            for step in (50, 100)]
+    write_logs(rows, tmp_path / "log.csv", tmp_path / "log.mcap")
+    assert valid_foxglove_log(tmp_path / "log.mcap") == 2
