@@ -75,10 +75,11 @@ SCHEMAS: dict[str, pa.Schema] = {
     "teams_fronts": pa.schema([_required(n, t) for n, t in [
         ("chip_id", pa.string()), ("population", pa.int64()), ("seed", pa.int64()),
         ("coverage_cost", pa.float64()), ("deployment_cost", pa.int64()), ("counts", pa.list_(pa.int16()))]]),
-    # Coverage baselines of Table 5.5: method x chip x deployment budget x seed.
+    # Coverage baselines of Table 5.5: method x chip x deployment budget x seed; empty_regions: regions
+    # without robots (decomposed) or that no observation falls in (no decomposition).
     "teams_coverage": pa.schema([_required(n, t) for n, t in [
         ("method", pa.string()), ("chip_id", pa.string()), ("budget", pa.int64()), ("seed", pa.int64()),
-        ("coverage_cost", pa.float64()), ("deployment_cost", pa.int64())]]),
+        ("coverage_cost", pa.float64()), ("deployment_cost", pa.int64()), ("empty_regions", pa.int64())]]),
     # Observations of the robots of one example allocation (for the trajectory picture).
     "teams_trajectories": pa.schema([_required(n, t) for n, t in [
         ("chip_id", pa.string()), ("robot", pa.int64()), ("species", pa.int16()), ("region", pa.int16()),

@@ -39,8 +39,12 @@ def random_allocation(rng: np.random.Generator, budget: int, n_regions: int, n_s
     return counts
 
 
-def no_decomposition_costs(decomposed: ChipCoverage, species_counts: np.ndarray, seed: int) -> np.ndarray:
-    """(B,) coverage costs of (B, O) teams planning jointly over the whole chip, scored per region."""
+def no_decomposition_costs(decomposed: ChipCoverage, species_counts: np.ndarray, seed: int
+                           ) -> tuple[np.ndarray, np.ndarray]:
+    """Teams of (B, O) robots planning jointly over the whole chip, scored per region.
+
+    Returns ((B,) coverage costs, (B,) number of regions none of the team's observations fall in).
+    """
     regions = decomposed.regions
     whole_chip = ChipCoverage(decomposed.terrain.numpy(), np.zeros_like(regions), 1, decomposed.config)
     _, robots, observations = whole_chip.evaluate(species_counts[:, None, :], seed)  # (N, T, 2)
@@ -55,4 +59,6 @@ def no_decomposition_costs(decomposed: ChipCoverage, species_counts: np.ndarray,
     team_of_point = allocation_of_point * n_regions + region_of_point  # (N*T,)
     metrics = ergodic_cost(points[:, None, :], weights[:, None], team_of_point,
                            decomposed.phi.repeat(len(species_counts), 1, 1))  # (B*K,)
-    return decomposed.coverage_cost(metrics)
+    visited = torch.zeros(len(species_counts) * n_regions, dtype=torch.bool)
+    visited[team_of_point] = True
+    return decomposed.coverage_cost(metrics), (~visited).reshape(-1, n_regions).sum(1).numpy()

@@ -15,8 +15,8 @@ part: the class of the pixel under them) and take `lloyd_iterations` Lloyd steps
 (each centre moves to the mean of its pixels: their mean position and their terrain shares), which is
 k-means on the pixel features (SLIC superpixels with a categorical colour). A centre left without
 pixels restarts at the worst-served pixel (farthest from its own centre), which it then owns, so
-every region keeps pixels. With w = 0 this is the random-seed
-Voronoi with Lloyd relaxation of round 1 (at full resolution).
+every region keeps pixels. The steps run on a 100 x 100 grid of the chip's pixels. With w = 0 this
+is the random-seed Voronoi with Lloyd relaxation of round 1.
 
 A chip's regions are fixed by its centres and w, so the regions table stores those and
 `Decomposition.raster` recomputes the raster exactly. Region purity (the share of a region's pixels
@@ -87,8 +87,17 @@ class Decomposition:
 
 
 def decompose(terrain: np.ndarray, rng: np.random.Generator, n_regions: int, terrain_weight: float,
-              lloyd_iterations: int) -> Decomposition:
-    """Regions of an (H, W) terrain map: random centres relaxed by Lloyd steps in the joint space."""
+              lloyd_iterations: int, resolution: int = 100) -> Decomposition:
+    """Regions of an (H, W) terrain map: random centres relaxed by Lloyd steps in the joint space.
+
+    The steps run on the pixels nearest to a resolution x resolution grid of centres (for a 300 px chip
+    every third pixel, whose centres are exactly the grid's), the raster is then full size.
+    """
+    rows = ((np.arange(min(resolution, terrain.shape[0])) + 0.5) * terrain.shape[0]
+            / min(resolution, terrain.shape[0])).astype(int)
+    cols = ((np.arange(min(resolution, terrain.shape[1])) + 0.5) * terrain.shape[1]
+            / min(resolution, terrain.shape[1])).astype(int)
+    terrain = terrain[np.ix_(rows, cols)]  # (h, w) the grid's pixels
     height, width = terrain.shape
     flat_terrain = terrain.ravel().astype(np.int64)
     onehot = np.eye(N_TERRAINS)[flat_terrain]  # (P, 4)

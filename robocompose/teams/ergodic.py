@@ -207,20 +207,23 @@ class ChipCoverage:
     def deploy(self, counts: np.ndarray, seed: int) -> Robots:
         """Robots of (B, K, O) allocations; allocation b's team in region i is team b * K + i.
 
-        Each allocation draws its robots' deployment points and initial controls from its own
-        Generator((seed, allocation id)), so its result does not depend on the rest of the batch.
+        The team in region i with species counts n_i draws its robots' deployment points and initial
+        controls from its own Generator((seed, i, *n_i)), so a team's plan and cost depend only on its
+        region and its counts: an allocation's cost is a sum of team costs, and neither depends on the
+        rest of the batch.
         """
         species, team, start, controls = [], [], [], []
         for b, allocation in enumerate(counts):
-            rng = np.random.default_rng([seed, int(allocation_id(allocation), 16)])
-            for i, j in np.argwhere(allocation > 0):
-                n = int(allocation[i, j])
-                pixels = self.deploy_pixels[i][j][rng.integers(len(self.deploy_pixels[i][j]), size=n)]
-                start.append(self.centres[pixels] + (rng.random((n, 2)) - 0.5) * self.pixel_size)
-                controls.append(rng.standard_normal((n, self.config.n_observations - 1, 2))
-                                * self.config.initial_control_std)
-                species.append(np.full(n, j))
-                team.append(np.full(n, b * self.n_regions + i))
+            for i in np.flatnonzero(allocation.sum(1)):
+                rng = np.random.default_rng([seed, int(i), *(int(n) for n in allocation[i])])
+                for j in np.flatnonzero(allocation[i]):
+                    n = int(allocation[i, j])
+                    pixels = self.deploy_pixels[i][j][rng.integers(len(self.deploy_pixels[i][j]), size=n)]
+                    start.append(self.centres[pixels] + (rng.random((n, 2)) - 0.5) * self.pixel_size)
+                    controls.append(rng.standard_normal((n, self.config.n_observations - 1, 2))
+                                    * self.config.initial_control_std)
+                    species.append(np.full(n, j))
+                    team.append(np.full(n, b * self.n_regions + i))
         if not species:
             empty = torch.zeros(0, dtype=torch.int64)
             return Robots(empty, empty, torch.zeros(0, 2), torch.zeros(0, self.config.n_observations - 1, 2))

@@ -97,12 +97,13 @@ def _chip_baselines(task: tuple[Chip, Decomposition, CoverageConfig, Experiments
                                 for b in config.budgets])  # (n_budgets, K, O)
         teams = np.stack([random_species_counts(rng, b, n_species, bank) for b in config.budgets])
         random_costs, _, _ = problem.evaluate(allocations, seed)
-        joint_costs = no_decomposition_costs(problem, teams, seed)
-        for budget, random_cost, joint_cost, allocation, team in zip(
-                config.budgets, random_costs, joint_costs, allocations, teams, strict=True):
+        joint_costs, joint_unvisited = no_decomposition_costs(problem, teams, seed)
+        for budget, random_cost, joint_cost, unvisited, allocation, team in zip(
+                config.budgets, random_costs, joint_costs, joint_unvisited, allocations, teams, strict=True):
             rows.append(("dec_random_allocation", chip.chip_id, budget, seed, random_cost,
-                         int(deployment_cost(allocation))))
-            rows.append(("no_decomposition", chip.chip_id, budget, seed, joint_cost, int(team.sum())))
+                         int(deployment_cost(allocation)), int((allocation.sum(1) == 0).sum())))
+            rows.append(("no_decomposition", chip.chip_id, budget, seed, joint_cost, int(team.sum()),
+                         int(unvisited)))
     return rows
 
 
@@ -114,7 +115,7 @@ def coverage_baselines(chips: list[tuple[Chip, Decomposition]], coverage: Covera
     per_chip = (executor or Executor(workers=1)).map(_chip_baselines, tasks)
     rows = [row for chip_rows in per_chip for row in chip_rows]
     return pd.DataFrame(rows, columns=["method", "chip_id", "budget", "seed", "coverage_cost",
-                                       "deployment_cost"])
+                                       "deployment_cost", "empty_regions"])
 
 
 def example_allocation(fronts: pd.DataFrame, chip_id: str, n_regions: int,

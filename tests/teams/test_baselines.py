@@ -20,8 +20,8 @@ def test_no_decomposition_scores_observations_in_the_region_they_lie_in():
     terrain = np.full((30, 30), 2)
     coverage = ChipCoverage(terrain, HALVES, 2, TINY)
     species_counts = np.array([[2, 1, 0], [0, 3, 0]])
-    costs = no_decomposition_costs(coverage, species_counts, seed=0)
-    assert costs.shape == (2,) and (costs > 0).all()
+    costs, unvisited = no_decomposition_costs(coverage, species_counts, seed=0)
+    assert costs.shape == (2,) and (costs > 0).all() and unvisited.shape == (2,)
     # recompute the first allocation by hand from the same joint plan
     whole = ChipCoverage(terrain, np.zeros_like(HALVES), 1, TINY)
     _, robots, observations = whole.evaluate(species_counts[:1, None, :], seed=0)
@@ -36,6 +36,7 @@ def test_no_decomposition_with_all_robots_in_one_half_leaves_the_other_costly():
     terrain = np.full((30, 30), 2)
     terrain[:, 15:] = 0  # right half water: ground robots cannot start or go there
     coverage = ChipCoverage(terrain, HALVES, 2, TINY)
-    costs = no_decomposition_costs(coverage, np.array([[3, 0, 0]]), seed=0)
+    costs, unvisited = no_decomposition_costs(coverage, np.array([[3, 0, 0]]), seed=0)
     never_visited = 0.5 * (coverage.phi[1] ** 2 * frequencies(10)[1]).sum() / coverage.glance[1]
     assert costs[0] > never_visited.item() > 1.0  # region 1 costs what an empty team does
+    assert unvisited.tolist() == [1]

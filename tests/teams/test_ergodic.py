@@ -102,6 +102,16 @@ def test_batched_evaluation_equals_one_allocation_at_a_time():
     assert batched[1] > empty_right.item() > 1.0  # the right region got no robot: a_1 E_empty / G_1
 
 
+def test_an_allocation_costs_the_sum_of_its_teams_costs():
+    terrain = np.random.default_rng(1).integers(0, 4, (40, 40))
+    regions = np.repeat(np.arange(2), 20)[None, :].repeat(40, 0)
+    coverage = ChipCoverage(terrain, regions, 2, SMALL)
+    both, first, second, none = np.array([[[1, 2, 0], [0, 1, 1]], [[1, 2, 0], [0, 0, 0]],
+                                          [[0, 0, 0], [0, 1, 1]], [[0, 0, 0], [0, 0, 0]]])
+    costs, _, _ = coverage.evaluate(np.stack([both, first, second, none]), seed=2)
+    assert costs[0] == pytest.approx(costs[1] + costs[2] - costs[3], rel=1e-9)
+
+
 def test_glance_cost_is_the_expected_metric_of_random_observations():
     """G = E[metric of one uniform observation]; N independent ones cost G / N on average, so the
     normalised cost of N random glances per region is 1 / N."""
