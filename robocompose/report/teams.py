@@ -94,7 +94,8 @@ def _purity_table(purity: pd.DataFrame, weight: float) -> str:
     wins = int((paired["terrain"] > paired["voronoi"]).sum())
     return "\n".join([
         "| decomposition | mean region purity (share of the dominant terrain) |", "|---|---|",
-        f"| terrain-driven (weight {weight:g}) | {means.loc['terrain', 'mean']:.3f} ± {means.loc['terrain', 'std']:.3f} |",
+        f"| terrain-driven (weight {weight:g}) | {means.loc['terrain', 'mean']:.3f} ± "
+        f"{means.loc['terrain', 'std']:.3f} |",
         f"| random-seed Voronoi, same seeds and Lloyd steps (weight 0) | {means.loc['voronoi', 'mean']:.3f} ± "
         f"{means.loc['voronoi', 'std']:.3f} |",
         "", f"Over all {len(paired)} chips; the terrain-driven regions are purer on {wins} of them. Regions may "
