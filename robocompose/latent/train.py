@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,6 +20,7 @@ import torch
 
 from robocompose.grammar.tree import DesignTree
 from robocompose.io import McapWriter, atomic_path, atomic_write_text, read_table
+from robocompose.io.provenance import code_digest, settings_digest
 from robocompose.latent.batch import collate
 from robocompose.latent.constraints import Replay, replay
 from robocompose.latent.model import GraphVAE, VAEConfig
@@ -75,6 +75,15 @@ class Designs:
     def join(self, other: Designs) -> Designs:
         return Designs(self.ids + other.ids, self.trees + other.trees, self.replays + other.replays,
                        np.concatenate([self.contacts, other.contacts]))
+
+    def digest(self) -> str:
+        """SHA-256 (16 hex digits) of the content: each design's tree as given (order matters to the decoder
+        walk), its contact vector, and their order."""
+        digest = hashlib.sha256()
+        for design_id, tree in zip(self.ids, self.trees, strict=True):
+            digest.update(f"{design_id}:{tree.parents}:{tree.tokens};".encode())
+        digest.update(np.ascontiguousarray(self.contacts, dtype=np.float32).tobytes())
+        return digest.hexdigest()[:16]
 
     def subset(self, idx: np.ndarray) -> Designs:
         return Designs([self.ids[i] for i in idx], [self.trees[i] for i in idx], [self.replays[i] for i in idx],
@@ -139,11 +148,12 @@ BOOKKEEPING = ("steps", "log_every", "eval_every", "eval_designs", "checkpoint_e
 
 
 def run_key(model_config: VAEConfig, config: TrainConfig, designs: Designs, train_set: Designs) -> str:
-    """What a checkpoint must match to be resumed: the model, the training settings except bookkeeping, the data."""
+    """What a checkpoint must match to be resumed: the model, the training settings except bookkeeping, the
+    data's content (trees and contact vectors, not only their ids) and the source of the training code."""
     unused = ("pred_weight",) if not model_config.predictor else ()
     settings = {k: v for k, v in dataclasses.asdict(config).items() if k not in BOOKKEEPING + unused}
-    text = json.dumps([dataclasses.asdict(model_config), settings, designs.ids, train_set.ids], sort_keys=True)
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
+    return settings_digest([dataclasses.asdict(model_config), settings, designs.digest(), train_set.digest(),
+                            code_digest("robocompose.latent.train")])
 
 
 def save_model(model: GraphVAE, path: str | Path) -> Path:

@@ -157,3 +157,24 @@ def test_raising_steps_extends_a_finished_run(tmp_path, write_designs):
     assert all(torch.equal(extended[k], straight[k]) for k in straight)
     changed = TrainConfig(**{**long.__dict__, "lr": 0.002})  # a real change starts afresh
     assert not all(torch.equal(run("extended", changed)[k], straight[k]) for k in straight)
+
+
+def test_same_ids_with_changed_contacts_or_changed_code_retrain(tmp_path, write_designs, monkeypatch):
+    import robocompose.latent.train as train_module
+
+    designs = load_designs(write_designs(tmp_path / "d.parquet", 12, seed=4), "grammar", TINY.max_nodes)
+    config = TrainConfig(steps=20, batch_size=8, holdout=0.25, log_every=10, eval_every=20, checkpoint_every=20,
+                         threads=1)
+
+    def run(data):
+        model, _, _ = train(TINY, config, data, tmp_path / "ck.pt", tmp_path / "log.csv", tmp_path / "log.mcap")
+        return {k: v.clone() for k, v in model.state_dict().items()}
+
+    first = run(designs)
+    assert all(torch.equal(run(designs)[k], first[k]) for k in first)  # an unchanged setup resumes: same weights
+    moved = type(designs)(designs.ids, designs.trees, designs.replays, designs.contacts + 0.5)  # same ids
+    assert not all(torch.equal(run(moved)[k], first[k]) for k in first)
+    run(designs)  # back to the first checkpoint's data
+    key = train_module.run_key(TINY, config, designs, designs)
+    monkeypatch.setattr(train_module, "code_digest", lambda *modules: "changed-source")
+    assert train_module.run_key(TINY, config, designs, designs) != key
