@@ -1,6 +1,7 @@
 """Training: schedules, a tiny model that learns, checkpoints, and resuming after a kill."""
 
 import json
+import math
 import os
 import signal
 import subprocess
@@ -16,6 +17,7 @@ import torch
 from robocompose.io import read_mcap, write_table
 from robocompose.latent.model import VAEConfig
 from robocompose.latent.train import (
+    LOG_FIELDS,
     TrainConfig,
     batch_indices,
     beta_at,
@@ -29,6 +31,7 @@ from robocompose.latent.train import (
     split,
     train,
     training_log,
+    write_logs,
 )
 
 TINY = VAEConfig(hidden=16, latent=4, predictor_hidden=8, max_nodes=30)
@@ -212,3 +215,11 @@ def test_same_ids_with_changed_contacts_or_changed_code_retrain(tmp_path, write_
     key = train_module.run_key(TINY, config, designs, designs)
     monkeypatch.setattr(train_module, "code_digest", lambda *modules: "changed-source")
     assert train_module.run_key(TINY, config, designs, designs) != key
+
+
+def test_training_log_validates_against_its_schema(tmp_path, valid_foxglove_log):
+    rows = [{field: 0.5 for field in LOG_FIELDS} | {"step": step, "heldout_reconstruction": math.nan}
+            for step in (50, 100)]
+    with training_log(tmp_path / "live") as live:
+        write_logs(rows, live, tmp_path / "log.mcap")
+    assert valid_foxglove_log(tmp_path / "log.mcap") == 2
