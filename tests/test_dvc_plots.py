@@ -7,8 +7,18 @@ import sys
 from robocompose.io.provenance import ROOT
 from robocompose.latent.train import LOG_FIELDS, log_row, training_log
 
+# Waits until vega-embed has drawn every chart, then tells how many plot divs hold a drawn chart.
+CHARTS_DRAWN = """new Promise(resolve => {
+  const divs = () => Array.from(document.querySelectorAll('body > div[id]'));  // vega-embed fills them
+  const drawn = () => divs().filter(d => d.querySelector('canvas, svg'));
+  const wait = (n) => drawn().length === divs().length || n > 200
+    ? resolve(JSON.stringify({divs: divs().length, drawn: drawn().length, vega: typeof vegaEmbed}))
+    : setTimeout(() => wait(n + 1), 50);
+  wait(0);
+})"""
 
-def test_dvc_plots_show_renders_the_vae_curves_offline(tmp_path, monkeypatch):
+
+def test_dvc_plots_show_renders_the_vae_curves_offline(tmp_path, monkeypatch, in_browser):
     from dvc.repo import Repo
 
     shutil.copy(ROOT / "dvc.yaml", tmp_path / "dvc.yaml")
@@ -28,3 +38,5 @@ def test_dvc_plots_show_renders_the_vae_curves_offline(tmp_path, monkeypatch):
     assert "vega-embed 6.18.2" in page and page.count("vegaEmbed(") >= 2
     assert "Graph VAE, held-out exact reconstruction" in page and '"reconstruction": "0.2"' in page
     assert "vegaEmbed('#reports_training_vae_nogram_plots_metrics_heldout_reconstruction_tsv'" in page
+    shown = in_browser(tmp_path / "out" / "index.html", CHARTS_DRAWN)  # no network: only the inlined vega
+    assert shown["vega"] == "function" and shown["divs"] >= 2 and shown["drawn"] == shown["divs"], shown
