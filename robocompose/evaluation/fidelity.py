@@ -96,11 +96,11 @@ class FidelityConfig:
 
 def dataset_candidates(seed: int):
     """(rules, tree) of the enumeration's valid candidates of `seed`, in candidate order, each design once."""
-    from robocompose.grammar.enumerate import MIN_LINKS, candidate
+    from robocompose.dataset.enumerate import MIN_LINKS, candidate
 
     seen, k = set(), 0
     while True:
-        reason, row = candidate(seed, k, MIN_LINKS, 40)
+        reason, row, _ = candidate(seed, k, MIN_LINKS, 40)
         k += 1
         if reason or row["design_id"] in seen:
             continue
