@@ -8,7 +8,7 @@ import json
 import sys
 
 COMMAND_MODULES = ("robocompose.grammar.cli", "robocompose.teams.cli", "robocompose.evaluation.cli",
-                   "robocompose.modular.cli", "robocompose.latent.cli")
+                   "robocompose.modular.cli", "robocompose.latent.cli", "robocompose.glso.cli")
 
 
 def _profile(args: argparse.Namespace) -> int:

@@ -1,0 +1,5 @@
+"""The GLSO experiment on grammar designs (thesis 8): latent BO on the three VAEs against random search, a graph
+GA, MCTS and GHS, all on one objective and one budget; runs as step tables (`runs.py`), `robocompose glso`."""
+
+LATENT_METHODS = {"glso": "full", "glso_nopred": "nopred", "glso_nogram": "nogram"}  # method -> VAE variant
+METHODS = (*LATENT_METHODS, "random", "ga", "mcts", "ghs")
