@@ -273,6 +273,25 @@ def summarise(steps: pd.DataFrame) -> dict:
 
 
 def best_designs(steps: pd.DataFrame) -> pd.DataFrame:
-    """The best-scoring row of each task (first found wins ties) among simulated designs."""
+    """The best-scoring simulated row of each task (the first found wins ties)."""
     ok = steps[steps["status"] == "ok"]
     return ok.loc[ok.groupby("task", sort=False)["score"].idxmax()]
+
+
+def record_best(steps: pd.DataFrame, evaluation: EvaluationConfig, out_dir: Path,
+                executor: Executor | None = None, gif_size: tuple[int, int] = (320, 240)) -> pd.DataFrame:
+    """Replay each task's best design into out_dir/<task>.mcap and .gif; the rows replayed."""
+    from robocompose.evaluation.evaluate import EvalJob
+    from robocompose.evaluation.references import record_rollout
+
+    best = best_designs(steps)
+    jobs = [(EvalJob(DesignTree(tuple(row.parents), tuple(row.tokens)), row.task, evaluation, evaluation.seed),
+             gif_size) for row in best.itertuples()]
+    for row, (replay, recorder) in zip(best.itertuples(), (executor or Executor(workers=1)).map(record_rollout, jobs),
+                                       strict=True):
+        if replay["reward"] != row.reward:
+            raise RuntimeError(f"glso: the best design of {row.task} replayed to {replay['reward']}, its run scored "
+                               f"{row.reward} (the simulation is not deterministic here)")
+        recorder.write_mcap(out_dir / f"{row.task}.mcap")
+        recorder.write_gif(out_dir / f"{row.task}.gif")
+    return best

@@ -14,6 +14,7 @@ from robocompose.io import read_table
 from tests.glso.conftest import fake_objective
 
 EVALUATION = EvaluationConfig()
+TINY = EvaluationConfig(mppi={"samples": 2, "first_samples": 2, "horizon": 2, "episode": 2}, cache="")
 
 
 @pytest.mark.parametrize("method", METHODS)
@@ -44,10 +45,10 @@ def test_latent_methods_record_their_latent_points_and_grammar_methods_their_rul
 
 
 def test_a_design_that_cannot_be_simulated_costs_a_call_and_scores_the_invalid_score(small_config):
-    steps = pd.concat([run_search(RunSpec("flat", m, 0), dataclasses.replace(small_config, budget=12), EVALUATION,
-                                  objective_fn=fake_objective) for m in ("glso", "glso_nogram")])
+    steps = run_search(RunSpec("flat", "random", 0), dataclasses.replace(small_config, budget=12), EVALUATION,
+                       objective_fn=fake_objective)  # a quarter of the designs "self-collide"
     invalid = steps[steps["status"] == "self_collision"]
-    assert len(invalid) > 0
+    assert len(steps) == 12 and len(invalid) > 0
     assert (invalid["score"] == INVALID_SCORE["self_collision"]).all() and invalid["reward"].isna().all()
 
 
@@ -62,7 +63,7 @@ def test_objective_goes_through_the_real_evaluator_and_its_cache(tmp_path):
     from robocompose.grammar.derivation import derive, parse_rules
     from tests.conftest import FLAT_REFERENCE
 
-    evaluation = EvaluationConfig(mppi={"samples": 2, "first_samples": 2, "horizon": 2, "episode": 2})
+    evaluation = TINY
     cache = EvaluationCache(tmp_path / "cache.parquet")
     fn = Objective("flat", evaluation, cache)
     tree = derive(parse_rules(FLAT_REFERENCE)).tree
@@ -88,3 +89,20 @@ def test_summary_takes_the_final_best_over_seeds():
 def test_bad_config_names_the_field(values, message):
     with pytest.raises((ValueError, KeyError), match=message):
         GLSOConfig(**values)
+
+
+def test_run_all_fans_the_runs_out_resumes_them_and_replays_each_tasks_best(tiny_models, tmp_path):
+    from robocompose.evaluation.executor import Executor
+    from robocompose.glso.runs import record_best, run_all
+
+    config = GLSOConfig(tasks=["flat"], methods=["random", "mcts"], seeds=[0], budget=2, models=tiny_models)
+    evaluation = dataclasses.replace(TINY, cache=str(tmp_path / "cache.parquet"))
+    with Executor(workers=2) as executor:
+        steps = run_all(config, evaluation, tmp_path / "glso", executor)
+        assert sorted(steps.groupby(["method", "seed"]).size().items()) == [(("mcts", 0), 2), (("random", 0), 2)]
+        assert set(steps["status"]) == {"ok"} and steps["reward"].notna().all()
+        again = run_all(config, evaluation, tmp_path / "glso", executor)  # every run answered by its checkpoint
+        assert again.drop(columns="seconds").equals(steps.drop(columns="seconds"))
+        best = record_best(steps, evaluation, tmp_path / "rollouts", executor)
+    assert float(best["score"].iloc[0]) == steps["score"].max()
+    assert (tmp_path / "rollouts" / "flat.mcap").stat().st_size > 0 and (tmp_path / "rollouts" / "flat.gif").exists()
