@@ -3,3 +3,5 @@ GA, MCTS and GHS, all on one objective and one budget; runs as step tables (`run
 
 LATENT_METHODS = {"glso": "full", "glso_nopred": "nopred", "glso_nogram": "nogram"}  # method -> VAE variant
 METHODS = (*LATENT_METHODS, "random", "ga", "mcts", "ghs")
+FIG_8_1 = ("random", "ga", "mcts", "ghs", "glso")  # the thesis's comparison with baselines
+FIG_8_2 = ("glso", "glso_nopred", "glso_nogram")  # the thesis's ablations

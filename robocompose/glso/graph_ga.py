@@ -101,7 +101,7 @@ class GraphGA:
     def _next_generation(self) -> None:
         c = self.config
         ranked = sorted(range(len(self.population)), key=lambda i: -self.population[i][1])  # stable
-        keep = c.population - int(c.cull_fraction * c.population)
+        keep = c.population - max(1, int(c.cull_fraction * c.population))  # NGE's floor, at least one
         self.population = [self.population[i] for i in ranked[:keep]]
         for _ in range(c.population - keep):
             for _ in range(MAX_TRIES):

@@ -48,9 +48,6 @@ from robocompose.io.provenance import code_digest
 from robocompose.params import build_config
 from robocompose.tasks.terrains import get_task
 
-FIG_8_1 = ("random", "ga", "mcts", "ghs", "glso")  # the thesis's baselines figure
-FIG_8_2 = ("glso", "glso_nopred", "glso_nogram")  # the ablations figure
-
 
 @dataclass(frozen=True)
 class GLSOConfig:
