@@ -17,6 +17,7 @@ import pandas as pd
 
 from robocompose.grammar.enumerate import EnumerateStats, Outcome, _client, collect, design_row
 from robocompose.grammar.tree import LINK_TYPES, N_JOINT_TYPES, DesignTree, token_of
+from robocompose.io.errors import InputError
 
 MAX_NEIGHBOURS = 4
 
@@ -30,7 +31,7 @@ class NogramConfig:
 
     def __post_init__(self) -> None:
         if self.n < 1:
-            raise ValueError(f"n must be a positive integer, got {self.n}")
+            raise InputError(f"n must be a positive integer, got {self.n}")
 
 
 def random_tree(rng: np.random.Generator, n_links: int) -> DesignTree:
@@ -63,6 +64,6 @@ def enumerate_nogram(config: NogramConfig, sizes: list[int], workers: int = 0, c
                      progress: str | None = "nogram", address: str = "") -> tuple[pd.DataFrame, EnumerateStats]:
     """`config.n` distinct random-topology designs whose sizes are drawn from `sizes` (the grammar dataset's)."""
     if not sizes:
-        raise ValueError("nogram: needs the link counts of the grammar dataset, got none")
+        raise InputError("nogram: needs the link counts of the grammar dataset, got none")
     return collect(nogram_candidate, config.n, config.seed, (tuple(int(s) for s in sizes),), workers, chunk,
                    progress, address)

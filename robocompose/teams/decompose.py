@@ -16,17 +16,28 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from robocompose.io.errors import InputError, check_field
 from robocompose.teams.chips import Chip
 
 N_TERRAINS = 4
+# Regions per chip at most: the (H, W, K, 2) distance raster of a 300 x 300 chip takes 1.4 MB per region, and a
+# region of the 100 x 100 Lloyd grid keeps >= 150 cells on average.
+MAX_REGIONS = 64
 
 
 @dataclass(frozen=True)
 class DecomposeConfig:
-    n_regions: int = 8  # K, Voronoi cells per chip
+    n_regions: int = 8  # K, Voronoi cells per chip (1..MAX_REGIONS)
     lloyd_iterations: int = 10  # Lloyd relaxation steps of the seeds (0: plain random Voronoi)
-    test_fraction: float = 0.25  # share of chips put in the test split
+    test_fraction: float = 0.25  # share of chips put in the test split, strictly between 0 and 1
     seed: int = 0  # seeds the Voronoi seed points and the split
+
+    def __post_init__(self) -> None:
+        check_field(1 <= self.n_regions <= MAX_REGIONS, "n_regions", f"an integer in 1..{MAX_REGIONS}", self.n_regions)
+        check_field(self.lloyd_iterations >= 0, "lloyd_iterations", "an integer >= 0", self.lloyd_iterations)
+        check_field(0 < self.test_fraction < 1, "test_fraction", "a share strictly between 0 and 1 (test chips / "
+                    "all chips)", self.test_fraction)
+        check_field(self.seed >= 0, "seed", "an integer >= 0", self.seed)
 
 
 def pixel_centres(height: int, width: int) -> np.ndarray:
@@ -68,7 +79,8 @@ def terrain_features(terrain: np.ndarray, regions: np.ndarray, n_regions: int) -
     joint = np.bincount(regions.ravel() * N_TERRAINS + terrain.ravel(), minlength=n_regions * N_TERRAINS)
     counts = joint.reshape(n_regions, N_TERRAINS).astype(np.float64)
     if (counts.sum(1) == 0).any():
-        raise ValueError(f"a Voronoi region holds no pixel (pixels per region {counts.sum(1)})")
+        raise InputError(f"n_regions {n_regions}: a Voronoi region holds no pixel of the chip (pixels per region "
+                         f"{counts.sum(1).astype(int).tolist()}); expected fewer regions")
     return counts / counts.sum(1, keepdims=True)
 
 
