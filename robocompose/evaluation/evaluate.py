@@ -34,6 +34,7 @@ from robocompose.control.mppi import MPPIConfig, run_episode
 from robocompose.evaluation.cache import EVAL_KEY_COLUMNS, EvaluationCache
 from robocompose.evaluation.executor import Executor, evaluate_many
 from robocompose.grammar.tree import DesignTree
+from robocompose.io.errors import InputError
 from robocompose.params import build_config
 from robocompose.sim.physics import PhysicsSettings
 from robocompose.tasks.terrains import get_task
@@ -58,6 +59,8 @@ class EvaluationConfig:
     def __post_init__(self) -> None:
         if isinstance(self.mppi, dict):
             object.__setattr__(self, "mppi", build_config(MPPIConfig, self.mppi, "evaluation.mppi"))
+        if not isinstance(self.mppi, MPPIConfig):
+            raise InputError(f"mppi: expected a mapping of MPPI settings, found {self.mppi!r}")
 
     def settings_hash(self) -> str:
         """16 hex digits identifying everything that changes a result besides design, task and seed."""

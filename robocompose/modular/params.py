@@ -51,7 +51,10 @@ def build_modular_params(section: dict, where: str) -> ModularParams:
     unknown = sorted(set(section) - known)
     if unknown:
         raise InputError(f"{where}.{unknown[0]}: unknown field; expected one of {sorted(known)}")
-    evaluation = dict(section.get("eval", {}))
+    evaluation = section.get("eval", {})
+    if not isinstance(evaluation, dict):
+        raise InputError(f"{where}.eval: expected a mapping of evaluator settings, found {evaluation!r}")
+    evaluation = dict(evaluation)
     terrain = build_config(TerrainConfig, evaluation.pop("terrain", {}), f"{where}.eval.terrain")
     settings = build_config(EvalSettings, evaluation, f"{where}.eval")
     workers, address = section.get("workers", 0), section.get("address", "")
