@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from robocompose.io.arguments import non_negative_int, output_file, positive_int
+from robocompose.arguments import non_negative_int, output_file, positive_int
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -1,6 +1,6 @@
 """Artifacts: atomic writes, schema-checked parquet tables, MCAP logs with Foxglove schemas, input errors.
 
-Names load on first use (PEP 562), so `robocompose.io.errors` and `robocompose.io.arguments` (needed while
+Names load on first use (PEP 562), so `robocompose.io.errors` and `robocompose.arguments` (needed while
 the command line is parsed) do not pull in pandas, pyarrow and mcap.
 """
 

@@ -6,7 +6,7 @@ import argparse
 import json
 import math
 
-from robocompose.io.arguments import input_file, non_negative_int, positive_int
+from robocompose.arguments import input_file, non_negative_int, positive_int
 from robocompose.io.errors import InputError
 
 MODEL_FILE = input_file("a trained VAE (e.g. models/vae_full.pt)")

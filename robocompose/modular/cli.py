@@ -11,7 +11,7 @@ import argparse
 import json
 from pathlib import Path
 
-from robocompose.io.arguments import non_negative_int, output_file
+from robocompose.arguments import non_negative_int, output_file
 
 VARIANTS = ("ga20", "ga50", "crowding", "random")
 

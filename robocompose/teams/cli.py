@@ -8,7 +8,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from robocompose.io.arguments import input_file, int_at_least, non_negative_int, positive_int
+from robocompose.arguments import input_file, int_at_least, non_negative_int, positive_int
 from robocompose.io.errors import InputError
 
 
@@ -39,14 +39,15 @@ def _add_chip_arguments(parser: argparse.ArgumentParser) -> None:
     source.add_argument("--chip", type=input_file("a DroneDeploy label PNG"),
                         help="a DroneDeploy label PNG (its first 300 x 300 chip)")
     source.add_argument("--synthetic-seed", type=non_negative_int, help="use synthetic chip 0 of this generator seed")
-    parser.add_argument("--regions", type=positive_int, default=8, help="Voronoi regions K (at most 64)")
+    parser.add_argument("--regions", type=positive_int, default=8,
+                        help="regions K (terrain-driven decomposition; at most 64)")
 
 
 def _setup(args: argparse.Namespace):
     import torch
 
     from robocompose.teams.chips import chips_in_file, synthetic_chip
-    from robocompose.teams.decompose import MAX_REGIONS, DecomposeConfig, chip_seeds
+    from robocompose.teams.decompose import MAX_REGIONS, DecomposeConfig, decompose_chip
     from robocompose.teams.ergodic import CoverageConfig
     from robocompose.teams.evaluator import AllocationEvaluator, chip_coverage
 
@@ -59,8 +60,8 @@ def _setup(args: argparse.Namespace):
             raise InputError(f"--chip {args.chip}: no 300 x 300 window without IGNORE pixels")
     else:
         chip = synthetic_chip(args.synthetic_seed)
-    seeds = chip_seeds(chip.chip_id, DecomposeConfig(n_regions=args.regions))
-    coverage = chip_coverage(chip, seeds, CoverageConfig())
+    decomposition = decompose_chip(chip, DecomposeConfig(n_regions=args.regions))
+    coverage = chip_coverage(chip, decomposition, CoverageConfig())
     return AllocationEvaluator(coverage, chip.chip_id, args.seed)
 
 

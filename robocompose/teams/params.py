@@ -22,11 +22,9 @@ class ExperimentsConfig:
     generations: int = 50  # NSGA-II generations
     crossover_probability: float = 0.5  # NSGA-II single-point arithmetic crossover probability
     mutation_rate: float = 0.1  # NSGA-II per-gene uniform mutation rate
-    nsga2_chips: int = 2  # NSGA-II runs on the first nsga2_chips test chips
-    nsga2_seeds: list[int] = field(default_factory=lambda: [0])  # one run per seed and population
+    test_chips: int = 2  # every table's rows run on the first test_chips test chips (sorted by id) ...
+    seeds: list[int] = field(default_factory=lambda: [0])  # ... and each of these seeds
     budgets: list[int] = field(default_factory=lambda: [15, 30, 45])  # Table 5.5 deployment budgets
-    baseline_chips: int = 6  # coverage baselines on the first baseline_chips test chips
-    baseline_seeds: list[int] = field(default_factory=lambda: [0, 1, 2])  # random draws per chip
     workers: int = 0  # processes running the independent runs; 0 = all cores, 1 = in the stage's process
     address: str = ""  # a running Dask scheduler (e.g. tcp://10.0.0.5:8786) to fan out over; "" = local
 
@@ -36,13 +34,11 @@ class ExperimentsConfig:
         check_field(self.generations >= 1, "generations", "an integer >= 1", self.generations)
         for name in ("crossover_probability", "mutation_rate"):
             check_field(0 <= getattr(self, name) <= 1, name, "a probability in [0, 1]", getattr(self, name))
-        for name in ("nsga2_seeds", "baseline_seeds"):
-            check_field(bool(getattr(self, name)) and min(getattr(self, name)) >= 0, name,
-                        "a non-empty list of integers >= 0", getattr(self, name))
+        check_field(self.test_chips >= 1, "test_chips", "an integer >= 1", self.test_chips)
+        check_field(bool(self.seeds) and min(self.seeds) >= 0, "seeds", "a non-empty list of integers >= 0",
+                    self.seeds)
         check_field(bool(self.budgets) and min(self.budgets) >= 1, "budgets", "a non-empty list of integers >= 1",
                     self.budgets)
-        for name in ("nsga2_chips", "baseline_chips"):
-            check_field(getattr(self, name) >= 0, name, "an integer >= 0", getattr(self, name))
         check_field(self.workers >= 0, "workers", "an integer >= 0 (0 = all cores)", self.workers)
 
 

@@ -40,6 +40,8 @@ def teams_yaml(**changed: str) -> str:
     (teams_yaml(experiments="{populations: [20, x]}"), r"teams.experiments.populations: expected a list of int"),
     (teams_yaml(threads="0"), r"teams.threads: expected a positive integer"),
     (teams_yaml(chip="{}"), r"teams.chip: unknown field"),
+    (teams_yaml(experiments="{seeds: []}"), r"teams.experiments.seeds: expected a non-empty list"),
+    (teams_yaml(decompose="{terrain_weight: -1.0}"), r"teams.decompose.terrain_weight: expected a number >= 0"),
     # a sub-section the stages need is never silently replaced by defaults
     ("teams:\n  chips: {}\n  coverage: {}\n  experiments: {}\n", r"teams.decompose: missing section"),
     # value ranges name the field that is wrong

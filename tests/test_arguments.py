@@ -2,7 +2,7 @@ import argparse
 
 import pytest
 
-from robocompose.io.arguments import check_output_file, input_file, int_at_least, non_negative_int, output_file
+from robocompose.arguments import check_output_file, input_file, int_at_least, non_negative_int, output_file
 from robocompose.io.errors import InputError
 
 
