@@ -41,7 +41,7 @@ def _evaluate(args: argparse.Namespace) -> int:
         if args.gif:
             written["gif"] = str(recorder.write_gif(args.gif))
     print(json.dumps({"design_id": tree.design_id, "task": task, "seed": seed,
-                      "settings_hash": config.settings_hash(), **row, **written}))
+                      "settings_hash": config.settings_hash(task), **row, **written}))
     return 0
 
 

@@ -31,7 +31,7 @@ import pandas as pd
 from tqdm import tqdm
 
 from robocompose.control.mppi import MPPIConfig
-from robocompose.evaluation.evaluate import EVALUATOR_VERSION, OK, EvaluationConfig, evaluate, objective
+from robocompose.evaluation.evaluate import OK, EvaluationConfig, evaluate, objective, simulation_digest
 from robocompose.evaluation.references import REFERENCE_DESIGNS
 from robocompose.grammar.derivation import derive, parse_rules
 from robocompose.grammar.tree import DesignTree
@@ -54,7 +54,7 @@ LADDER: dict[str, tuple[int, int, int, int]] = {
 SCREEN = MPPIConfig(samples=8, first_samples=32, horizon=8, episode=24)  # the quick search's cheap setting
 DESIGN_COLUMNS = ("name", "kind", "design_id", "rules", "screen_reward")
 SCORE_COLUMNS = ("task", "rung", "name", "design_id", "reward", "status", "objective", "sim_steps", "seconds",
-                 "evaluator")  # evaluator: EVALUATOR_VERSION of the simulation that produced the row
+                 "evaluator")  # evaluator: `simulation_digest(task)` of the code that measured the row
 MEASURE_ORDER = ("reference", "screened", "random")  # kinds of design, in `measure_order`
 DESIGNS_FILE, SUMMARY_FILE = "designs.csv", "summary.csv"
 SCORES_DIR = "scores"
@@ -156,10 +156,11 @@ def piece_path(directory: str | Path, task: str, rung: str) -> Path:
 
 
 def read_piece(path: Path) -> pd.DataFrame:
-    """The complete rows of a score piece measured by the current simulation (`EVALUATOR_VERSION`).
+    """The complete rows of a score piece (a line cut off by a crash mid-write is ignored).
 
-    A line cut off by a crash mid-write is ignored; rows of another evaluator version are left out (a
-    changed simulation is re-measured, never mixed in).
+    The pieces are a measurement record, not a cache: each row keeps the simulation digest of the code that
+    measured it, and rows of an older digest stay (hours of CPU); that the current code gives the same
+    scores is checked by re-measuring a sample (see the README's fidelity section).
     """
     if not path.exists():
         return pd.DataFrame(columns=list(SCORE_COLUMNS))
@@ -173,7 +174,7 @@ def read_piece(path: Path) -> pd.DataFrame:
     for column in ("reward", "objective", "seconds"):  # an empty reward is a result without one (not ok)
         table[column] = pd.to_numeric(table[column].replace("", np.nan))
     table["sim_steps"] = table["sim_steps"].astype(int)
-    return table[table["evaluator"] == EVALUATOR_VERSION].reset_index(drop=True)
+    return table.reset_index(drop=True)
 
 
 def _append(path: Path, row: dict) -> None:
@@ -221,7 +222,7 @@ def measure(config: FidelityConfig, designs: pd.DataFrame) -> int:
         row = evaluate(trees[design_id], task, evaluation, config.seed)
         _append(piece_path(config.directory, task, rung),
                 {"task": task, "rung": rung, "name": name, "design_id": design_id, **row,
-                 "objective": objective(row), "evaluator": EVALUATOR_VERSION})
+                 "objective": objective(row), "evaluator": simulation_digest(task)})
     return len(jobs)
 
 

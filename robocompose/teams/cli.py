@@ -36,14 +36,14 @@ def _add_chip_arguments(parser: argparse.ArgumentParser) -> None:
     source = parser.add_mutually_exclusive_group(required=True)
     source.add_argument("--chip", type=Path, help="a DroneDeploy label PNG (its first 300 x 300 chip)")
     source.add_argument("--synthetic-seed", type=int, help="use synthetic chip 0 of this generator seed")
-    parser.add_argument("--regions", type=int, default=8, help="Voronoi regions K")
+    parser.add_argument("--regions", type=int, default=8, help="regions K (terrain-driven decomposition)")
 
 
 def _setup(args: argparse.Namespace):
     import torch
 
     from robocompose.teams.chips import chips_in_file, synthetic_chip
-    from robocompose.teams.decompose import DecomposeConfig, chip_seeds
+    from robocompose.teams.decompose import DecomposeConfig, decompose_chip
     from robocompose.teams.ergodic import CoverageConfig
     from robocompose.teams.evaluator import AllocationEvaluator, chip_coverage
 
@@ -56,8 +56,8 @@ def _setup(args: argparse.Namespace):
             raise SystemExit(f"--chip {args.chip}: no 300 x 300 window without IGNORE pixels")
     else:
         chip = synthetic_chip(args.synthetic_seed)
-    seeds = chip_seeds(chip.chip_id, DecomposeConfig(n_regions=args.regions))
-    coverage = chip_coverage(chip, seeds, CoverageConfig())
+    decomposition = decompose_chip(chip, DecomposeConfig(n_regions=args.regions))
+    coverage = chip_coverage(chip, decomposition, CoverageConfig())
     return AllocationEvaluator(coverage, chip.chip_id, args.seed)
 
 

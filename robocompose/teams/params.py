@@ -21,15 +21,16 @@ class ExperimentsConfig:
     generations: int = 50  # NSGA-II generations
     crossover_probability: float = 0.5  # NSGA-II single-point arithmetic crossover probability
     mutation_rate: float = 0.1  # NSGA-II per-gene uniform mutation rate
-    nsga2_chips: int = 2  # NSGA-II runs on the first nsga2_chips test chips
-    nsga2_seeds: list[int] = field(default_factory=lambda: [0])  # one run per seed and population
+    test_chips: int = 2  # every table's rows run on the first test_chips test chips (sorted by id) ...
+    seeds: list[int] = field(default_factory=lambda: [0])  # ... and each of these seeds
     budgets: list[int] = field(default_factory=lambda: [15, 30, 45])  # Table 5.5 deployment budgets
-    baseline_chips: int = 6  # coverage baselines on the first baseline_chips test chips
-    baseline_seeds: list[int] = field(default_factory=lambda: [0, 1, 2])  # random draws per chip
     workers: int = 0  # processes running the independent runs; 0 = all cores, 1 = in the stage's process
     address: str = ""  # a running Dask scheduler (e.g. tcp://10.0.0.5:8786) to fan out over; "" = local
 
     def __post_init__(self) -> None:
+        if self.test_chips < 1 or not self.seeds:
+            raise ValueError(f"test_chips, seeds: expected >= 1 chip and a non-empty seed list, found "
+                             f"{self.test_chips} and {self.seeds}")
         if self.workers < 0:
             raise ValueError(f"workers: expected >= 0 (0 = all cores), found {self.workers}")
 

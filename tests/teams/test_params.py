@@ -30,6 +30,8 @@ teams:
     ("teams:\n  experiments: {populations: 20}\n", r"teams.experiments.populations: expected list"),
     ("teams:\n  threads: 0\n", r"teams.threads: expected a positive integer"),
     ("teams:\n  chip: {}\n", r"teams.chip: unknown field"),
+    ("teams:\n  experiments: {seeds: []}\n", r"teams.experiments.*non-empty seed list"),
+    ("teams:\n  decompose: {terrain_weight: -1.0}\n", r"teams.decompose.*terrain_weight: expected >= 0"),
 ])
 def test_bad_params_name_file_field_and_expectation(tmp_path, text, message):
     with pytest.raises(ValueError, match=message):
