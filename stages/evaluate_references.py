@@ -11,6 +11,7 @@ from robocompose.evaluation.references import ReferencesConfig, best_per_task, e
 from robocompose.io import atomic_write_json, read_table, write_table
 from robocompose.params import load_section
 from robocompose.report.timings import timed
+from robocompose.stage import run_stage
 
 
 def main() -> None:
@@ -28,8 +29,8 @@ def main() -> None:
             "best_reward": {row.task: round(row.reward, 4) for row in best.itertuples()},
             "best_design": {row.task: row.name for row in best.itertuples()},
             "statuses": table["status"].value_counts().sort_index().to_dict(),
-            "settings_hash": evaluation.settings_hash()})
+            "settings_hash": {task: evaluation.settings_hash(task) for task in config.tasks}})
 
 
 if __name__ == "__main__":
-    main()
+    run_stage(main)

@@ -11,6 +11,7 @@ from robocompose.io import atomic_write_json, read_table, write_table
 from robocompose.modular.experiments import baseline_runs
 from robocompose.modular.params import load_modular_params
 from robocompose.report.timings import timed
+from robocompose.stage import run_stage
 
 
 def main() -> None:
@@ -28,4 +29,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_stage(main)

@@ -10,6 +10,7 @@ from robocompose.io import atomic_write_json, write_table
 from robocompose.modular.experiments import exhaustive_table, truth_summary
 from robocompose.modular.params import load_modular_params
 from robocompose.report.timings import timed
+from robocompose.stage import run_stage
 
 
 def main() -> None:
@@ -30,4 +31,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_stage(main)

@@ -30,6 +30,7 @@ from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
 from robocompose.evaluation.cache import CacheKey, EvaluationCache
+from robocompose.io.errors import InputError
 
 
 class Executor:
@@ -37,7 +38,7 @@ class Executor:
 
     def __init__(self, workers: int = 0, address: str | None = None):
         if workers < 0:
-            raise ValueError(f"executor: workers must be >= 0 (0 = all cores), got {workers}")
+            raise InputError(f"executor: workers must be >= 0 (0 = all cores), got {workers}")
         self.address = address
         self.workers = workers or os.cpu_count() or 1
         self._pool: ProcessPoolExecutor | None = None

@@ -64,29 +64,36 @@ SCHEMAS: dict[str, pa.Schema] = {
         _required("score", pa.float64()), pa.field("reward", pa.float64(), nullable=True),
         _required("status", pa.string()), _required("repeat", pa.bool_()),
         _required("best_so_far", pa.float64()), _required("seconds", pa.float64())]),
-    # Team formation (robocompose.teams). One row per Voronoi region of a terrain chip: its seed point
-    # (the region raster is recomputed from the chip's seeds) and its terrain shares (sum to 1).
+    # Team formation (robocompose.teams). One row per region of a terrain chip: its centre in the joint
+    # position + terrain space (seed_x, seed_y, seed_<terrain> shares) and the terrain weight (the region
+    # raster is recomputed from them, teams.decompose), its size and its terrain shares (sum to 1).
     "regions": pa.schema([_required(n, t) for n, t in [
         ("chip_id", pa.string()), ("source", pa.string()), ("split", pa.string()), ("region", pa.int16()),
-        ("seed_x", pa.float64()), ("seed_y", pa.float64()), ("n_pixels", pa.int64()),
+        ("seed_x", pa.float64()), ("seed_y", pa.float64()), ("seed_water", pa.float64()),
+        ("seed_mountain", pa.float64()), ("seed_plain", pa.float64()), ("seed_city", pa.float64()),
+        ("terrain_weight", pa.float64()), ("n_pixels", pa.int64()),
         ("water", pa.float64()), ("mountain", pa.float64()), ("plain", pa.float64()),
         ("city", pa.float64())]]),
+    # Mean region purity (share of the dominant terrain) of every chip: terrain-driven decomposition and
+    # the plain Voronoi of the same initial seeds.
+    "regions_purity": pa.schema([_required(n, t) for n, t in [
+        ("chip_id", pa.string()), ("method", pa.string()), ("purity", pa.float64())]]),
     # Coverage cost of one integer allocation (allocation_id = hash of its K x O counts) on one chip.
     "teams_eval_cache": pa.schema([_required(n, t) for n, t in [
         ("allocation_id", pa.string()), ("chip_id", pa.string()), ("settings_hash", pa.string()),
         ("seed", pa.int64()), ("coverage_cost", pa.float64()), ("deployment_cost", pa.int64())]]),
-    # One NSGA-II run (Table 5.4) and the points of its final front.
+    # One NSGA-II run (Table 5.4) and the points of its final front (its wall time: reports/timings.json).
     "teams_nsga2": pa.schema([_required(n, t) for n, t in [
         ("chip_id", pa.string()), ("population", pa.int64()), ("seed", pa.int64()),
-        ("generations", pa.int64()), ("hypervolume", pa.float64()), ("seconds", pa.float64()),
-        ("evaluations", pa.int64())]]),
+        ("generations", pa.int64()), ("hypervolume", pa.float64()), ("evaluations", pa.int64())]]),
     "teams_fronts": pa.schema([_required(n, t) for n, t in [
         ("chip_id", pa.string()), ("population", pa.int64()), ("seed", pa.int64()),
         ("coverage_cost", pa.float64()), ("deployment_cost", pa.int64()), ("counts", pa.list_(pa.int16()))]]),
-    # Coverage baselines of Table 5.5: method x chip x deployment budget x seed.
+    # Coverage baselines of Table 5.5: method x chip x deployment budget x seed; empty_regions: regions
+    # without robots (decomposed) or that no observation falls in (no decomposition).
     "teams_coverage": pa.schema([_required(n, t) for n, t in [
         ("method", pa.string()), ("chip_id", pa.string()), ("budget", pa.int64()), ("seed", pa.int64()),
-        ("coverage_cost", pa.float64()), ("deployment_cost", pa.int64())]]),
+        ("coverage_cost", pa.float64()), ("deployment_cost", pa.int64()), ("empty_regions", pa.int64())]]),
     # Observations of the robots of one example allocation (for the trajectory picture).
     "teams_trajectories": pa.schema([_required(n, t) for n, t in [
         ("chip_id", pa.string()), ("robot", pa.int64()), ("species", pa.int16()), ("region", pa.int16()),

@@ -1,7 +1,8 @@
 """`robocompose modular ...`: evaluate one modular design on a block terrain; run a GA baseline on one terrain.
 
-Settings come from the `modular:` section of `--params` (default params.yaml); without that file, the thesis's
-settings (the dataclass defaults). pybullet and the search code are imported inside the handlers.
+Settings come from the `modular:` section of `--params` (default params.yaml); without `--params` and without
+./params.yaml, the thesis's settings (the dataclass defaults). pybullet and the search code are imported inside
+the handlers.
 """
 
 from __future__ import annotations
@@ -9,6 +10,8 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
+
+from robocompose.arguments import non_negative_int, output_file
 
 VARIANTS = ("ga20", "ga50", "crowding", "random")
 
@@ -22,9 +25,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     evaluate.add_argument("--design", required=True,
                           help="6 letters n/l/w/b (none/leg/wheel/leg-wheel), ports front-left, mid-left, "
                           "back-left, back-right, mid-right, front-right")
-    evaluate.add_argument("--terrain-seed", type=int, required=True, help="seed of the block terrain")
-    evaluate.add_argument("--mcap", type=Path, help="write the rollout as MCAP (Foxglove schemas)")
-    evaluate.add_argument("--gif", type=Path, help="write the rollout as an animated GIF")
+    evaluate.add_argument("--terrain-seed", type=non_negative_int, required=True, help="seed of the block terrain")
+    evaluate.add_argument("--mcap", type=output_file(".mcap", "MCAP"),
+                          help="write the rollout as MCAP (Foxglove schemas)")
+    evaluate.add_argument("--gif", type=output_file(".gif", "GIF"), help="write the rollout as an animated GIF")
     _add_params_argument(evaluate)
     evaluate.set_defaults(handler=_evaluate)
 
@@ -32,24 +36,26 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     ga.add_argument("--variant", choices=VARIANTS, required=True,
                     help="ga20 / ga50 (uniform crossover + mutation), crowding (deterministic crowding, "
                     "population 50), random (random sampling)")
-    ga.add_argument("--terrain-seed", type=int, required=True)
-    ga.add_argument("--seed", type=int, default=0, help="seed of the search")
-    ga.add_argument("--workers", type=int, help="evaluation processes (default: params; 0 = all cores)")
+    ga.add_argument("--terrain-seed", type=non_negative_int, required=True)
+    ga.add_argument("--seed", type=non_negative_int, default=0, help="seed of the search")
+    ga.add_argument("--workers", type=non_negative_int, help="evaluation processes (default: params; 0 = all cores)")
     _add_params_argument(ga)
     ga.set_defaults(handler=_ga)
 
 
 def _add_params_argument(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--params", type=Path, default=Path("params.yaml"),
-                        help="params file with a modular: section (default params.yaml; if absent, thesis settings)")
+    parser.add_argument("--params", type=Path, help="params file with a modular: section (default: params.yaml if "
+                        "there is one, else the thesis's settings); a file named here must exist")
 
 
-def _params(path: Path):
+def _params(path: Path | None):
     from robocompose.modular.evaluate import EvalSettings, FitnessRule
     from robocompose.modular.params import ExperimentsConfig, ModularParams, load_modular_params
 
-    if path.exists():
-        return load_modular_params(path)
+    if path is not None:
+        return load_modular_params(path)  # fails naming the file if it is missing
+    if Path("params.yaml").exists():
+        return load_modular_params("params.yaml")
     return ModularParams(EvalSettings(), FitnessRule(), ExperimentsConfig())
 
 
@@ -58,8 +64,8 @@ def _evaluate(args: argparse.Namespace) -> None:
     from robocompose.modular.record import record_rollout
     from robocompose.modular.robot import parse_design
 
-    params = _params(args.params)
     design = parse_design(args.design)
+    params = _params(args.params)
     if params.fitness.skips(design):
         result = evaluate_designs([design], args.terrain_seed, params.eval, params.fitness)[0]
     else:

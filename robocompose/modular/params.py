@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from robocompose.evaluation.cache import DEFAULT_CACHE_PATH
+from robocompose.io.errors import InputError
 from robocompose.modular.evaluate import EvalSettings, FitnessRule
 from robocompose.modular.terrain import TerrainConfig
 from robocompose.params import build_config, read_params
@@ -28,9 +29,9 @@ class ExperimentsConfig:
 
     def __post_init__(self):
         if not self.test_terrains:
-            raise ValueError("test_terrains: expected at least one terrain seed")
+            raise InputError("test_terrains: expected at least one terrain seed")
         if self.generations < 1 or self.random_designs < 1:
-            raise ValueError("generations and random_designs: expected positive integers")
+            raise InputError("generations and random_designs: expected positive integers")
 
 
 @dataclass(frozen=True)
@@ -45,20 +46,23 @@ class ModularParams:
 
 def build_modular_params(section: dict, where: str) -> ModularParams:
     if not isinstance(section, dict):
-        raise ValueError(f"{where}: expected a mapping with eval, fitness, experiments, workers, address, cache")
+        raise InputError(f"{where}: expected a mapping with eval, fitness, experiments, workers, address, cache")
     known = {"eval", "fitness", "experiments", "workers", "address", "cache"}
     unknown = sorted(set(section) - known)
     if unknown:
-        raise ValueError(f"{where}.{unknown[0]}: unknown field; expected one of {sorted(known)}")
-    evaluation = dict(section.get("eval", {}))
+        raise InputError(f"{where}.{unknown[0]}: unknown field; expected one of {sorted(known)}")
+    evaluation = section.get("eval", {})
+    if not isinstance(evaluation, dict):
+        raise InputError(f"{where}.eval: expected a mapping of evaluator settings, found {evaluation!r}")
+    evaluation = dict(evaluation)
     terrain = build_config(TerrainConfig, evaluation.pop("terrain", {}), f"{where}.eval.terrain")
     settings = build_config(EvalSettings, evaluation, f"{where}.eval")
     workers, address = section.get("workers", 0), section.get("address", "")
     cache = section.get("cache", str(DEFAULT_CACHE_PATH))
     if not isinstance(workers, int) or workers < 0:
-        raise ValueError(f"{where}.workers: expected an integer >= 0 (0 = all cores), found {workers!r}")
+        raise InputError(f"{where}.workers: expected an integer >= 0 (0 = all cores), found {workers!r}")
     if not isinstance(address, str) or not isinstance(cache, str):
-        raise ValueError(f"{where}.address and {where}.cache: expected strings")
+        raise InputError(f"{where}.address and {where}.cache: expected strings")
     return ModularParams(
         eval=EvalSettings(**{**settings.__dict__, "terrain": terrain}),
         fitness=build_config(FitnessRule, section.get("fitness", {}), f"{where}.fitness"),
@@ -70,5 +74,5 @@ def load_modular_params(path: str | Path = "params.yaml") -> ModularParams:
     """The `modular:` section of a params file, checked (errors name the file and the field)."""
     document = read_params(path)
     if "modular" not in document:
-        raise ValueError(f"{path}: missing section 'modular'")
+        raise InputError(f"{path}: missing section 'modular'")
     return build_modular_params(document["modular"], f"{path}: modular")

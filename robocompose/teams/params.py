@@ -6,9 +6,10 @@ what was expected.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 
+from robocompose.io.errors import InputError, check_field
 from robocompose.params import build_config, read_params
 from robocompose.teams.chips import ChipsConfig
 from robocompose.teams.decompose import DecomposeConfig
@@ -21,17 +22,24 @@ class ExperimentsConfig:
     generations: int = 50  # NSGA-II generations
     crossover_probability: float = 0.5  # NSGA-II single-point arithmetic crossover probability
     mutation_rate: float = 0.1  # NSGA-II per-gene uniform mutation rate
-    nsga2_chips: int = 2  # NSGA-II runs on the first nsga2_chips test chips
-    nsga2_seeds: list[int] = field(default_factory=lambda: [0])  # one run per seed and population
+    test_chips: int = 2  # every table's rows run on the first test_chips test chips (sorted by id) ...
+    seeds: list[int] = field(default_factory=lambda: [0])  # ... and each of these seeds
     budgets: list[int] = field(default_factory=lambda: [15, 30, 45])  # Table 5.5 deployment budgets
-    baseline_chips: int = 6  # coverage baselines on the first baseline_chips test chips
-    baseline_seeds: list[int] = field(default_factory=lambda: [0, 1, 2])  # random draws per chip
     workers: int = 0  # processes running the independent runs; 0 = all cores, 1 = in the stage's process
     address: str = ""  # a running Dask scheduler (e.g. tcp://10.0.0.5:8786) to fan out over; "" = local
 
     def __post_init__(self) -> None:
-        if self.workers < 0:
-            raise ValueError(f"workers: expected >= 0 (0 = all cores), found {self.workers}")
+        check_field(bool(self.populations) and min(self.populations) >= 2, "populations",
+                    "a non-empty list of integers >= 2", self.populations)
+        check_field(self.generations >= 1, "generations", "an integer >= 1", self.generations)
+        for name in ("crossover_probability", "mutation_rate"):
+            check_field(0 <= getattr(self, name) <= 1, name, "a probability in [0, 1]", getattr(self, name))
+        check_field(self.test_chips >= 1, "test_chips", "an integer >= 1", self.test_chips)
+        check_field(bool(self.seeds) and min(self.seeds) >= 0, "seeds", "a non-empty list of integers >= 0",
+                    self.seeds)
+        check_field(bool(self.budgets) and min(self.budgets) >= 1, "budgets", "a non-empty list of integers >= 1",
+                    self.budgets)
+        check_field(self.workers >= 0, "workers", "an integer >= 0 (0 = all cores)", self.workers)
 
 
 @dataclass(frozen=True)
@@ -44,19 +52,28 @@ class TeamsParams:
 
 
 def load_teams_params(path: str | Path = "params.yaml") -> TeamsParams:
-    """Read the `teams:` section of a params file."""
+    """Read the `teams:` section of a params file.
+
+    All four sub-sections are required (the decompose stage reads chips and decompose, teams_baselines the
+    regions it made and coverage and experiments; a stage must not run on defaults that the params file does
+    not show); a field left out of a sub-section takes the dataclass default; `threads` defaults to 1.
+    """
     section = read_params(path).get("teams")
     where = f"{path}: teams"
-    if not isinstance(section, dict):
-        raise ValueError(f"{where}: missing section (expected chips, decompose, coverage, experiments)")
     parts = {"chips": ChipsConfig, "decompose": DecomposeConfig, "coverage": CoverageConfig,
              "experiments": ExperimentsConfig}
+    if not isinstance(section, dict):
+        raise InputError(f"{where}: missing section (expected sub-sections {list(parts)})")
     known = sorted([*parts, "threads"])
-    unknown = sorted(set(section) - set(known))
+    unknown = sorted(set(section) - set(known), key=str)
     if unknown:
-        raise ValueError(f"{where}.{unknown[0]}: unknown field; expected one of {known}")
-    built = {name: build_config(cls, section.get(name, {}), f"{where}.{name}") for name, cls in parts.items()}
+        raise InputError(f"{where}.{unknown[0]}: unknown field; expected one of {known}")
+    missing = [name for name in parts if name not in section]
+    if missing:
+        raise InputError(f"{where}.{missing[0]}: missing section (expected fields "
+                         f"{[f.name for f in fields(parts[missing[0]])]})")
+    built = {name: build_config(cls, section[name], f"{where}.{name}") for name, cls in parts.items()}
     threads = section.get("threads", 1)
-    if not isinstance(threads, int) or threads < 1:
-        raise ValueError(f"{where}.threads: expected a positive integer, found {threads!r}")
+    if not isinstance(threads, int) or isinstance(threads, bool) or threads < 1:
+        raise InputError(f"{where}.threads: expected a positive integer, found {threads!r}")
     return TeamsParams(**built, threads=threads)

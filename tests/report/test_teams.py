@@ -9,8 +9,8 @@ teams:
   chips: {n_synthetic: 4, seed: 1}
   decompose: {n_regions: 3, test_fraction: 0.5}
   coverage: {iterations: 2, n_observations: 4}
-  experiments: {populations: [20, 50], generations: 1, nsga2_chips: 1, nsga2_seeds: [0],
-                budgets: [15, 30, 45], baseline_chips: 1, baseline_seeds: [0], workers: 1}
+  experiments: {populations: [20, 50], generations: 1, test_chips: 1, seeds: [0],
+                budgets: [15, 30, 45], workers: 1}
 """
 
 
@@ -29,6 +29,10 @@ def test_section_has_both_tables_beside_the_thesis_and_its_figures(tmp_path, mon
     assert "| No decomposition | 0.365 | 0.153 | 0.056 |" in text
     assert "| Dec + random allocation | 0.732 | 0.401 | 0.062 |" in text
     assert "synthetic label chips" in text
+    assert "| terrain-driven (weight 0.3) |" in text and "| random-seed Voronoi" in text
+    assert "every row on the same chip x seed pairs" in text and "WARNING" not in text
+    assert "(no timings)" not in text  # runtimes come from reports/timings.json
+    assert "share of draws with at least one empty region" in text
     for figure in ("teams_decomposition", "teams_pareto", "teams_trajectories"):
         assert f"figures/{figure}.png" in text
         assert (tmp_path / "reports" / "figures" / f"{figure}.png").stat().st_size > 1000

@@ -33,7 +33,31 @@ def test_nsga2_prints_hypervolume_seconds_and_a_front(capsys):
     assert all(len(point) == 2 for point in out["front"])
 
 
-def test_wrong_number_of_allocation_rows_is_explained(tmp_path, capsys):
-    with pytest.raises(SystemExit, match="2 rows, expected one per region"):
-        run(["teams", "coverage", "--synthetic-seed", "0", "--regions", "3",
-             "--allocation", "0.1,0,0;0,0,0"], capsys)
+@pytest.mark.parametrize(("allocation", "fragments"), [
+    ("0.1,0,0;0,0,0", ["--allocation has 2 rows, expected one per region (--regions 3)"]),
+    ("2,2,2;0,0,0;0,0,0", ["--allocation: region 0, ground: expected a fraction in [0, 1], found 2"]),
+    ("0.5,0,0;0.6,0,0;0,0,0", ["--allocation: the ground fractions sum to 1.1", "expected at most 1"]),
+    ("0,0.4,0;0,0.4,0;0,0.4,0", ["the aerial fractions sum to 1.2"]),
+    ("0,0,0;0,nan,0;0,0,0", ["region 1, aerial: expected a fraction in [0, 1], found nan"]),
+    ("0,0;0,0;0,0", ["expected rows 'f_ground,f_aerial,f_aquatic'"]),
+])
+def test_allocations_are_rejected_never_rescaled(cli_error, allocation, fragments):
+    cli_error(["teams", "coverage", "--synthetic-seed", "0", "--regions", "3", "--allocation", allocation], *fragments)
+
+
+@pytest.mark.parametrize(("flags", "fragments"), [
+    (["--pop", "-4"], ["argument --pop", "expected an integer >= 2, found -4"]),
+    (["--generations", "-1"], ["argument --generations", "expected an integer >= 1, found -1"]),
+    (["--regions", "0"], ["argument --regions", "expected an integer >= 1, found 0"]),
+    (["--regions", "100000"], ["--regions: expected an integer in 1..64, found 100000"]),
+    (["--seed", "-1"], ["argument --seed", "expected an integer >= 0, found -1"]),
+])
+def test_nsga2_bad_numbers_fail_fast(cli_error, flags, fragments):
+    cli_error(["teams", "nsga2", "--synthetic-seed", "0", *flags], *fragments)
+
+
+def test_chip_that_is_not_an_image_is_named(tmp_path, cli_error):
+    (tmp_path / "notes.txt").write_text("not a picture")
+    cli_error(["teams", "nsga2", "--chip", str(tmp_path / "notes.txt")],
+              f"{tmp_path / 'notes.txt'}: not a readable image, expected a DroneDeploy label PNG")
+    cli_error(["teams", "nsga2", "--chip", str(tmp_path / "none.png")], "argument --chip", "none.png: no such file")

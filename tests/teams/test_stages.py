@@ -9,8 +9,8 @@ teams:
   chips: {n_synthetic: 4, seed: 1}
   decompose: {n_regions: 3, test_fraction: 0.5}
   coverage: {iterations: 2, n_observations: 4}
-  experiments: {populations: [4, 6], generations: 2, nsga2_chips: 1, nsga2_seeds: [0], budgets: [3, 6],
-                baseline_chips: 1, baseline_seeds: [0], workers: 1}  # processes: test_experiments.py
+  experiments: {populations: [4, 6], generations: 2, test_chips: 1, seeds: [0], budgets: [3, 6],
+                workers: 1}  # processes: test_experiments.py
 """
 
 
