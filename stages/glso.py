@@ -13,6 +13,7 @@ from robocompose.glso.runs import GLSOConfig, record_best, run_all, summarise
 from robocompose.io import atomic_write_json, write_table
 from robocompose.params import load_section
 from robocompose.report.timings import timed
+from robocompose.stage import run_stage
 
 OUT = Path("data/glso")
 
@@ -34,4 +35,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_stage(main)

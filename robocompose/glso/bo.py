@@ -24,6 +24,7 @@ from bayes_opt import BayesianOptimization, SequentialDomainReductionTransformer
 
 from robocompose.glso.designs import Proposal
 from robocompose.grammar.tree import DesignTree
+from robocompose.io.errors import check_field
 
 
 @dataclass(frozen=True)
@@ -40,9 +41,9 @@ class BOConfig:
     minimum_window: float = 0.5  # narrowest a reduced window may get
 
     def __post_init__(self) -> None:
-        if self.bound <= 0 or self.init < 1 or self.random_every < 0:
-            raise ValueError(f"bound must be > 0, init >= 1, random_every >= 0; got {self.bound}, {self.init}, "
-                             f"{self.random_every}")
+        check_field(self.bound > 0, "bound", "a positive number", self.bound)
+        check_field(self.init >= 1, "init", "at least 1 random initial point", self.init)
+        check_field(self.random_every >= 0, "random_every", ">= 0 (0 = never)", self.random_every)
 
 
 def decode(model, z: np.ndarray) -> DesignTree:

@@ -27,21 +27,24 @@ def _glso(args: argparse.Namespace) -> int:
 
     from robocompose.evaluation.evaluate import EvaluationConfig
     from robocompose.glso.runs import GLSOConfig, RunSpec, run_search
+    from robocompose.io.errors import InputError
     from robocompose.params import load_section
+    from robocompose.tasks.terrains import get_task
 
+    get_task(args.task)
     if args.method not in METHODS:
-        raise ValueError(f"--method: unknown method {args.method!r}; expected one of {', '.join(METHODS)}")
+        raise InputError(f"--method: unknown method {args.method!r}; expected one of {', '.join(METHODS)}")
     if args.model is not None and args.method not in LATENT_METHODS:
-        raise ValueError(f"--model: method {args.method} does not use a VAE")
+        raise InputError(f"--model: method {args.method} does not use a VAE")
     config = load_section(GLSOConfig, "glso", args.params)
     if args.budget is not None:
         if args.budget < 1:
-            raise ValueError(f"--budget must be a positive integer, got {args.budget}")
+            raise InputError(f"--budget: expected a positive number of objective calls, found {args.budget}")
         config = dataclasses.replace(config, budget=args.budget)
     evaluation = load_section(EvaluationConfig, "evaluation", args.params)
     model = None if args.model is None else Path(args.model)
     if model is not None and not model.exists():
-        raise FileNotFoundError(f"--model: {model}: no such file")
+        raise InputError(f"--model: {model}: no such file")
 
     def show(row: dict) -> None:
         print(json.dumps({k: row[k] for k in ("step", "design_id", "rules", "score", "status", "best_so_far")}),

@@ -22,6 +22,7 @@ import numpy as np
 from robocompose.glso.designs import MAX_TRIES, Proposal, random_grammar_design, rejection
 from robocompose.grammar.derivation import MAX_DEPTH
 from robocompose.grammar.tree import N_TOKENS, DesignTree, split_token
+from robocompose.io.errors import check_field
 
 NON_ROOT_TOKENS = tuple(t for t in range(N_TOKENS) if split_token(t)[1] != 0)
 MAX_NEIGHBOURS = 4  # the VAE's limit: a node's parent and children together
@@ -38,9 +39,8 @@ class GAConfig:
     max_depth: int = MAX_DEPTH  # derivation depth of the random first generation
 
     def __post_init__(self) -> None:
-        if self.population < 2 or not 0 < self.cull_fraction < 1:
-            raise ValueError(f"population must be >= 2 and cull_fraction in (0, 1), got {self.population}, "
-                             f"{self.cull_fraction}")
+        check_field(self.population >= 2, "population", "at least 2 designs", self.population)
+        check_field(0 < self.cull_fraction < 1, "cull_fraction", "a fraction in (0, 1)", self.cull_fraction)
 
 
 def rebuild(children: dict[int, list[int]], tokens: dict[int, int]) -> DesignTree:

@@ -35,7 +35,7 @@ import pandas as pd
 from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.evaluate import EvaluationConfig, evaluate, objective
 from robocompose.evaluation.executor import Executor
-from robocompose.glso import LATENT_METHODS, METHODS
+from robocompose.glso import LATENT_METHODS, METHODS, best_designs
 from robocompose.glso.bo import BOConfig, LatentBO
 from robocompose.glso.designs import Proposal
 from robocompose.glso.ghs import GHSConfig, GraphHeuristicSearch
@@ -44,6 +44,7 @@ from robocompose.glso.mcts import MCTSConfig, TreeSearch
 from robocompose.glso.random_search import RandomConfig, RandomSearch
 from robocompose.grammar.tree import DesignTree
 from robocompose.io import atomic_path, read_table, write_table
+from robocompose.io.errors import ArtifactError, check_field
 from robocompose.io.provenance import code_digest
 from robocompose.params import build_config
 from robocompose.tasks.terrains import get_task
@@ -72,14 +73,12 @@ class GLSOConfig:
             if isinstance(getattr(self, name), dict):
                 object.__setattr__(self, name, build_config(cls, getattr(self, name), f"glso.{name}"))
         unknown = [m for m in self.methods if m not in METHODS]
-        if unknown:
-            raise ValueError(f"methods: unknown method {unknown[0]!r}; expected some of {list(METHODS)}")
+        check_field(not unknown, "methods", f"some of {list(METHODS)}", unknown[:1])
         for task in self.tasks:
             get_task(task)
-        if self.budget < 1 or not self.seeds:
-            raise ValueError(f"budget must be >= 1 and seeds non-empty, got {self.budget}, {self.seeds}")
-        if "{variant}" not in self.models:
-            raise ValueError(f"models must contain {{variant}}, got {self.models!r}")
+        check_field(self.budget >= 1, "budget", "at least 1 objective call", self.budget)
+        check_field(bool(self.seeds), "seeds", "at least one run seed", self.seeds)
+        check_field("{variant}" in self.models, "models", "a path with {variant} in it", self.models)
 
     def model_path(self, method: str) -> Path | None:
         variant = LATENT_METHODS.get(method)
@@ -177,8 +176,7 @@ def run_search(spec: RunSpec, config: GLSOConfig, evaluation: EvaluationConfig,
     # results do not depend on how many cores a worker happens to get.
     torch.set_num_threads(1)
     threadpool_limits(1)
-    if spec.method not in METHODS:
-        raise ValueError(f"--method: unknown method {spec.method!r}; expected one of {list(METHODS)}")
+    check_field(spec.method in METHODS, "method", f"one of {list(METHODS)}", spec.method)
     model_path = model_path or config.model_path(spec.method)
     env = SearchEnv(get_task(spec.task).name)
     if model_path is not None:
@@ -250,7 +248,7 @@ def run_all(config: GLSOConfig, evaluation: EvaluationConfig, out_dir: Path,
     for method in config.methods:
         path = config.model_path(method)
         if path is not None and not path.exists():
-            raise FileNotFoundError(f"{path}: the VAE of method {method} is missing (dvc repro train_vae)")
+            raise ArtifactError(f"{path}: the VAE of method {method} is missing (dvc repro train_vae)")
     jobs = [RunJob(spec, config, evaluation, str(out_dir)) for spec in run_specs(config)]
     executor = executor or Executor(workers=1)
     tables = list(tqdm(executor.imap(run_job, jobs), total=len(jobs), desc="glso runs", unit="run"))
@@ -267,12 +265,6 @@ def summarise(steps: pd.DataFrame) -> dict:
             "max": round(float(values.max()), 4), "seeds": int(len(values)),
             "budget": int(steps[(steps.task == task) & (steps.method == method)]["step"].max() + 1)}
     return out
-
-
-def best_designs(steps: pd.DataFrame) -> pd.DataFrame:
-    """The best-scoring simulated row of each task (the first found wins ties)."""
-    ok = steps[steps["status"] == "ok"]
-    return ok.loc[ok.groupby("task", sort=False)["score"].idxmax()]
 
 
 def record_best(steps: pd.DataFrame, evaluation: EvaluationConfig, out_dir: Path,

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from robocompose.glso import FIG_8_1, FIG_8_2
+from robocompose.glso import FIG_8_1, FIG_8_2, best_designs
 from robocompose.io import read_table
 
 LABELS = {"glso": "GLSO", "glso_nopred": "GLSO_nopred", "glso_nogram": "GLSO_nogram", "random": "Random",
@@ -117,7 +117,6 @@ def section(reports_dir: Path, data_dir: Path) -> str:
 
 def _best_designs(steps: pd.DataFrame, rollouts: Path, figures: Path) -> list[str]:
     """Fig. 7.2: a picture of each task's best design, and its rollout GIF."""
-    from robocompose.glso.runs import best_designs
     from robocompose.grammar.tree import DesignTree
     from robocompose.sim.render import render_design
 

@@ -30,7 +30,7 @@ def test_cli_prints_a_json_line_per_step_and_the_best_design_last(params, tiny_m
 @pytest.mark.parametrize("argv, message", [
     (["--method", "nelder_mead"], "--method: unknown method 'nelder_mead'"),
     (["--method", "mcts", "--model", "m.pt"], "--model: method mcts does not use a VAE"),
-    (["--budget", "0"], "--budget must be a positive integer"),
+    (["--budget", "0"], "--budget: expected a positive number"),
     (["--task", "moon"], "moon"),
 ])
 def test_cli_bad_input_exits_2_with_one_line(argv, message, params, capsys):

@@ -81,9 +81,9 @@ def test_summary_takes_the_final_best_over_seeds():
 
 
 @pytest.mark.parametrize("values, message", [
-    ({"methods": ["bogus"]}, "unknown method 'bogus'"),
+    ({"methods": ["bogus"]}, "methods: expected some of"),
     ({"tasks": ["moon"]}, "moon"),
-    ({"budget": 0}, "budget must be >= 1"),
+    ({"budget": 0}, "budget: expected at least 1"),
     ({"bo": {"xi": "big"}}, "glso.bo.xi"),
 ])
 def test_bad_config_names_the_field(values, message):
