@@ -31,7 +31,7 @@ def main() -> None:
             "final_best": summarise(steps), "budget": config.budget, "seeds": config.seeds,
             "best_design": {row.task: {"method": row.method, "seed": int(row.seed), "design_id": row.design_id,
                                        "score": round(float(row.score), 4)} for row in best.itertuples()},
-            "settings_hash": evaluation.settings_hash()})
+            "settings_hash": {task: evaluation.settings_hash(task) for task in config.tasks}})
 
 
 if __name__ == "__main__":

@@ -4,7 +4,8 @@ A method proposes one complete design at a time (`Proposal`); the run (`runs.py`
 call on it and tells the method its score. Which designs a method may propose follows its original:
 - grammar methods (random search, MCTS, GHS) redraw a derivation that is incomplete at the depth limit or
   self-penetrates when placed (RoboGrammar's `get_result` is None: no evaluation is spent on it);
-- random search also applies the dataset's filters (>= 11 links, valid rest contacts);
+- random search (and the GA's first generation) draws with the dataset's enumeration and filters (>= 11
+  links, valid rest contacts);
 - the graph GA rejects a child that self-penetrates before evaluating it;
 - GLSO evaluates whatever the decoder gives; a design that cannot be simulated costs a call and scores
   `INVALID_SCORE` (the evaluator's status says why).
@@ -17,10 +18,9 @@ from typing import Any
 
 import numpy as np
 
-from robocompose.grammar.derivation import MAX_DEPTH, random_derivation
+from robocompose.grammar.derivation import MAX_DEPTH
 from robocompose.grammar.tree import DesignTree
 
-MIN_LINKS = 11  # the dataset keeps designs with at least 11 links (thesis 7.1)
 MAX_TRIES = 1000  # redraws before a method gives up on finding a valid design (RoboGrammar's max_tries)
 
 
@@ -48,23 +48,25 @@ def _client() -> int:
     return _CLIENT
 
 
-def rejection(tree: DesignTree, dataset_filters: bool) -> str:
-    """Why a design may not be proposed ("" = it may): "self_collision" when it self-penetrates at rest;
-    with `dataset_filters` also the dataset's reasons ("too_few_links", "too_few_contacts", ...)."""
+def self_colliding(tree: DesignTree) -> bool:
+    """Whether the design self-penetrates when placed at rest (it cannot be simulated)."""
     from robocompose.sim.contacts import contact_features
 
-    if dataset_filters and tree.n_links < MIN_LINKS:
-        return "too_few_links"
-    contacts = contact_features(tree, _client(), rest_self_penetrating=False)
-    if contacts.reason == "self_collision" or (dataset_filters and not contacts.valid):
-        return contacts.reason
-    return ""
+    return contact_features(tree, _client(), rest_self_penetrating=False).reason == "self_collision"
 
 
-def random_grammar_design(rng: np.random.Generator, max_depth: int = MAX_DEPTH) -> Proposal:
-    """A uniformly random derivation that passes the dataset's filters (as `enumerate` draws them)."""
-    for _ in range(MAX_TRIES):
-        derivation = random_derivation(rng, max_depth)
-        if derivation is not None and not rejection(derivation.tree, dataset_filters=True):
-            return Proposal(derivation.tree, derivation.rules)
-    raise RuntimeError(f"no valid random derivation in {MAX_TRIES} tries")
+def run_stream(seed: int, method: str) -> int:
+    """An enumeration seed of a method's run seed, far from the dataset's own (`enumerate.seed`, 0)."""
+    return 10_000 * (1 + seed) + sum(ord(c) for c in method)
+
+
+def random_grammar_design(seed: int, k: int, max_depth: int = MAX_DEPTH) -> tuple[Proposal, int]:
+    """The first candidate from k on of the dataset's enumeration stream `seed` that passes its filters
+    (depth limit, >= 11 links, no self-penetration, valid rest contacts), and the next k to draw from."""
+    from robocompose.dataset.enumerate import MIN_LINKS, candidate
+
+    for j in range(k, k + MAX_TRIES):
+        reason, row, _ = candidate(seed, j, MIN_LINKS, max_depth)
+        if not reason:
+            return Proposal(DesignTree(tuple(row["parents"]), tuple(row["tokens"])), tuple(row["rules"])), j + 1
+    raise RuntimeError(f"no valid random derivation in {MAX_TRIES} candidates")

@@ -27,7 +27,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from robocompose.glso.designs import MAX_TRIES, Proposal, rejection
+from robocompose.glso.designs import MAX_TRIES, Proposal, self_colliding
 from robocompose.glso.mcts import successors
 from robocompose.grammar.derivation import MAX_DEPTH, graph_to_tree
 from robocompose.grammar.rules import (
@@ -163,7 +163,7 @@ class GraphHeuristicSearch:
                 action = actions[int(np.argmax(self.predict([children[a] for a in actions])))]
             rules.append(action)
             states.append(children[action])
-        if not states[-1].complete or rejection(graph_to_tree(states[-1]), dataset_filters=False):
+        if not states[-1].complete or self_colliding(graph_to_tree(states[-1])):
             return None
         return states, rules
 

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robocompose.glso.designs import MAX_TRIES, Proposal, random_grammar_design, rejection
+from robocompose.glso.designs import MAX_TRIES, Proposal, random_grammar_design, run_stream, self_colliding
 from robocompose.grammar.derivation import MAX_DEPTH
 from robocompose.grammar.tree import N_TOKENS, DesignTree, split_token
 from robocompose.io.errors import check_field
@@ -97,6 +97,7 @@ class GraphGA:
         self.population: list[tuple[Proposal, float]] = []  # evaluated members of the current generation
         self.queue: list[Proposal] = []  # children made but not yet evaluated
         self.generation = 0
+        self.stream, self.k = run_stream(seed, "ga"), 0  # the first generation's designs
 
     def _next_generation(self) -> None:
         c = self.config
@@ -107,7 +108,7 @@ class GraphGA:
             for _ in range(MAX_TRIES):
                 parent = self.population[int(self.rng.integers(len(self.population)))][0]
                 child = mutate(parent.tree, self.rng, c)
-                if not rejection(child, dataset_filters=False):
+                if not self_colliding(child):
                     self.queue.append(Proposal(child, None))
                     break
             else:
@@ -117,7 +118,8 @@ class GraphGA:
     def propose(self, env) -> Proposal:
         if not self.queue:
             if self.generation == 0 and len(self.population) < self.config.population:
-                return random_grammar_design(self.rng, self.config.max_depth)
+                proposal, self.k = random_grammar_design(self.stream, self.k, self.config.max_depth)
+                return proposal
             self._next_generation()
         return self.queue.pop(0)
 

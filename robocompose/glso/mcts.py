@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from robocompose.glso.designs import MAX_TRIES, Proposal, rejection
+from robocompose.glso.designs import MAX_TRIES, Proposal, self_colliding
 from robocompose.grammar.derivation import MAX_DEPTH, graph_to_tree
 from robocompose.grammar.rules import RULES, START_GRAPH, Graph, apply_rule, first_match
 
@@ -110,7 +110,7 @@ class TreeSearch:
                     graph = children[action]
                 if graph.complete:
                     tree = graph_to_tree(graph)
-                    if not rejection(tree, dataset_filters=False):
+                    if not self_colliding(tree):
                         return Proposal(tree, tuple(rules), info=path)
             self.nodes[expanded].blocked = True
 

@@ -1,14 +1,13 @@
-"""Random search with the grammar (thesis Fig. 8.1's "Random"): every step a fresh uniformly random
-derivation that passes the dataset's filters (depth limit 40, >= 11 links, no self-penetration, valid rest
-contacts). Redraws cost no evaluation, as in RoboGrammar's RandomSearch."""
+"""Random search with the grammar (thesis Fig. 8.1's "Random"): every step the next design of the dataset's
+own enumeration (uniformly random derivations with its filters: depth limit 40, >= 11 links, no
+self-penetration, valid rest contacts) on a random stream of the run's own. Rejected candidates cost no
+evaluation, as in RoboGrammar's RandomSearch."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
-from robocompose.glso.designs import Proposal, random_grammar_design
+from robocompose.glso.designs import Proposal, random_grammar_design, run_stream
 from robocompose.grammar.derivation import MAX_DEPTH
 
 
@@ -20,10 +19,12 @@ class RandomConfig:
 class RandomSearch:
     def __init__(self, config: RandomConfig, seed: int, budget: int) -> None:
         self.config = config
-        self.rng = np.random.default_rng([seed, 0x52414E44])  # "RAND": a stream of its own per run seed
+        self.stream = run_stream(seed, "random")  # not the dataset's stream: fresh designs
+        self.k = 0  # next candidate of the stream
 
     def propose(self, env) -> Proposal:
-        return random_grammar_design(self.rng, self.config.max_depth)
+        proposal, self.k = random_grammar_design(self.stream, self.k, self.config.max_depth)
+        return proposal
 
     def tell(self, proposal: Proposal, score: float) -> None:
         pass  # random search does not learn

@@ -124,7 +124,7 @@ class Objective:
     def __init__(self, task: str, evaluation: EvaluationConfig, cache: EvaluationCache | None = None):
         self.task, self.evaluation = task, evaluation
         self.cache = EvaluationCache() if cache is None else cache
-        self.settings_hash = evaluation.settings_hash()
+        self.settings_hash = evaluation.settings_hash(task)
 
     def __call__(self, tree: DesignTree) -> dict:
         """The evaluator's row {reward, status, sim_steps, seconds} of `tree` (cached if known)."""
@@ -141,7 +141,8 @@ def run_key(spec: RunSpec, config: GLSOConfig, evaluation: EvaluationConfig, mod
     """What a checkpoint must match to be resumed."""
     model = hashlib.sha256(model_path.read_bytes()).hexdigest()[:16] if model_path else None
     text = json.dumps([dataclasses.asdict(spec), config.budget, method_settings(spec, config),
-                       evaluation.settings_hash(), evaluation.seed, model, code_digest("robocompose.glso.runs")],
+                       evaluation.settings_hash(spec.task), evaluation.seed, model,
+                       code_digest("robocompose.glso.runs")],
                       sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
