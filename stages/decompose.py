@@ -3,6 +3,7 @@
 from pathlib import Path
 
 from robocompose.io import write_table
+from robocompose.report.timings import timed
 from robocompose.stage import run_stage
 from robocompose.teams.chips import prepare_chips
 from robocompose.teams.decompose import regions_table
@@ -11,8 +12,10 @@ from robocompose.teams.params import load_teams_params
 
 def main() -> None:
     params = load_teams_params("params.yaml")
-    chips = prepare_chips(params.chips, Path("data/teams/chips"))
-    write_table(regions_table(chips, params.decompose), "data/regions.parquet", "regions")
+    with timed("decompose") as timing:
+        chips = prepare_chips(params.chips, Path("data/teams/chips"))
+        timing["chips"] = len(chips)
+        write_table(regions_table(chips, params.decompose), "data/regions.parquet", "regions")
 
 
 if __name__ == "__main__":

@@ -28,7 +28,7 @@ def main() -> None:
             "best_reward": {row.task: round(row.reward, 4) for row in best.itertuples()},
             "best_design": {row.task: row.name for row in best.itertuples()},
             "statuses": table["status"].value_counts().sort_index().to_dict(),
-            "settings_hash": evaluation.settings_hash()})
+            "settings_hash": {task: evaluation.settings_hash(task) for task in config.tasks}})
 
 
 if __name__ == "__main__":

@@ -4,6 +4,7 @@ import torch
 
 from robocompose.evaluation.executor import Executor
 from robocompose.io import read_table, write_table
+from robocompose.report.timings import timed
 from robocompose.stage import run_stage
 from robocompose.teams.evaluator import teams_cache
 from robocompose.teams.experiments import (
@@ -22,9 +23,10 @@ def main() -> None:
     test_chips = decomposed_chips(read_table("data/regions.parquet", "regions"), "test")
     cache = teams_cache("data/teams/eval_cache.parquet")
     experiments = params.experiments
-    with Executor(experiments.workers, experiments.address or None) as executor:
+    with timed("teams_baselines") as timing, Executor(experiments.workers, experiments.address or None) as executor:
         runs, fronts = nsga2_runs(test_chips, params.coverage, experiments, cache, executor)
         coverage = coverage_baselines(test_chips, params.coverage, experiments, executor)
+        timing["nsga2_runs"] = len(runs)
     cache.save()
     write_table(runs, "data/teams/nsga2.parquet", "teams_nsga2")
     write_table(fronts, "data/teams/fronts.parquet", "teams_fronts")

@@ -15,18 +15,19 @@ Status of a result (`reward` is null unless noted):
 Optimisers score a result with `objective(row)`: the reward when ok, else `INVALID_SCORE[status]` (GLSO's
 3.8 for a self-collision, 4.0 for a blow-up: about what a robot standing still scores).
 
-The settings hash covers the MPPI config, the physics settings and `EVALUATOR_VERSION` (bump it when the
-simulation or the terrains change), so cached results never mix settings.
+The settings hash of a task covers everything that shapes a result besides design and seed: the MPPI
+config, the physics settings, the task (floor, friction, horizon scale, obstacle seed), the constants of the
+robot builder, design geometry, reward and controller modules, and a digest of the source of every module
+the evaluation runs (`robocompose.io.provenance.code_digest`), so a change of code invalidates the cache
+with no version to bump by hand.
 """
 
 from __future__ import annotations
 
-import hashlib
-import json
 import math
 import time
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 
 import pandas as pd
 
@@ -34,11 +35,15 @@ from robocompose.control.mppi import MPPIConfig, run_episode
 from robocompose.evaluation.cache import EVAL_KEY_COLUMNS, EvaluationCache
 from robocompose.evaluation.executor import Executor, evaluate_many
 from robocompose.grammar.tree import DesignTree
+from robocompose.io.provenance import code_digest, constants_of, settings_digest
 from robocompose.params import build_config
 from robocompose.sim.physics import PhysicsSettings
 from robocompose.tasks.terrains import get_task
 
-EVALUATOR_VERSION = "robogrammar-mppi-3"  # 3: designs built in canonical sibling order
+# Modules whose constants shape a result (robot geometry and masses, motors, terrains, reward, controller).
+RESULT_MODULES = ("robocompose.grammar.tree", "robocompose.sim.builder", "robocompose.sim.physics",
+                  "robocompose.tasks.terrains", "robocompose.control.world", "robocompose.control.mppi",
+                  "robocompose.evaluation.evaluate")
 OK, SELF_COLLISION, UNSTABLE = "ok", "self_collision", "unstable"
 STATUSES = (OK, SELF_COLLISION, UNSTABLE)
 BLOWUP_REWARD = 10.0  # any mean reward at or above this is a simulation blow-up
@@ -59,11 +64,11 @@ class EvaluationConfig:
         if isinstance(self.mppi, dict):
             object.__setattr__(self, "mppi", build_config(MPPIConfig, self.mppi, "evaluation.mppi"))
 
-    def settings_hash(self) -> str:
-        """16 hex digits identifying everything that changes a result besides design, task and seed."""
-        settings = {"evaluator": EVALUATOR_VERSION, "mppi": self.mppi.as_dict(), "physics": asdict(PhysicsSettings())}
-        text = json.dumps(settings, sort_keys=True)
-        return hashlib.sha256(text.encode()).hexdigest()[:16]
+    def settings_hash(self, task: str) -> str:
+        """16 hex digits identifying everything that changes a result on `task` besides design and seed."""
+        return settings_digest({"task": get_task(task), "mppi": self.mppi.as_dict(), "physics": PhysicsSettings(),
+                                "constants": constants_of(*RESULT_MODULES),
+                                "code": code_digest(*RESULT_MODULES)})
 
     def executor(self) -> Executor:
         return Executor(workers=self.workers, address=self.address or None)
@@ -108,9 +113,8 @@ class EvalJob:
     config: EvaluationConfig
     seed: int
 
-    @property
-    def key(self) -> tuple[str, str, str, int]:
-        return (self.tree.design_id, self.task, self.config.settings_hash(), self.seed)
+    def key(self, settings_hash: str) -> tuple[str, str, str, int]:
+        return (self.tree.design_id, self.task, settings_hash, self.seed)
 
 
 def run_job(job: EvalJob) -> dict:
@@ -124,6 +128,11 @@ def evaluate_designs(trees: Sequence[DesignTree], tasks: Iterable[str], config: 
     (design-major order)."""
     tasks, seeds = [get_task(t).name for t in tasks], list(seeds)
     jobs = [EvalJob(tree, task, config, seed) for tree in trees for task in tasks for seed in seeds]
-    rows = evaluate_many(run_job, jobs, lambda job: job.key, cache=cache, executor=executor, save_every=save_every)
-    keys = pd.DataFrame([job.key for job in jobs], columns=list(EVAL_KEY_COLUMNS))
+    hashes = {task: config.settings_hash(task) for task in tasks}
+
+    def key(job: EvalJob) -> tuple[str, str, str, int]:
+        return job.key(hashes[job.task])
+
+    rows = evaluate_many(run_job, jobs, key, cache=cache, executor=executor, save_every=save_every)
+    keys = pd.DataFrame([key(job) for job in jobs], columns=list(EVAL_KEY_COLUMNS))
     return pd.concat([keys, pd.DataFrame(rows)], axis=1)

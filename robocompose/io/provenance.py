@@ -8,9 +8,14 @@ check that each stage lists every project module it imports.
 from __future__ import annotations
 
 import ast
+import dataclasses
 import functools
 import hashlib
+import importlib
+import inspect
+import json
 from pathlib import Path
+from typing import Any
 
 PACKAGE = "robocompose"
 PACKAGE_DIR = Path(__file__).resolve().parents[1]  # .../robocompose
@@ -83,3 +88,36 @@ def code_digest(*modules: str) -> str:
     for path in import_closure(*modules):
         digest.update(path.relative_to(ROOT).as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
     return digest.hexdigest()[:16]
+
+
+def _jsonable(value: Any) -> Any:
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {"__class__": type(value).__name__, **dataclasses.asdict(value)}
+    if hasattr(value, "tolist"):  # numpy arrays and scalars
+        return value.tolist()
+    if isinstance(value, (set, frozenset)):
+        return sorted(value, key=repr)
+    raise TypeError(f"cannot put {type(value).__name__} {value!r} into a settings digest")
+
+
+def constants_of(*modules: str) -> dict[str, Any]:
+    """The module-level constants (UPPER_CASE names holding data) of the given modules, by qualified name.
+
+    Read at call time, so a key built from them follows a constant changed at run time, as a test does.
+    """
+    out: dict[str, Any] = {}
+    for name in modules:
+        for attr, value in sorted(vars(importlib.import_module(name)).items()):
+            if attr.isupper() and not callable(value) and not inspect.ismodule(value):
+                try:
+                    json.dumps(value, default=_jsonable)
+                except TypeError:
+                    continue  # a handle (a pybullet quaternion helper, a compiled object): not a setting
+                out[f"{name}.{attr}"] = value
+    return out
+
+
+def settings_digest(settings: Any) -> str:
+    """SHA-256 (16 hex digits) of a JSON-able structure of settings (dataclasses and tuples allowed)."""
+    text = json.dumps(settings, sort_keys=True, default=_jsonable)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]

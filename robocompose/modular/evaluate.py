@@ -12,13 +12,13 @@ the `penalty` rule: not simulated, no distance). Optimisers turn a result into a
 `FitnessRule.fitness`: the distance, or the penalty (-10, the original's score) when there is none.
 
 Results are cached in the shared evaluation cache, key (design port string, "blocks-<seed>", settings hash,
-seed 0): the rollout is deterministic, so the seed column is always 0.
+seed 0): the rollout is deterministic, so the seed column is always 0. The settings hash covers the episode
+settings, the terrain ranges, the physics (gravity, damping, solver), the controller's gait, the constants
+of the robot, controller, terrain and evaluator modules and a digest of their source.
 """
 
 from __future__ import annotations
 
-import hashlib
-import json
 import math
 import time
 from collections.abc import Callable, Sequence
@@ -28,10 +28,14 @@ import numpy as np
 
 from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.executor import Executor, evaluate_many
+from robocompose.io.provenance import code_digest, constants_of, settings_digest
 from robocompose.modular.controller import RobotState, make_controller
 from robocompose.modular.robot import START_HEIGHT, ModularRobot, build_robot, parse_design, valid_in_original
 from robocompose.modular.terrain import Terrain, TerrainConfig, add_terrain, generate_terrain
 
+# Modules whose constants shape a result (robot parts and masses, motor gains, gait, terrain grid, stops).
+RESULT_MODULES = ("robocompose.modular.robot", "robocompose.modular.controller", "robocompose.modular.terrain",
+                  "robocompose.sim.physics", "robocompose.modular.evaluate")
 REWARD_STATUSES = ("ok", "flipped", "left_course", "stalled")  # statuses that carry a measured distance
 BLOWUP_SPEED = 50.0  # m/s; a chassis faster than this has exploded
 
@@ -60,10 +64,17 @@ class EvalSettings:
         if isinstance(self.terrain, dict):  # from params.yaml
             object.__setattr__(self, "terrain", TerrainConfig(**self.terrain))
 
+    def physics(self):
+        from robocompose.sim.physics import PhysicsSettings
+
+        return PhysicsSettings(time_step=self.time_step, solver_iterations=self.solver_iterations)
+
     def settings_hash(self) -> str:
-        """A short hash of every field (terrain ranges included)."""
-        text = json.dumps(asdict(self), sort_keys=True)
-        return hashlib.sha256(text.encode()).hexdigest()[:16]
+        """16 hex digits of everything a rollout depends on besides design and terrain seed (see module doc)."""
+        controller = make_controller(self.controller)
+        return settings_digest({"settings": asdict(self), "physics": self.physics(),
+                                "gait": getattr(controller, "gait", None), "controller": type(controller).__name__,
+                                "constants": constants_of(*RESULT_MODULES), "code": code_digest(*RESULT_MODULES)})
 
     @property
     def sim_steps(self) -> int:
@@ -105,10 +116,10 @@ def rollout(design: str, terrain: Terrain, settings: EvalSettings, visual: bool 
     """Simulate `design` on `terrain` under `settings`' controller; see the module docstring for the episode."""
     import pybullet as pb
 
-    from robocompose.sim.physics import PhysicsSettings, connect
+    from robocompose.sim.physics import connect
 
     started = time.perf_counter()
-    client = connect(PhysicsSettings(time_step=settings.time_step, solver_iterations=settings.solver_iterations))
+    client = connect(settings.physics())
     try:
         add_terrain(client, terrain, visual=visual)
         robot = build_robot(design, client, position=(0.0, 0.0, START_HEIGHT), visual=visual)

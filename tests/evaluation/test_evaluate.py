@@ -50,8 +50,8 @@ def test_blow_ups_are_unstable_not_scores(monkeypatch, tree, reward, status, sto
 
 def test_settings_hash_separates_settings_and_params_build_nested_config():
     config = EvaluationConfig(mppi={"samples": 4, "first_samples": 4, "horizon": 4, "episode": 6})
-    assert config.mppi == TINY.mppi and config.settings_hash() == TINY.settings_hash()
-    assert EvaluationConfig().settings_hash() != TINY.settings_hash()
+    assert config.mppi == TINY.mppi and config.settings_hash("flat") == TINY.settings_hash("flat")
+    assert EvaluationConfig().settings_hash("flat") != TINY.settings_hash("flat")
     with pytest.raises(ValueError, match="evaluation.mppi.samples"):
         EvaluationConfig(mppi={"samples": "many"})
 
@@ -85,3 +85,45 @@ def test_every_sibling_order_of_a_design_builds_one_robot_and_scores_the_same(tr
     assert other.tokens != tree.tokens and other.design_id == tree.design_id
     a, b = evaluate(tree, "ridged", TINY, seed=3), evaluate(other, "ridged", TINY, seed=3)
     assert a["reward"] == b["reward"] and a["sim_steps"] == b["sim_steps"]
+
+
+@pytest.mark.parametrize("module, name, value", [
+    ("robocompose.tasks.terrains", "TERRAIN_SEED", 1),  # the obstacles' positions
+    ("robocompose.tasks.terrains", "START_X", 0.5),
+    ("robocompose.sim.builder", "LINK_FRICTION", 0.8),  # robot and motor constants
+    ("robocompose.sim.builder", "KP", 0.02),
+    ("robocompose.grammar.tree", "BODY_TOTAL_MASS", 0.5),
+    ("robocompose.evaluation.evaluate", "BLOWUP_REWARD", 11.0),
+])
+def test_settings_hash_changes_with_every_constant_that_shapes_a_result(monkeypatch, module, name, value):
+    import importlib
+
+    before = TINY.settings_hash("ridged")
+    monkeypatch.setattr(importlib.import_module(module), name, value)
+    assert TINY.settings_hash("ridged") != before
+
+
+def test_settings_hash_covers_the_task_physics_and_code(monkeypatch):
+    from dataclasses import replace
+
+    import robocompose.sim.physics as physics
+    import robocompose.tasks.terrains as terrains
+
+    base = {t: TINY.settings_hash(t) for t in ("flat", "wall")}
+    assert base["flat"] != base["wall"] and TINY.settings_hash("flat") == base["flat"]  # unchanged: same key
+    monkeypatch.setitem(terrains.TASKS, "flat", replace(terrains.TASKS["flat"], friction=0.4))
+    assert TINY.settings_hash("flat") != base["flat"]
+    monkeypatch.undo()
+    monkeypatch.setattr(physics.PhysicsSettings, "__init__", _with_default(physics.PhysicsSettings, gravity=-9.0))
+    assert TINY.settings_hash("flat") != base["flat"]
+    monkeypatch.undo()
+    monkeypatch.setattr(ev, "code_digest", lambda *modules: "changed-source")  # any edit of the evaluator's code
+    assert TINY.settings_hash("flat") != base["flat"]
+
+
+def _with_default(cls, **defaults):
+    init = cls.__init__
+
+    def patched(self, **kwargs):
+        init(self, **{**defaults, **kwargs})
+    return patched

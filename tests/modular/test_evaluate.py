@@ -68,6 +68,44 @@ def test_settings_hash_covers_the_terrain_ranges():
     assert SHORT.settings_hash() == EvalSettings(control_steps=36).settings_hash()
 
 
+@pytest.mark.parametrize("module, name, value", [
+    ("robocompose.modular.robot", "WHEEL_RADIUS", 0.2),  # robot constants
+    ("robocompose.modular.robot", "FRICTION", 0.5),
+    ("robocompose.modular.robot", "CHASSIS_MASS", 9.0),
+    ("robocompose.modular.terrain", "GRID_X", 7),
+    ("robocompose.modular.evaluate", "BLOWUP_SPEED", 40.0),
+])
+def test_settings_hash_changes_with_every_constant_that_shapes_a_rollout(monkeypatch, module, name, value):
+    import importlib
+
+    before = SHORT.settings_hash()
+    monkeypatch.setattr(importlib.import_module(module), name, value)
+    assert SHORT.settings_hash() != before
+
+
+def test_settings_hash_covers_gait_gravity_damping_and_code(monkeypatch):
+    import dataclasses
+
+    import robocompose.modular.controller as controller
+    import robocompose.modular.evaluate as modular_evaluate
+    import robocompose.sim.physics as physics
+
+    before = SHORT.settings_hash()
+    slow = dataclasses.replace(controller.TripodGait(), period=2.0)
+    monkeypatch.setattr(controller.TripodController.__init__, "__defaults__", (slow,))
+    assert SHORT.settings_hash() != before
+    monkeypatch.undo()
+    for field, value in (("gravity", -9.0), ("link_damping", 0.04)):
+        monkeypatch.setattr(physics.PhysicsSettings, field, value)  # the dataclass default of that field
+        monkeypatch.setattr(physics.PhysicsSettings.__init__, "__defaults__", tuple(
+            value if f.name == field else getattr(physics.PhysicsSettings, f.name)
+            for f in dataclasses.fields(physics.PhysicsSettings)))
+        assert SHORT.settings_hash() != before
+        monkeypatch.undo()
+    monkeypatch.setattr(modular_evaluate, "code_digest", lambda *modules: "changed-source")
+    assert SHORT.settings_hash() != before
+
+
 def test_batch_evaluation_goes_through_the_cache_and_skips_invalid_designs(tmp_path):
     cache = EvaluationCache(tmp_path / "cache.parquet")
     rule = FitnessRule()

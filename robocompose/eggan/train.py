@@ -1,0 +1,247 @@
+"""Training EG-GAN (thesis Algorithm 1) on any `EgganProblem`, with checkpoints that resume exactly.
+
+Every iteration t:
+1. draw a task T from the problem's task distribution and B noise vectors z ~ N(0, I_P);
+2. X_gen: one design per z drawn from the generator's output X~ = G(z, T) (for a continuous problem the
+   output is the design), evaluated on T;
+3. X_pop = EVO(X_gen, T): the problem's evolution-guided data creation (`config.evolution` for
+   `config.evolution_steps` steps: deterministic crowding = EG-GAN-crowding, Alg. 2; a classic GA
+   generation = EG-GAN; NSGA-II for a multi-objective problem, Alg. 3);
+4. generator step. Discrete designs, conditional BGAN (eq. 4.2, in the form of Hjelm et al.'s code): for each
+   z draw M designs x_m from X~, weight them by the softmax over the M of the discriminator's logits
+   log D/(1-D) (no gradient through the weights), loss = -mean_z sum_m w_m log P_theta(x_m | z, T).
+   Continuous designs: the conditional GAN loss log(1 - D(G(z, T), T)) (eq. 4.1), minimised;
+5. discriminator step: cross-entropy with X_pop labelled 1 and X_gen labelled 0 (eq. 4.3), one batch.
+
+Every random choice of iteration t comes from generators seeded with (seed, t), and a checkpoint holds the
+networks, both optimisers, the log and the problem's own state (`problem.state_dict()`: a surrogate, its
+data, the evaluation counters), so a killed run resumes to the same bytes. The checkpoint key covers the
+training settings (not the bookkeeping: iterations, log and checkpoint cadence), the network sizes, the
+problem's key (its settings, data and code) and the code digest of this package.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import torch
+import torch.nn.functional as F
+
+from robocompose.eggan.networks import Discriminator, Generator, NetworkConfig
+from robocompose.eggan.problem import EgganProblem, check_problem
+from robocompose.io import McapWriter, atomic_path, atomic_write_text
+from robocompose.io.provenance import code_digest
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Algorithm 1's settings."""
+
+    iterations: int = 1000  # training iterations (one task each)
+    batch: int = 64  # B: noise vectors per iteration = |X_gen| = |X_pop| (even: crowding pairs parents)
+    samples: int = 20  # M: designs drawn per z for the BGAN loss (Hjelm et al.: 20)
+    evolution: str = "crowding"  # the problem's evolution method: "crowding" (EG-GAN-crowding), "ga" (EG-GAN)
+    evolution_steps: int = 1  # n: evolution steps per iteration (the group's code: 1)
+    lr_generator: float = 1e-4  # Adam (BGAN code: 1e-4, beta1 0.5)
+    lr_discriminator: float = 1e-4
+    beta1: float = 0.5
+    seed: int = 0
+    threads: int = 1  # torch threads (results are bit-identical at a fixed thread count)
+    log_every: int = 10  # iterations per logged row (means over the rows' iterations)
+    checkpoint_every: int = 50  # iterations between checkpoints (a multiple of log_every)
+
+    def __post_init__(self):
+        for name in ("iterations", "batch", "samples", "evolution_steps", "threads", "log_every",
+                     "checkpoint_every"):
+            value = getattr(self, name)
+            if not isinstance(value, int) or value < (0 if name in ("iterations", "evolution_steps") else 1):
+                raise ValueError(f"{name}: expected a positive integer, found {value!r}")
+        if self.batch % 2:
+            raise ValueError(f"batch: expected an even number (the evolution pairs parents), found {self.batch}")
+        if self.checkpoint_every % self.log_every:
+            raise ValueError(f"checkpoint_every ({self.checkpoint_every}) must be a multiple of log_every "
+                             f"({self.log_every}): logged rows must not straddle a resume")
+        for name in ("lr_generator", "lr_discriminator"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name}: expected a positive learning rate, found {getattr(self, name)}")
+
+
+# Settings that do not change what iteration t computes: a finished run continues when only these grow.
+BOOKKEEPING = ("iterations", "log_every", "checkpoint_every")
+
+
+@dataclass
+class Trained:
+    """A trained (or resumed) EG-GAN: both networks, the log rows, and the run's key."""
+
+    generator: Generator
+    discriminator: Discriminator
+    rows: list[dict]
+    key: str
+    network: NetworkConfig
+    config: TrainConfig
+
+
+def run_key(problem: EgganProblem, network: NetworkConfig, config: TrainConfig) -> str:
+    """What a checkpoint must match to be resumed (see the module docstring)."""
+    settings = {k: v for k, v in dataclasses.asdict(config).items() if k not in BOOKKEEPING}
+    text = json.dumps([settings, dataclasses.asdict(network), problem.key(), code_digest(__name__)], sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def iteration_streams(seed: int, iteration: int) -> tuple[np.random.Generator, torch.Generator]:
+    """The numpy and torch random streams of one iteration: functions of (seed, iteration) only."""
+    rng = np.random.default_rng([seed, iteration, 4101])
+    state = np.random.SeedSequence([seed, iteration, 4102]).generate_state(1, dtype=np.uint64)[0]
+    return rng, torch.Generator().manual_seed(int(state) & 0x7FFF_FFFF_FFFF_FFFF)
+
+
+def bgan_generator_loss(d_logits: torch.Tensor, log_prob: torch.Tensor) -> torch.Tensor:
+    """Conditional BGAN loss (eq. 4.2): d_logits, log_prob (B, M) -> -mean_b sum_m softmax_m(d) log P."""
+    weights = torch.softmax(d_logits.detach(), dim=1)  # (B, M): normalised importance weights, no gradient
+    return -(weights * log_prob).sum(dim=1).mean()
+
+
+def gan_generator_loss(d_logits: torch.Tensor) -> torch.Tensor:
+    """Conditional GAN loss (eq. 4.1) log(1 - D(G(z, T), T)), minimised; log(1 - sigmoid(a)) = -softplus(a)."""
+    return -F.softplus(d_logits).mean()
+
+
+def discriminator_loss(real_logits: torch.Tensor, fake_logits: torch.Tensor) -> torch.Tensor:
+    """Eq. 4.3: -[log D(X_pop) + log(1 - D(X_gen))], averaged over both halves of the batch."""
+    logits = torch.cat([real_logits, fake_logits])
+    labels = torch.cat([torch.ones_like(real_logits), torch.zeros_like(fake_logits)])
+    return F.binary_cross_entropy_with_logits(logits, labels)
+
+
+def _objective_stats(prefix: str, problem: EgganProblem, values: np.ndarray) -> dict[str, float]:
+    """Mean and best of each objective of a batch (best = max if maximised, else min)."""
+    stats = {}
+    for k, objective in enumerate(problem.objectives):
+        column = values[:, k]
+        stats[f"{prefix}_{objective.name}_mean"] = float(column.mean())
+        stats[f"{prefix}_{objective.name}_best"] = float(column.max() if objective.maximise else column.min())
+    return stats
+
+
+def train_step(problem: EgganProblem, generator: Generator, discriminator: Discriminator,
+               opt_g: torch.optim.Optimizer, opt_d: torch.optim.Optimizer, config: TrainConfig,
+               iteration: int) -> dict[str, float]:
+    """One iteration of Algorithm 1; returns its scalars for the log."""
+    rng, stream = iteration_streams(config.seed, iteration)
+    task = problem.sample_task(rng)
+    task_tensor = problem.encode_task(task).unsqueeze(0)  # (1, *task_shape)
+    b, m = config.batch, config.samples
+    z = torch.randn(b, generator.config.latent, generator=stream)  # (B, P)
+    generator.train()
+    discriminator.train()
+    output = problem.design_head(generator(z, generator.encode(task_tensor).expand(b, -1)))  # (B, *design_shape)
+
+    with torch.no_grad():
+        generated = problem.sample_designs(output.detach(), stream)  # X_gen
+    gen_objectives = np.asarray(problem.evaluate(task, generated.designs), dtype=np.float64).reshape(b, -1)
+    population, pop_objectives = problem.evolve(task, list(generated.designs), gen_objectives, config.evolution,
+                                                config.evolution_steps, rng)  # X_pop
+    pop_objectives = np.asarray(pop_objectives, dtype=np.float64).reshape(b, -1)
+
+    d_code = discriminator.encode(task_tensor)  # (1, code)
+    if problem.discrete:
+        repeated = output.repeat_interleave(m, dim=0)  # (B*M, *design_shape), row b*M + j belongs to z_b
+        drawn = problem.sample_designs(repeated, stream)
+        with torch.no_grad():
+            d_logits = discriminator(drawn.tensor, d_code.detach().expand(b * m, -1)).view(b, m)
+        loss_g = bgan_generator_loss(d_logits, drawn.log_prob.view(b, m))
+    else:
+        loss_g = gan_generator_loss(discriminator(output, d_code.expand(b, -1)))
+    opt_g.zero_grad()
+    loss_g.backward()
+    opt_g.step()
+
+    real = problem.design_tensor(population)  # (B, *design_shape)
+    logits = discriminator(torch.cat([real, generated.tensor.detach()]),
+                           discriminator.encode(task_tensor).expand(2 * b, -1))  # (2B,)
+    loss_d = discriminator_loss(logits[:b], logits[b:])
+    opt_d.zero_grad()
+    loss_d.backward()
+    opt_d.step()
+
+    row = {"loss_g": float(loss_g.detach()), "loss_d": float(loss_d.detach()),
+           "d_pop": float(torch.sigmoid(logits[:b]).mean()), "d_gen": float(torch.sigmoid(logits[b:]).mean()),
+           "gen_distinct": float(len({problem.design_id(d) for d in generated.designs}))}
+    row.update(_objective_stats("gen", problem, gen_objectives))
+    row.update(_objective_stats("pop", problem, pop_objectives))
+    return row
+
+
+def write_logs(rows: list[dict], csv_path: Path | None, mcap_path: Path | None, topic: str) -> None:
+    """The training curves as a CSV (DVC plots) and an MCAP log (one message per row on `topic`)."""
+    if csv_path is not None:
+        atomic_write_text(csv_path, pd.DataFrame(rows).to_csv(index=False, float_format="%.6g"))
+    if mcap_path is not None:
+        with McapWriter(mcap_path) as log:
+            for row in rows:
+                log.scalars(topic, float(row["iteration"]),
+                            {k: v for k, v in row.items() if k != "iteration" and not math.isnan(v)})
+
+
+def train(problem: EgganProblem, network: NetworkConfig, config: TrainConfig, checkpoint: Path | None = None,
+          csv_path: Path | None = None, mcap_path: Path | None = None, progress: bool = False) -> Trained:
+    """Run Algorithm 1 for `config.iterations` iterations, resuming from `checkpoint` if it holds this run."""
+    check_problem(problem)
+    if config.evolution not in problem.evolution_methods:
+        raise ValueError(f"evolution: problem {problem.name} supports {list(problem.evolution_methods)}, "
+                         f"found {config.evolution!r}")
+    torch.set_num_threads(config.threads)
+    torch.manual_seed(config.seed)
+    generator = Generator(problem.task_shape, problem.design_shape, network)
+    discriminator = Discriminator(problem.task_shape, problem.design_shape, network)
+    opt_g = torch.optim.Adam(generator.parameters(), lr=config.lr_generator, betas=(config.beta1, 0.999))
+    opt_d = torch.optim.Adam(discriminator.parameters(), lr=config.lr_discriminator, betas=(config.beta1, 0.999))
+    key = run_key(problem, network, config)
+    start, rows = 0, []
+    if checkpoint is not None and checkpoint.exists():
+        saved = torch.load(checkpoint, map_location="cpu", weights_only=False)
+        if saved.get("key") == key and saved["iteration"] <= config.iterations:
+            generator.load_state_dict(saved["generator"])
+            discriminator.load_state_dict(saved["discriminator"])
+            opt_g.load_state_dict(saved["opt_g"])
+            opt_d.load_state_dict(saved["opt_d"])
+            problem.load_state_dict(saved["problem"])
+            start, rows = saved["iteration"], saved["rows"]
+            print(f"resuming from {checkpoint} at iteration {start}", flush=True)
+        else:
+            print(f"{checkpoint} holds a run with other settings: starting afresh", flush=True)
+
+    from tqdm import tqdm
+
+    topic = f"/eggan/{problem.name}/train"
+    pending: list[dict] = []
+    bar = tqdm(total=config.iterations, initial=start, disable=not progress, desc=f"eggan {problem.name}",
+               mininterval=5.0)
+    for iteration in range(start, config.iterations):
+        pending.append(train_step(problem, generator, discriminator, opt_g, opt_d, config, iteration))
+        done = iteration + 1
+        if done % config.log_every == 0 or done == config.iterations:
+            row = {"iteration": done, **pd.DataFrame(pending).mean().to_dict(),
+                   "real_evaluations": problem.real_evaluations}
+            rows.append(row)
+            pending = []
+            bar.set_postfix(loss_d=f"{row['loss_d']:.3f}", real=row["real_evaluations"])
+        if checkpoint is not None and (done % config.checkpoint_every == 0 or done == config.iterations):
+            with atomic_path(checkpoint) as tmp:
+                torch.save({"key": key, "iteration": done, "generator": generator.state_dict(),
+                            "discriminator": discriminator.state_dict(), "opt_g": opt_g.state_dict(),
+                            "opt_d": opt_d.state_dict(), "problem": problem.state_dict(), "rows": rows}, tmp)
+            write_logs(rows, csv_path, mcap_path, topic)
+        bar.update(1)
+    bar.close()
+    if start >= config.iterations or checkpoint is None:
+        write_logs(rows, csv_path, mcap_path, topic)
+    return Trained(generator.eval(), discriminator.eval(), rows, key, network, config)
