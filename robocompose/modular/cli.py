@@ -1,7 +1,9 @@
-"""`robocompose modular ...`: evaluate one modular design on a block terrain; run a GA baseline on one terrain.
+"""`robocompose modular ...`: evaluate one modular design on a block terrain; run a GA baseline on one terrain;
+measure one terrain's exhaustive table.
 
-Settings come from the `modular:` section of `--params` (default params.yaml); without that file, the thesis's
-settings (the dataclass defaults). pybullet and the search code are imported inside the handlers.
+Settings come from the `modular:` section of `--params` (default params.yaml); without that file, the dataclass
+defaults (the default profile's episode on the reference's course). pybullet and the search code are imported
+inside the handlers.
 """
 
 from __future__ import annotations
@@ -38,19 +40,27 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     _add_params_argument(ga)
     ga.set_defaults(handler=_ga)
 
+    exhaustive = commands.add_parser(
+        "exhaustive", help="every design on one terrain, kept under reports/modular/exhaustive/ (resumes)")
+    exhaustive.add_argument("--terrain-seed", type=int, required=True)
+    exhaustive.add_argument("--out-dir", type=Path, default=None,
+                            help="where the table and its provenance record go (default reports/modular/exhaustive)")
+    exhaustive.add_argument("--workers", type=int, help="evaluation processes (default: params; 0 = all cores)")
+    _add_params_argument(exhaustive)
+    exhaustive.set_defaults(handler=_exhaustive)
+
 
 def _add_params_argument(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--params", type=Path, default=Path("params.yaml"),
-                        help="params file with a modular: section (default params.yaml; if absent, thesis settings)")
+                        help="params file with a modular: section (default params.yaml; if absent, the defaults)")
 
 
 def _params(path: Path):
-    from robocompose.modular.evaluate import EvalSettings, FitnessRule
-    from robocompose.modular.params import ExperimentsConfig, ModularParams, load_modular_params
+    from robocompose.modular.params import build_modular_params, load_modular_params
 
     if path.exists():
         return load_modular_params(path)
-    return ModularParams(EvalSettings(), FitnessRule(), ExperimentsConfig())
+    return build_modular_params({}, "defaults")
 
 
 def _evaluate(args: argparse.Namespace) -> None:
@@ -81,6 +91,23 @@ def _ga(args: argparse.Namespace) -> None:
     with Executor(workers=workers, address=params.address or None) as executor:
         run = run_method(args.variant, args.terrain_seed, args.seed, params, cache, executor)
     print(json.dumps({"variant": args.variant, "terrain_seed": args.terrain_seed, "seed": args.seed,
-                      "best_design": run.best_design, "best_distance": run.best_distance,
+                      "best_design": run.best_design, "best_fitness": run.best_fitness,
                       "distinct": run.distinct, "evaluations": run.evaluations,
                       "seconds": round(run.seconds, 3), "sim_seconds": round(run.sim_seconds, 3)}))
+
+
+def _exhaustive(args: argparse.Namespace) -> None:
+    from robocompose.evaluation.cache import EvaluationCache
+    from robocompose.evaluation.executor import Executor
+    from robocompose.io import read_table
+    from robocompose.modular.truth import COMMITTED_DIR, measure_committed, truth_summary
+
+    params = _params(args.params)
+    workers = params.workers if args.workers is None else args.workers
+    cache = EvaluationCache(params.cache or None)
+    with Executor(workers=workers, address=params.address or None) as executor:
+        path = measure_committed(args.terrain_seed, params.eval, params.fitness, cache, executor,
+                                 args.out_dir or COMMITTED_DIR)
+    best = truth_summary(read_table(path, "modular_exhaustive"), params.experiments.near_optimal).iloc[0]
+    print(json.dumps({"terrain_seed": args.terrain_seed, "table": str(path), "optimum": best.optimum,
+                      "best_design": best.best_design, "near_optimal": int(best.near_optimal)}))
