@@ -21,18 +21,32 @@ class ExperimentsConfig:
     generations: int = 50  # NSGA-II generations
     crossover_probability: float = 0.5  # NSGA-II single-point arithmetic crossover probability
     mutation_rate: float = 0.1  # NSGA-II per-gene uniform mutation rate
-    test_chips: int = 2  # every table's rows run on the first test_chips test chips (sorted by id) ...
-    seeds: list[int] = field(default_factory=lambda: [0])  # ... and each of these seeds
+    table_5_4_chips: int = 2  # Table 5.4 (NSGA-II:20, :50, EG-GAN) on the first test chips (by id) ...
+    table_5_5_chips: int = 20  # Table 5.5 (no decomposition, random, EG-GAN) on the first test chips ...
+    seeds: list[int] = field(default_factory=lambda: [0])  # ... each row of a table on these seeds
     budgets: list[int] = field(default_factory=lambda: [15, 30, 45])  # Table 5.5 deployment budgets
     workers: int = 0  # processes running the independent runs; 0 = all cores, 1 = in the stage's process
     address: str = ""  # a running Dask scheduler (e.g. tcp://10.0.0.5:8786) to fan out over; "" = local
 
     def __post_init__(self) -> None:
-        if self.test_chips < 1 or not self.seeds:
-            raise ValueError(f"test_chips, seeds: expected >= 1 chip and a non-empty seed list, found "
-                             f"{self.test_chips} and {self.seeds}")
+        if min(self.table_5_4_chips, self.table_5_5_chips) < 1 or not self.seeds:
+            raise ValueError(f"table_5_4_chips, table_5_5_chips, seeds: expected >= 1 chip each and a "
+                             f"non-empty seed list, found {self.table_5_4_chips}, {self.table_5_5_chips}, "
+                             f"{self.seeds}")
         if self.workers < 0:
             raise ValueError(f"workers: expected >= 0 (0 = all cores), found {self.workers}")
+
+
+@dataclass(frozen=True)
+class EgganConfig:
+    iterations: int = 300  # Algorithm 1 iterations (one training chip each)
+    batch: int = 32  # noise vectors per iteration = |X_gen| = |X_pop|
+    evolution_steps: int = 1  # NSGA-II generations per iteration (the group's code: 1)
+    lr: float = 1e-3  # Adam step of both networks (group's code 1e-3; thesis 1e-5 for 20 h)
+    latent: int = 16  # P, the size of z (the group's code: 16)
+    samples: int = 256  # noise vectors per query (the front of a task)
+    seed: int = 0  # seeds training
+    checkpoint_every: int = 25  # iterations between checkpoints
 
 
 @dataclass(frozen=True)
@@ -41,6 +55,7 @@ class TeamsParams:
     decompose: DecomposeConfig
     coverage: CoverageConfig
     experiments: ExperimentsConfig
+    eggan: EgganConfig
     threads: int = 1  # torch threads: the tensors are small, one thread is fastest and reproducible
 
 
@@ -49,9 +64,9 @@ def load_teams_params(path: str | Path = "params.yaml") -> TeamsParams:
     section = read_params(path).get("teams")
     where = f"{path}: teams"
     if not isinstance(section, dict):
-        raise ValueError(f"{where}: missing section (expected chips, decompose, coverage, experiments)")
+        raise ValueError(f"{where}: missing section (expected chips, decompose, coverage, experiments, eggan)")
     parts = {"chips": ChipsConfig, "decompose": DecomposeConfig, "coverage": CoverageConfig,
-             "experiments": ExperimentsConfig}
+             "experiments": ExperimentsConfig, "eggan": EgganConfig}
     known = sorted([*parts, "threads"])
     unknown = sorted(set(section) - set(known))
     if unknown:
