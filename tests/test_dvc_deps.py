@@ -33,7 +33,7 @@ KNOWN_READS = {
                                 "data/vae_extra_designs.parquet", "data/vae_extra_nogram.parquet"}
        for variant in ("full", "nopred", "nogram")},
     "vae_landscape": {"models/vae_full.pt", "models/vae_nopred.pt", "data/designs.parquet"},
-    "report": {"data/teams/chips", "data/rollouts", "reports/benchmarks.json", "reports/vae"},
+    "report": {"data/teams/chips", "data/rollouts", "reports/benchmarks.json", "reports/training"},
 }
 # Files stages read that are deliberately not DVC deps, and why.
 NOT_DEPS = {
@@ -122,7 +122,8 @@ def named_reads(script: str, stages: dict, root: Path = ROOT) -> list[tuple[str,
     strings = set().union(*(_path_strings(p) for p in sources))
     found = []
     for text in sorted(strings):
-        names = {a for a in artifacts(stages, root) if fnmatch.fnmatchcase(a, text) or fnmatch.fnmatchcase(a, "*/" + text)}
+        names = {a for a in artifacts(stages, root)
+                 if fnmatch.fnmatchcase(a, text) or fnmatch.fnmatchcase(a, "*/" + text)}
         if names:
             found.append((text, names))
     return found

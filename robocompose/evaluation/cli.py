@@ -15,6 +15,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     evaluate.add_argument("--mcap", help="write the trajectory as an MCAP log (Foxglove)")
     evaluate.add_argument("--gif", help="write the trajectory as an animated GIF")
     evaluate.set_defaults(handler=_evaluate)
+    register_fidelity(subparsers)
 
 
 def _evaluate(args: argparse.Namespace) -> int:
@@ -41,4 +42,36 @@ def _evaluate(args: argparse.Namespace) -> int:
             written["gif"] = str(recorder.write_gif(args.gif))
     print(json.dumps({"design_id": tree.design_id, "task": task, "seed": seed,
                       "settings_hash": config.settings_hash(task), **row, **written}))
+    return 0
+
+
+def register_fidelity(subparsers: argparse._SubParsersAction) -> None:
+    fidelity = subparsers.add_parser("evaluator-fidelity",
+                                     help="score a fixed design set under a ladder of MPPI settings (hours)")
+    fidelity.add_argument("action", choices=("build-set", "measure", "summarise"),
+                          help="build-set: the design set; measure: score what the pieces lack; summarise: the table")
+    fidelity.add_argument("--params", default="params.yaml", help="params file whose `evaluator_fidelity` is used")
+    fidelity.add_argument("--tasks", help="comma-separated tasks instead of evaluator_fidelity.tasks")
+    fidelity.add_argument("--rungs", help="comma-separated ladder rungs instead of evaluator_fidelity.rungs")
+    fidelity.set_defaults(handler=_fidelity)
+
+
+def _fidelity(args: argparse.Namespace) -> int:
+    import dataclasses
+
+    from robocompose.evaluation import fidelity
+    from robocompose.params import load_section
+
+    config = load_section(fidelity.FidelityConfig, "evaluator_fidelity", args.params)
+    changes = {name: getattr(args, name).split(",") for name in ("tasks", "rungs") if getattr(args, name)}
+    config = dataclasses.replace(config, **changes)  # re-checked by __post_init__
+    if args.action == "build-set":
+        print(json.dumps({"designs": str(fidelity.write_design_set(fidelity.build_design_set(config),
+                                                                   config.directory))}))
+        return 0
+    designs = fidelity.read_design_set(config.directory)
+    if args.action == "measure":
+        print(json.dumps({"scored": fidelity.measure(config, designs)}))
+    summary = fidelity.summarise(fidelity.read_scores(config.directory), designs, config.top)
+    print(summary.to_string(index=False))
     return 0

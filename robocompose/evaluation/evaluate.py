@@ -66,15 +66,20 @@ class EvaluationConfig:
 
     def settings_hash(self, task: str) -> str:
         """16 hex digits identifying everything that changes a result on `task` besides design and seed."""
-        return settings_digest({"task": get_task(task), "mppi": self.mppi.as_dict(), "physics": PhysicsSettings(),
-                                "constants": constants_of(*RESULT_MODULES),
-                                "code": code_digest(*RESULT_MODULES)})
+        return settings_digest({"simulation": simulation_digest(task), "mppi": self.mppi.as_dict()})
 
     def executor(self) -> Executor:
         return Executor(workers=self.workers, address=self.address or None)
 
     def open_cache(self) -> EvaluationCache:
         return EvaluationCache(self.cache or None)
+
+
+def simulation_digest(task: str) -> str:
+    """16 hex digits of what shapes a result on `task` besides the controller settings, design and seed: the
+    task, the physics, the result-shaping constants and the source of the modules that compute it."""
+    return settings_digest({"task": get_task(task), "physics": PhysicsSettings(),
+                            "constants": constants_of(*RESULT_MODULES), "code": code_digest(*RESULT_MODULES)})
 
 
 def objective(row: dict) -> float:

@@ -11,19 +11,24 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import math
+import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 import torch
 
 from robocompose.grammar.tree import DesignTree
-from robocompose.io import McapWriter, atomic_path, atomic_write_text, read_table
+from robocompose.io import McapWriter, atomic_path, read_table
 from robocompose.io.provenance import code_digest, settings_digest
 from robocompose.latent.batch import collate
 from robocompose.latent.constraints import Replay, replay
 from robocompose.latent.model import GraphVAE, VAEConfig
+
+if TYPE_CHECKING:
+    from dvclive import Live
 
 
 @dataclass(frozen=True)
@@ -130,14 +135,16 @@ def lr_at(step: int, c: TrainConfig) -> float:
     return c.lr * c.lr_decay ** (step // c.lr_decay_every)
 
 
-def reconstruction_accuracy(model: GraphVAE, designs: Designs, chunk: int = 256) -> float:
-    """Fraction of designs whose latent mean decodes (greedily) to the same design."""
+def reconstruction_accuracy(model: GraphVAE, designs: Designs, chunk: int = 256,
+                            constraints: str | None = None) -> float:
+    """Fraction of designs whose latent mean decodes (greedily, under `constraints`: None = the model's
+    own) to the same design."""
     hits = 0
     with torch.no_grad():
         for lo in range(0, len(designs.ids), chunk):
             part = designs.subset(np.arange(lo, min(lo + chunk, len(designs.ids))))
             mean, _ = model.encoder(collate(part.replays, part.contacts))
-            walks = model.decoder.decode(mean)
+            walks = model.decoder.decode(mean, constraints)
             hits += sum(w.tree().design_id == i for w, i in zip(walks, part.ids, strict=True))
     return hits / len(designs.ids)
 
@@ -172,24 +179,71 @@ def load_model(path: str | Path) -> GraphVAE:
     return model.eval()
 
 
-LOG_FIELDS = ("step", "loss", "label_loss", "stop_loss", "kl", "pred_loss", "label_acc", "stop_acc", "beta", "lr",
-              "heldout_reconstruction")
+# The training curves as dvclive logs them: log field -> metric name (plots/metrics/<name>.tsv).
+CURVES = {"loss": "train/loss", "label_loss": "train/label_loss", "stop_loss": "train/stop_loss", "kl": "train/kl",
+          "pred_loss": "train/pred_loss", "label_acc": "train/label_acc", "stop_acc": "train/stop_acc",
+          "beta": "train/beta", "lr": "train/lr", "heldout_reconstruction": "heldout/reconstruction"}
+LOG_FIELDS = ("step", *CURVES)
 
 
-def write_logs(rows: list[dict], csv_path: Path, mcap_path: Path) -> None:
-    """The training curve as a CSV (DVC plots) and an MCAP log (one `/vae/train` message per row)."""
-    frame = pd.DataFrame(rows, columns=list(LOG_FIELDS))
-    atomic_write_text(csv_path, frame.to_csv(index=False, float_format="%.6g"))
+def training_log(directory: str | Path) -> Live:
+    """dvclive, DVC's own logger, writing the curves under `directory` (plots/metrics/**.tsv and the summary
+    metrics.json) for `dvc plots show/diff` and `dvc exp show`.
+
+    Offline and passive: it saves no DVC experiment, leaves dvc.yaml and git alone (the stage's dvc.yaml entry
+    declares its files) and posts nothing to Studio. It starts empty, so a resumed run logs its checkpoint's
+    rows again and its files match those of an uninterrupted run.
+    """
+    os.environ.setdefault("DVC_STUDIO_OFFLINE", "true")
+    os.environ.setdefault("DVCLIVE_LOGLEVEL", "WARNING")  # read when dvclive is imported
+    from dvclive import Live
+
+    return Live(str(directory), save_dvc_exp=False, dvcyaml=None, report=None, monitor_system=False)
+
+
+def log_row(live: Live, row: dict) -> None:
+    live.step = row["step"]
+    for field, name in CURVES.items():
+        if row[field] is not None and math.isfinite(row[field]):  # held-out reconstruction: every eval_every
+            live.log_metric(name, float(row[field]))  # no timestamp, so the files are byte-reproducible
+
+
+def log_evaluation(live: Live, metrics: dict, prefix: str = "evaluation") -> None:
+    """Final metrics of the trained model, into the same summary (metrics.json, under `evaluation`; a nested
+    group such as the unconstrained decoder's numbers under `evaluation/<group>`)."""
+    for key, value in metrics.items():
+        if isinstance(value, dict):
+            log_evaluation(live, value, f"{prefix}/{key}")
+        elif isinstance(value, int | float):
+            live.log_metric(f"{prefix}/{key}", value, plot=False)
+
+
+def read_curves(directory: str | Path) -> pd.DataFrame:
+    """The curves of a `training_log` directory as one table: LOG_FIELDS columns, a row per logged step."""
+    frame = pd.DataFrame({"step": pd.Series(dtype="int64")})
+    for field, name in CURVES.items():
+        path = Path(directory) / "plots" / "metrics" / f"{name}.tsv"
+        if path.exists():
+            curve = pd.read_csv(path, sep="\t").rename(columns={name.rpartition("/")[2]: field})
+            frame = frame.merge(curve, on="step", how="outer")
+    return frame.reindex(columns=list(LOG_FIELDS)).sort_values("step", ignore_index=True)
+
+
+def write_logs(rows: list[dict], live: Live, mcap_path: Path) -> None:
+    """At a checkpoint: dvclive's summary of the rows logged so far, and an MCAP log (one `/vae/train` message
+    per row) for Foxglove."""
+    live.make_summary()
     with McapWriter(mcap_path) as log:
         for row in rows:
             log.scalars("/vae/train", float(row["step"]),
                         {k: v for k, v in row.items() if k != "step" and v is not None and not math.isnan(v)})
 
 
-def train(model_config: VAEConfig, config: TrainConfig, designs: Designs, checkpoint: Path, csv_path: Path,
+def train(model_config: VAEConfig, config: TrainConfig, designs: Designs, checkpoint: Path, live: Live,
           mcap_path: Path, extra: Designs | None = None, progress: bool = False) -> tuple[GraphVAE, Designs, Designs]:
-    """Train (resuming from `checkpoint` when it holds a run of the same settings); returns the model and
-    the (train, held-out) designs. `extra` designs join the training split (any that are held out are dropped)."""
+    """Train (resuming from `checkpoint` when it holds a run of the same settings), logging to `live` (a fresh
+    `training_log`); returns the model and the (train, held-out) designs. `extra` designs join the training
+    split (any that are held out are dropped)."""
     torch.set_num_threads(config.threads)
     train_idx, test_idx = split(len(designs.ids), config.holdout, config.seed)
     train_set, test_set = designs.subset(train_idx), designs.subset(test_idx)
@@ -210,6 +264,8 @@ def train(model_config: VAEConfig, config: TrainConfig, designs: Designs, checkp
             optimizer.load_state_dict(saved["optimizer"])
             start, rows = saved["step"], saved["rows"]
             print(f"resuming from {checkpoint} at step {start}", flush=True)
+            for row in rows:
+                log_row(live, row)
         else:
             print(f"{checkpoint} holds a run with other settings: starting afresh", flush=True)
 
@@ -242,6 +298,7 @@ def train(model_config: VAEConfig, config: TrainConfig, designs: Designs, checkp
                 model.eval()
                 row["heldout_reconstruction"] = reconstruction_accuracy(model, eval_set)
             rows.append(row)
+            log_row(live, row)
             running = {}
             bar.set_postfix(loss=f"{row['loss']:.2f}", rec=f"{row['heldout_reconstruction']:.2f}")
         if done % config.checkpoint_every == 0 or done == config.steps:
@@ -249,9 +306,9 @@ def train(model_config: VAEConfig, config: TrainConfig, designs: Designs, checkp
             with atomic_path(checkpoint) as tmp:
                 torch.save({"key": key, "step": done, "model": model.state_dict(),
                             "optimizer": optimizer.state_dict(), "rows": rows}, tmp)
-            write_logs(rows, csv_path, mcap_path)
+            write_logs(rows, live, mcap_path)
         bar.update(1)
     bar.close()
     if start >= config.steps:  # already finished: make sure the logs exist
-        write_logs(rows, csv_path, mcap_path)
+        write_logs(rows, live, mcap_path)
     return model.eval(), train_set, test_set
