@@ -80,6 +80,18 @@ SCHEMAS: dict[str, pa.Schema] = {
     "teams_coverage": pa.schema([_required(n, t) for n, t in [
         ("method", pa.string()), ("chip_id", pa.string()), ("budget", pa.int64()), ("seed", pa.int64()),
         ("coverage_cost", pa.float64()), ("deployment_cost", pa.int64()), ("empty_regions", pa.int64())]]),
+    # EG-GAN queries on held-out chips (Tables 5.4, 5.5): per chip x seed the hypervolume of the front of
+    # `samples` noise vectors, the distinct allocations among them and the front's size; and the fronts.
+    "teams_eggan_queries": pa.schema([_required(n, t) for n, t in [
+        ("chip_id", pa.string()), ("seed", pa.int64()), ("hypervolume", pa.float64()), ("distinct", pa.int64()),
+        ("front_size", pa.int64())]]),
+    "teams_eggan_fronts": pa.schema([_required(n, t) for n, t in [
+        ("chip_id", pa.string()), ("seed", pa.int64()), ("coverage_cost", pa.float64()),
+        ("deployment_cost", pa.int64()), ("counts", pa.list_(pa.int16()))]]),
+    # Observations of the robots of the three methods of Table 5.5 at one budget on a few test chips (Fig. 5.4).
+    "teams_coverage_examples": pa.schema([_required(n, t) for n, t in [
+        ("method", pa.string()), ("chip_id", pa.string()), ("robot", pa.int64()), ("species", pa.int16()),
+        ("step", pa.int16()), ("x", pa.float64()), ("y", pa.float64())]]),
     # Observations of the robots of one example allocation (for the trajectory picture).
     "teams_trajectories": pa.schema([_required(n, t) for n, t in [
         ("chip_id", pa.string()), ("robot", pa.int64()), ("species", pa.int16()), ("region", pa.int16()),
