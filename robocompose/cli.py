@@ -9,7 +9,7 @@ import sys
 
 COMMAND_MODULES = ("robocompose.grammar.cli", "robocompose.sim.cli", "robocompose.dataset.cli",
                    "robocompose.teams.cli", "robocompose.evaluation.cli", "robocompose.modular.cli",
-                   "robocompose.latent.cli")
+                   "robocompose.latent.cli", "robocompose.glso.cli")
 
 
 def _profile(args: argparse.Namespace) -> int:

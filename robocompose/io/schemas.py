@@ -50,6 +50,20 @@ SCHEMAS: dict[str, pa.Schema] = {
         _required("settings_hash", pa.string()), _required("seed", pa.int64()),
         pa.field("reward", pa.float64(), nullable=True), _required("status", pa.string()),
         _required("sim_steps", pa.int64()), _required("objective", pa.float64())]),
+    # GLSO search (robocompose.glso): one row per objective call of a run (task, method, seed). `rules` is
+    # the design's grammar derivation (empty if the grammar cannot make it), `parents`/`tokens` its tree,
+    # `latent` the latent point it was decoded from (empty for non-latent methods); `score` is what the
+    # method was told (the reward if ok, else the status's invalid score); `repeat` marks a design already
+    # evaluated earlier in the run (it costs a call and gets its cached score); `seconds` is the step's
+    # wall time (propose + evaluate), the only column that differs between identical runs.
+    "glso_steps": pa.schema([
+        _required("step", pa.int32()), _required("method", pa.string()), _required("task", pa.string()),
+        _required("seed", pa.int64()), _required("design_id", pa.string()),
+        _required("rules", pa.list_(pa.int16())), _required("parents", pa.list_(pa.int32())),
+        _required("tokens", pa.list_(pa.int16())), _required("latent", pa.list_(pa.float64())),
+        _required("score", pa.float64()), pa.field("reward", pa.float64(), nullable=True),
+        _required("status", pa.string()), _required("repeat", pa.bool_()),
+        _required("best_so_far", pa.float64()), _required("seconds", pa.float64())]),
     # Team formation (robocompose.teams). One row per region of a terrain chip: its centre in the joint
     # position + terrain space (seed_x, seed_y, seed_<terrain> shares) and the terrain weight (the region
     # raster is recomputed from them, teams.decompose), its size and its terrain shares (sum to 1).
