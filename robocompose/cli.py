@@ -7,8 +7,9 @@ import importlib
 import json
 import sys
 
-COMMAND_MODULES = ("robocompose.grammar.cli", "robocompose.teams.cli", "robocompose.evaluation.cli",
-                   "robocompose.modular.cli", "robocompose.latent.cli")
+COMMAND_MODULES = ("robocompose.grammar.cli", "robocompose.sim.cli", "robocompose.dataset.cli",
+                   "robocompose.teams.cli", "robocompose.evaluation.cli", "robocompose.modular.cli",
+                   "robocompose.latent.cli")
 
 
 def _profile(args: argparse.Namespace) -> int:

@@ -66,6 +66,83 @@ def valid_foxglove_log():
     return assert_valid_foxglove_log
 
 
+# --- a page in a real browser (headless Chromium over the DevTools protocol) ---
+
+
+def _chromium() -> str:
+    import os
+    import shutil
+
+    found = shutil.which("chromium") or shutil.which("chromium-browser")
+    if found is None:
+        if os.environ.get("CI"):
+            pytest.fail("chromium is not installed (.ci/run installs it from the distribution's packages)")
+        pytest.skip("chromium is not installed (apt-get install chromium)")
+    return found
+
+
+def _cdp(ws_url: str, page_url: str, expression: str) -> dict:
+    """Open `page_url` in the browser tab at `ws_url` (DevTools protocol) and evaluate `expression`."""
+    import json
+
+    from websockets.sync.client import connect
+
+    events: set[str] = set()
+    with connect(ws_url, max_size=None, open_timeout=30) as ws:
+        def call(ident: int, method: str, **params) -> dict:
+            ws.send(json.dumps({"id": ident, "method": method, "params": params}))
+            while True:
+                message = json.loads(ws.recv(timeout=60))
+                if message.get("id") == ident:
+                    assert "error" not in message, message
+                    return message["result"]
+                events.add(message.get("method", ""))
+
+        call(1, "Page.enable")
+        call(2, "Page.navigate", url=page_url)
+        while "Page.loadEventFired" not in events:
+            events.add(json.loads(ws.recv(timeout=60)).get("method", ""))
+        result = call(3, "Runtime.evaluate", expression=expression, awaitPromise=True, returnByValue=True)
+    return json.loads(result["result"]["value"])
+
+
+def check_in_browser(page: Path, expression: str, profile: Path) -> dict:
+    """The JSON value of `expression` (a JS promise of a JSON string) on local `page` in headless Chromium."""
+    import json
+    import socket
+    import subprocess
+    import time
+    import urllib.request
+
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        port = sock.getsockname()[1]
+    browser = subprocess.Popen([_chromium(), "--headless=new", "--no-sandbox", "--disable-gpu",
+                                f"--remote-debugging-port={port}", "--remote-debugging-address=127.0.0.1",
+                                f"--user-data-dir={profile}", "about:blank"],
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 60
+        while True:
+            try:
+                with urllib.request.urlopen(f"http://127.0.0.1:{port}/json/list", timeout=2) as response:
+                    pages = [t for t in json.load(response) if t["type"] == "page"]
+                if pages:
+                    break
+            except OSError:
+                pass
+            assert time.monotonic() < deadline and browser.poll() is None, "chromium did not start"
+            time.sleep(0.2)
+        return _cdp(pages[0]["webSocketDebuggerUrl"], page.as_uri(), expression)
+    finally:
+        browser.terminate()
+        browser.wait(timeout=30)
+
+
+@pytest.fixture
+def in_browser(tmp_path):
+    """`in_browser(page, expression)`: what `expression` evaluates to on local `page` in headless Chromium."""
+    return lambda page, expression: check_in_browser(page, expression, tmp_path / "browser-profile")
 @pytest.fixture
 def cli_error(capsys):
     """cli_error(argv, *fragments): run `robocompose argv` in-process; assert it exits 2 with one error line (after

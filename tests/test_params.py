@@ -3,7 +3,7 @@ from dataclasses import dataclass
 import pytest
 import yaml
 
-from robocompose.grammar.enumerate import EnumerateConfig
+from robocompose.dataset.enumerate import EnumerateConfig
 from robocompose.io.errors import InputError
 from robocompose.params import build_config, load_section, merge, read_params, write_profile
 

@@ -56,7 +56,7 @@ SCREEN = MPPIConfig(samples=8, first_samples=32, horizon=8, episode=24)  # the q
 DESIGN_COLUMNS = ("name", "kind", "design_id", "rules", "screen_reward")
 SCORE_COLUMNS = ("task", "rung", "name", "design_id", "reward", "status", "objective", "sim_steps", "seconds",
                  "evaluator")  # evaluator: `simulation_digest(task)` of the code that measured the row
-MEASURE_ORDER = ("reference", "screened", "random")  # kinds of design, measured in this order
+MEASURE_ORDER = ("reference", "screened", "random")  # kinds of design, in `measure_order`
 DESIGNS_FILE, SUMMARY_FILE = "designs.csv", "summary.csv"
 SCORES_DIR = "scores"
 
@@ -97,7 +97,7 @@ class FidelityConfig:
 
 def dataset_candidates(seed: int):
     """(rules, tree) of the enumeration's valid candidates of `seed`, in candidate order, each design once."""
-    from robocompose.grammar.enumerate import MIN_LINKS, candidate
+    from robocompose.dataset.enumerate import MIN_LINKS, candidate
 
     seen, k = set(), 0
     while True:
@@ -197,15 +197,23 @@ def _append(path: Path, row: dict) -> None:
         os.close(fd)
 
 
+def measure_order(designs: pd.DataFrame) -> pd.DataFrame:
+    """The reference designs first, then the other kinds taken in turn (screened_0, random_0, screened_1, ...),
+    so that the designs measured first span the score range, strong designs included."""
+    turn = designs.groupby("kind", sort=False).cumcount() + (designs["kind"] != "reference") * len(designs)
+    kind = designs["kind"].map(MEASURE_ORDER.index)
+    return designs.assign(_turn=turn, _kind=kind).sort_values(["_turn", "_kind"], kind="stable").drop(
+        columns=["_turn", "_kind"])
+
+
 def measure(config: FidelityConfig, designs: pd.DataFrame) -> int:
     """Score every (task, rung, design) not yet in the pieces; the number scored now.
 
-    Order: task, then design, then rung (config order). Designs go by `MEASURE_ORDER` of their kinds: the
-    strong designs that the ladder must rank correctly come first. Design-major order makes a partial run
-    useful: every design measured so far has a score at every rung, so a Spearman over them exists.
+    Order: task, then design (`measure_order`), then rung (config order). Design-major order makes a partial
+    run useful: every design measured so far has a score at every rung, so a Spearman over them exists.
     """
     trees = {row.design_id: derive(parse_rules(row.rules)).tree for row in designs.itertuples()}
-    designs = designs.sort_values("kind", key=lambda kind: kind.map(MEASURE_ORDER.index), kind="stable")
+    designs = measure_order(designs)
     done = {(task, rung): set(read_piece(piece_path(config.directory, task, rung))["design_id"])
             for task in config.tasks for rung in config.rungs}
     jobs = [(task, rung, row.name, row.design_id) for task in config.tasks for row in designs.itertuples()

@@ -84,21 +84,25 @@ SCHEMAS: dict[str, pa.Schema] = {
     "teams_trajectories": pa.schema([_required(n, t) for n, t in [
         ("chip_id", pa.string()), ("robot", pa.int64()), ("species", pa.int16()), ("region", pa.int16()),
         ("step", pa.int16()), ("x", pa.float64()), ("y", pa.float64())]]),
-    # Modular robots (robocompose.modular). Every design (6-letter port string) on every test terrain: its
-    # fitness under the fitness rule, its measured distance (null when not simulated or unstable), status and
-    # the sim steps it cost.
+    # Modular robots (robocompose.modular). Every design (6-letter port string) on every truth terrain: its
+    # fitness under the fitness rule, its measured distance (null when not simulated or unstable), status, and
+    # the sim steps and seconds it cost (0 when not simulated).
     "modular_exhaustive": pa.schema([
         _required("terrain_seed", pa.int64()), _required("design", pa.string()), _required("fitness", pa.float64()),
         pa.field("distance", pa.float64(), nullable=True), _required("status", pa.string()),
-        _required("sim_steps", pa.int64())]),
-    # One search run (GA-20, GA-50, GA-crowding, random sampling) on one test terrain: best design, distinct
-    # solutions of its final population, mean best fitness under emergency constraints (and the exhaustive
-    # optimum under the same constraints), designs evaluated and the sim steps they cost without a cache.
-    "modular_runs": pa.schema([_required(n, t) for n, t in [
-        ("method", pa.string()), ("terrain_seed", pa.int64()), ("seed", pa.int64()), ("best_design", pa.string()),
-        ("best_fitness", pa.float64()), ("distinct", pa.int64()), ("ec_fitness", pa.float64()),
-        ("ec_optimum", pa.float64()), ("optimum", pa.float64()), ("evaluations", pa.int64()),
-        ("sim_steps", pa.int64())]]),
+        _required("sim_steps", pa.int64()), _required("seconds", pa.float64())]),
+    # One search run (GA-20, GA-50, GA-crowding, random sampling) on one test terrain: best design and its
+    # distance (null: no design it saw carried one), distinct solutions of its final population, mean distance of
+    # its emergency-constraint answers that carry one (null if none) and the count of those that do not, the
+    # exhaustive optimum (under the same constraints, and overall), designs evaluated and the sim steps and
+    # measured simulation seconds they cost without a cache.
+    "modular_runs": pa.schema([
+        _required("method", pa.string()), _required("terrain_seed", pa.int64()), _required("seed", pa.int64()),
+        _required("best_design", pa.string()), pa.field("best_distance", pa.float64(), nullable=True),
+        _required("distinct", pa.int64()), pa.field("ec_distance", pa.float64(), nullable=True),
+        _required("ec_failures", pa.int64()), _required("ec_optimum", pa.float64()),
+        _required("optimum", pa.float64()), _required("evaluations", pa.int64()), _required("sim_steps", pa.int64()),
+        _required("sim_seconds", pa.float64())]),
     # The latent landscape (robocompose.latent.landscape, thesis Fig. 7.1): one row per (VAE variant, dataset
     # design): the first two principal components of its latent mean (and the variance fraction each explains)
     # and, for the scored subset, the evaluator's flat-terrain status and reward ("" / null when not scored).

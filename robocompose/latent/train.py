@@ -138,14 +138,16 @@ def lr_at(step: int, c: TrainConfig) -> float:
     return c.lr * c.lr_decay ** (step // c.lr_decay_every)
 
 
-def reconstruction_accuracy(model: GraphVAE, designs: Designs, chunk: int = 256) -> float:
-    """Fraction of designs whose latent mean decodes (greedily) to the same design."""
+def reconstruction_accuracy(model: GraphVAE, designs: Designs, chunk: int = 256,
+                            constraints: str | None = None) -> float:
+    """Fraction of designs whose latent mean decodes (greedily, under `constraints`: None = the model's
+    own) to the same design."""
     hits = 0
     with torch.no_grad():
         for lo in range(0, len(designs.ids), chunk):
             part = designs.subset(np.arange(lo, min(lo + chunk, len(designs.ids))))
             mean, _ = model.encoder(collate(part.replays, part.contacts))
-            walks = model.decoder.decode(mean)
+            walks = model.decoder.decode(mean, constraints)
             hits += sum(w.tree().design_id == i for w, i in zip(walks, part.ids, strict=True))
     return hits / len(designs.ids)
 
@@ -229,11 +231,14 @@ def log_row(live: Live, row: dict) -> None:
             live.log_metric(name, float(row[field]))  # no timestamp, so the files are byte-reproducible
 
 
-def log_evaluation(live: Live, metrics: dict) -> None:
-    """Final metrics of the trained model, into the same summary (metrics.json, under `evaluation`)."""
+def log_evaluation(live: Live, metrics: dict, prefix: str = "evaluation") -> None:
+    """Final metrics of the trained model, into the same summary (metrics.json, under `evaluation`; a nested
+    group such as the unconstrained decoder's numbers under `evaluation/<group>`)."""
     for key, value in metrics.items():
-        if isinstance(value, int | float):
-            live.log_metric(f"evaluation/{key}", value, plot=False)
+        if isinstance(value, dict):
+            log_evaluation(live, value, f"{prefix}/{key}")
+        elif isinstance(value, int | float):
+            live.log_metric(f"{prefix}/{key}", value, plot=False)
 
 
 def read_curves(directory: str | Path) -> pd.DataFrame:

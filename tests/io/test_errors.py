@@ -11,10 +11,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from robocompose.dataset.enumerate import EnumerateConfig
 from robocompose.evaluation.evaluate import EvaluationConfig
 from robocompose.evaluation.references import ReferencesConfig
 from robocompose.grammar.derivation import derive, parse_rules, random_derivation
-from robocompose.grammar.enumerate import EnumerateConfig
 from robocompose.io.errors import ArtifactError, InputError, error_line
 from robocompose.latent.cli import parse_latent
 from robocompose.latent.model import VAEConfig

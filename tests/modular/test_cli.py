@@ -41,7 +41,7 @@ def test_ga_prints_the_best_design(tmp_path, capsys):
                  "--params", str(params)]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["evaluations"] == 3 and len(out["best_design"]) == 6
-    assert set(out) >= {"best_design", "best_distance", "distinct", "evaluations", "seconds"}
+    assert set(out) >= {"best_design", "best_fitness", "distinct", "evaluations", "seconds"}
 
 
 @pytest.mark.parametrize(("flags", "fragments"), [
