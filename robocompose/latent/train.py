@@ -198,7 +198,7 @@ def load_model(path: str | Path) -> GraphVAE:
         model.load_state_dict(saved["state"])
     except (TypeError, ValueError, RuntimeError) as err:  # other fields, other shapes: another model's file
         raise InputError(f"{path}: model does not match this code's VAE ({expected}): "
-                         f"{str(err).splitlines()[0]}") from None
+                         f"{' '.join(str(err).split())[:240]}") from None
     return model.eval()
 
 
