@@ -281,7 +281,7 @@ def train(model_config: VAEConfig, config: TrainConfig, designs: Designs, checkp
     key = run_key(model_config, config, designs, train_set)
     start, rows = 0, []
     if checkpoint.exists():
-        saved = torch.load(checkpoint, map_location="cpu", weights_only=False)
+        saved = torch.load(checkpoint, map_location="cpu", weights_only=True)
         if saved["key"] == key and saved["step"] <= config.steps:
             model.load_state_dict(saved["model"])
             optimizer.load_state_dict(saved["optimizer"])
