@@ -101,7 +101,7 @@ def dataset_candidates(seed: int):
 
     seen, k = set(), 0
     while True:
-        reason, row = candidate(seed, k, MIN_LINKS, 40)
+        reason, row, _ = candidate(seed, k, MIN_LINKS, 40)
         k += 1
         if reason or row["design_id"] in seen:
             continue
