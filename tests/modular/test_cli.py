@@ -40,3 +40,15 @@ def test_ga_prints_the_best_design(tmp_path, capsys):
     out = json.loads(capsys.readouterr().out)
     assert out["evaluations"] == 3 and len(out["best_design"]) == 6
     assert set(out) >= {"best_design", "best_fitness", "distinct", "evaluations", "seconds"}
+
+
+def test_exhaustive_commits_one_terrains_table_with_its_provenance(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr("robocompose.modular.truth.all_designs", lambda: ["wwwwww", "llllll", "nnnnnn"])
+    params = tmp_path / "params.yaml"
+    params.write_text(TINY)
+    assert main(["modular", "exhaustive", "--terrain-seed", "1003", "--out-dir", str(tmp_path / "truth"),
+                 "--params", str(params)]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["best_design"] in ("wwwwww", "llllll") and out["table"].endswith("blocks-1003.parquet")
+    record = json.loads((tmp_path / "truth" / "blocks-1003.json").read_text())
+    assert record["simulated"] == 2 and record["settings"]["control_steps"] == 3 and record["physics_digest"]
