@@ -228,6 +228,7 @@ def _plot_terrains(summary: pd.DataFrame, params, path: Path) -> None:
         axes[1, k].imshow(_design_picture(row.best_design, terrain))
         axes[1, k].set_title(f"best: {row.best_design} ({row.optimum:.2f} m)")
         axes[1, k].axis("off")
+    fig.subplots_adjust(hspace=0.35)
     fig.colorbar(top, ax=axes[0, :].tolist(), label="block height (m)", shrink=0.8)
     fig.savefig(path, dpi=80)
     plt.close(fig)
