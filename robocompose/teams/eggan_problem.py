@@ -18,8 +18,9 @@ counts (ergodic.ChipCoverage.deploy), and the coverage cost is a sum over teams,
 cached per (chip, region, team counts) and an allocation costs the sum of its teams' entries; the
 cache is part of the problem's state, so a resumed training sees the same values.
 
-The front of a query (`query_front`): the trained generator on one task, `samples` noise vectors ->
-allocations -> both objectives measured by the optimiser -> the non-dominated set and its hypervolume.
+The front of a query (`query_front`): the trained generator on one task (robocompose.eggan.query's
+`generate`), `samples` noise vectors -> allocations -> both objectives measured by the optimiser -> the
+non-dominated set and its hypervolume.
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ import torch
 
 from robocompose.eggan.networks import Generator
 from robocompose.eggan.problem import Objective, Sampled
+from robocompose.eggan.query import generate
 from robocompose.io.provenance import code_digest
 from robocompose.teams.chips import Chip
 from robocompose.teams.decompose import Decomposition, terrain_features
@@ -65,11 +67,6 @@ def with_depot_row(fractions: np.ndarray) -> np.ndarray:
     """(B, K, O) fractions -> (B, K + 1, O): the last row is the share of each species kept back."""
     fractions = normalised_fractions(fractions)
     return np.concatenate([fractions, 1.0 - fractions.sum(-2, keepdims=True)], axis=-2)
-
-
-def allocation_head(logits: torch.Tensor) -> torch.Tensor:
-    """(B, K+1, O) logits -> fractions: per species, a softmax over the K regions and the depot."""
-    return torch.softmax(logits, dim=1)
 
 
 class TeamsProblem:
@@ -103,7 +100,7 @@ class TeamsProblem:
         return torch.as_tensor(self.features[task].ravel(), dtype=torch.float32)  # (K*4,)
 
     def design_head(self, logits: torch.Tensor) -> torch.Tensor:
-        return allocation_head(logits)
+        return torch.softmax(logits, dim=1)  # (B, K+1, O): per species, over the K regions and the depot
 
     def sample_designs(self, output: torch.Tensor, generator: torch.Generator | None) -> Sampled:
         designs = list(output[:, :self.n_regions].detach().double().numpy())  # B (K, O) fractions
@@ -184,16 +181,6 @@ class TeamsProblem:
 
 # ---- the front of a query ----------------------------------------------------------------------------
 
-def generate_fractions(generator: Generator, features: np.ndarray, samples: int, seed: int) -> np.ndarray:
-    """(samples, K, O) allocation fractions from the generator for one (K, 4) task."""
-    generator.eval()
-    z = torch.randn(samples, generator.config.latent, generator=torch.Generator().manual_seed(seed))  # (S, P)
-    task = torch.as_tensor(features.ravel(), dtype=torch.float32)[None]  # (1, K*4)
-    with torch.no_grad():
-        output = allocation_head(generator(z, generator.encode(task).expand(samples, -1)))  # (S, K+1, O)
-    return output[:, :-1].double().numpy()
-
-
 @dataclass
 class QueryFront:
     front: np.ndarray  # (F, 2) non-dominated [coverage cost, deployment cost], by deployment cost
@@ -207,10 +194,10 @@ def query_front(generator: Generator, chip: Chip, decomposition: Decomposition, 
                 samples: int, seed: int, evaluator: AllocationEvaluator | None = None) -> QueryFront:
     """The front of one query: `samples` noise vectors -> allocations -> objectives measured by the
     ergodic optimiser (robots' starts seeded by `seed`) -> the non-dominated set."""
-    features = task_features(chip, decomposition)
+    problem = TeamsProblem([(chip, decomposition)], coverage)  # the task: this chip's features
     started = time.perf_counter()
-    counts = allocation_to_counts(generate_fractions(generator, features, samples, seed),
-                                  coverage.robots_per_species)  # (S, K, O)
+    sampled, _ = generate(generator, problem, 0, samples, seed)
+    counts = allocation_to_counts(np.stack(sampled.designs), coverage.robots_per_species)  # (S, K, O)
     seconds = time.perf_counter() - started
     distinct = np.unique(counts.reshape(len(counts), -1), axis=0).reshape(-1, *counts.shape[1:])
     evaluate = evaluator or AllocationEvaluator(chip_coverage(chip, decomposition, coverage), chip.chip_id, seed)

@@ -41,7 +41,7 @@ MODEL_CODE = "robocompose.eggan.networks"  # the code a generator file's weights
 
 def train_config(config: EgganConfig, threads: int) -> TrainConfig:
     """The trainer's settings for `teams.eggan`."""
-    return TrainConfig(iterations=config.iterations, batch=config.batch, evolution="nsga2",
+    return TrainConfig(iterations=config.iterations, batch=config.batch, tasks=config.tasks, evolution="nsga2",
                        evolution_steps=config.evolution_steps, lr_generator=config.lr, lr_discriminator=config.lr,
                        seed=config.seed, threads=threads, log_every=min(5, config.checkpoint_every),
                        checkpoint_every=config.checkpoint_every)

@@ -79,7 +79,7 @@ def tiny_model(tmp_path_factory):
     chips = [synthetic_chip(4, index, size=40) for index in range(2)]
     problem = TeamsProblem([(chip, decompose_chip(chip, decompose)) for chip in chips], coverage)
     trained = train(problem, NetworkConfig(latent=4, hidden=16),
-                    TrainConfig(iterations=2, batch=6, evolution="nsga2", log_every=1, checkpoint_every=2))
+                    TrainConfig(iterations=2, batch=8, tasks=2, evolution="nsga2", log_every=1, checkpoint_every=2))
     params = {"coverage": dataclasses.asdict(coverage), "decompose": dataclasses.asdict(decompose),
               "eggan": dataclasses.asdict(EgganConfig(samples=16))}
     path = tmp_path_factory.mktemp("model") / "teams.pt"

@@ -59,7 +59,7 @@ def test_evolution_does_not_lose_hypervolume_and_keeps_the_batch_size(chips):
 
 
 def test_a_killed_training_resumes_to_the_same_checkpoint(chips, tmp_path):
-    config = TrainConfig(iterations=4, batch=6, evolution="nsga2", log_every=1, checkpoint_every=2,
+    config = TrainConfig(iterations=4, batch=8, tasks=2, evolution="nsga2", log_every=1, checkpoint_every=2,
                          lr_generator=1e-3, lr_discriminator=1e-3)
     whole = train(TeamsProblem(chips, TINY), NETWORK, config, tmp_path / "whole.pt")
     path = tmp_path / "killed.pt"
@@ -74,7 +74,7 @@ def test_a_killed_training_resumes_to_the_same_checkpoint(chips, tmp_path):
 
 def test_query_front_is_measured_and_non_dominated(chips):
     trained = train(TeamsProblem(chips, TINY), NETWORK,
-                    TrainConfig(iterations=2, batch=6, evolution="nsga2", log_every=1, checkpoint_every=2))
+                    TrainConfig(iterations=2, batch=8, tasks=2, evolution="nsga2", log_every=1, checkpoint_every=2))
     chip, decomposition = chips[1]
     query = query_front(trained.generator, chip, decomposition, TINY, samples=32, seed=0)
     assert 1 <= len(query.front) <= query.distinct <= 32

@@ -20,7 +20,7 @@ def test_generator_file_round_trips_weights_settings_and_metrics(tmp_path):
     problem = TeamsProblem([(chips[0], decompose_chip(chips[0], DecomposeConfig(n_regions=3)))],
                            CoverageConfig(iterations=2, n_observations=4))
     trained = train(problem, NetworkConfig(latent=4, hidden=8),
-                    TrainConfig(iterations=1, batch=4, evolution="nsga2", log_every=1, checkpoint_every=1))
+                    TrainConfig(iterations=1, batch=4, tasks=1, evolution="nsga2", log_every=1, checkpoint_every=1))
     save_generator(trained, 3, {"coverage": {"iterations": 2}}, {"mean_hypervolume": 1.5}, tmp_path / "g.pt")
     generator, saved = load_generator(tmp_path / "g.pt")
     for name, tensor in trained.generator.state_dict().items():
