@@ -26,7 +26,8 @@ import numpy as np
 import pandas as pd
 import torch
 
-from robocompose.eggan.query import generate, rank_distinct, save_generator
+from robocompose.eggan.fit2form import Fit2formConfig, train_fit2form
+from robocompose.eggan.query import generate, load_generator, rank_distinct, save_generator
 from robocompose.eggan.train import Trained, train
 from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.executor import Executor
@@ -36,6 +37,7 @@ from robocompose.modular.evaluate import evaluate_designs
 from robocompose.modular.experiments import DELTA, EPSILON, _seed, ec_answers, emergency_constraints
 from robocompose.modular.params import ModularParams
 from robocompose.modular.problem import hamming
+from robocompose.params import build_config
 from robocompose.search.metrics import distinct_solutions
 
 # (problem, terrain seed, query seed, candidates) -> candidate designs, best first
@@ -85,6 +87,40 @@ def generator_proposer(generator: torch.nn.Module, samples: int) -> Proposer:
         return [r.design for r in ranked]
 
     return propose
+
+
+REALTIME_METHODS = {"fit2form": "Fit2form", "random": "Random sampling", "ga": "EG-GAN",
+                    "crowding": "EG-GAN-crowding"}  # Table 5.1's rows we run (DQN and MolGAN: not built)
+
+
+def realtime_proposers(problem: ModularEgganProblem, params: EgganModularParams, models: Path) -> dict[str, Proposer]:
+    """Every real-time method of Table 5.1 that has a trained model under `models` (random sampling always)."""
+    proposers: dict[str, Proposer] = {}
+    for method in REALTIME_METHODS:
+        path = models / f"eggan_modular_{method}.pt"
+        if method == "random":
+            proposers[method] = random_proposer
+        elif path.exists():
+            proposers[method] = generator_proposer(load_generator(path, problem)[0], params.protocol.samples)
+        else:
+            raise FileNotFoundError(f"{path}: no trained {REALTIME_METHODS[method]} model (run train_eggan_modular)")
+    return proposers
+
+
+def train_fit2form_baseline(modular: ModularParams, params: EgganModularParams, cache: EvaluationCache | None,
+                            executor: Executor | None, out: Path, progress: bool = False) -> dict:
+    """Fit2form on the same problem and budget of real rollouts; writes out/eggan_modular_fit2form.{pt,json}."""
+    problem = make_problem(modular, params, cache, executor)
+    config = build_config(Fit2formConfig, params.baselines.get("fit2form", {}), "eggan_modular.baselines.fit2form")
+    started = time.perf_counter()
+    generator, rows = train_fit2form(problem, params.network, config, progress)
+    metrics = {"method": "Fit2form", "iterations": config.iterations, "real_evaluations": problem.real_evaluations,
+               "surrogate_heldout": problem.surrogate_error(), "train_seconds": round(time.perf_counter() - started, 1),
+               "final": rows[-1]}
+    save_generator(generator, problem, out / "eggan_modular_fit2form.pt",
+                   {"settings_hash": modular.eval.settings_hash(), "train": dataclasses.asdict(config),
+                    "metrics": metrics})
+    return metrics
 
 
 def random_proposer(problem: ModularEgganProblem, terrain_seed: int, query_seed: int, candidates: int) -> list[str]:
