@@ -66,16 +66,21 @@ def model_code_digest() -> str:
     return code_digest(*MODEL_CODE)
 
 
-def save_generator(generator: Generator, problem: EgganProblem, path: str | Path, meta: dict) -> Path:
-    """Write the generator's weights and sizes to `path` (torch) and `meta` + provenance beside it (`.json`)."""
+def save_generator(generator: Generator, problem: EgganProblem, path: str | Path, meta: dict,
+                   half: bool = False) -> Path:
+    """Write the generator's weights and sizes to `path` (torch) and `meta` + provenance beside it (`.json`).
+
+    `half` stores floating-point weights as float16 (half the file; the shipped generator), loaded as float32.
+    """
     from robocompose.io import atomic_path, atomic_write_json
 
     path = Path(path)
     info = {"problem": problem.name, "task_shape": list(problem.task_shape),
             "design_shape": list(problem.design_shape), "network": asdict(generator.config),
-            "model_code": model_code_digest(), **meta}
+            "model_code": model_code_digest(), "weights": "float16" if half else "float32", **meta}
     with atomic_path(path) as tmp:
-        state = {k: v.clone() for k, v in generator.state_dict().items()}
+        state = {k: v.half() if half and v.is_floating_point() else v.clone()
+                 for k, v in generator.state_dict().items()}
         torch.save({"info": info, "state": state}, tmp)
     atomic_write_json(path.with_suffix(".json"), info)
     return path
@@ -98,5 +103,5 @@ def load_generator(path: str | Path, problem: EgganProblem) -> tuple[Generator, 
         raise ValueError(f"{path}: a generator for {info['problem']} {info['task_shape']} -> {info['design_shape']}, "
                          f"not for {problem.name} {list(problem.task_shape)} -> {list(problem.design_shape)}")
     generator = Generator(problem.task_shape, problem.design_shape, NetworkConfig(**info["network"]))
-    generator.load_state_dict(saved["state"])
+    generator.load_state_dict({k: v.float() if v.is_floating_point() else v for k, v in saved["state"].items()})
     return generator.eval(), info

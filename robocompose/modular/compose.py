@@ -38,6 +38,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                          help="params file with a modular: section (default params.yaml; if absent, the defaults)")
     modular.set_defaults(handler=_compose)
 
+    ship = subparsers.add_parser("ship-modular", help="copy a trained generator (float16) to the shipped default")
+    ship.add_argument("--from", dest="source", type=Path, default=Path("models/eggan_modular_crowding.pt"),
+                      help="generator of `dvc repro train_eggan_modular` (default: the EG-GAN-crowding one)")
+    ship.set_defaults(handler=_ship)
+
 
 def parse_caps(text: str) -> dict[str, int]:
     """'leg=2,wheel=0' -> {'l': 2, 'w': 0}; a clear error naming the flag otherwise."""
@@ -68,6 +73,20 @@ def read_heightmap(path: Path):
     if not np.issubdtype(heights.dtype, np.number) or not np.isfinite(heights).all():
         raise ValueError(f"--heightmap {path}: expected finite numbers (metres)")
     return heights.astype(np.float32)
+
+
+def _ship(args: argparse.Namespace) -> None:
+    from robocompose.eggan.query import load_generator, save_generator
+    from robocompose.modular.eggan_problem import FitnessConfig, ModularEgganProblem
+    from robocompose.modular.evaluate import EvalSettings, FitnessRule
+    from robocompose.modular.params import ExperimentsConfig, ModularParams
+
+    problem = ModularEgganProblem(ModularParams(EvalSettings(), FitnessRule(), ExperimentsConfig()), FitnessConfig())
+    generator, info = load_generator(args.source, problem)
+    meta = {k: v for k, v in info.items() if k not in ("problem", "task_shape", "design_shape", "network",
+                                                         "model_code", "weights")}
+    save_generator(generator, problem, SHIPPED_MODEL, {**meta, "shipped_from": str(args.source)}, half=True)
+    print(json.dumps({"shipped": str(SHIPPED_MODEL), "from": str(args.source), "bytes": SHIPPED_MODEL.stat().st_size}))
 
 
 def _compose(args: argparse.Namespace) -> None:
