@@ -1,17 +1,14 @@
-import argparse
 import json
 
 import numpy as np
 import pytest
 
+from robocompose.cli import parser
 from robocompose.teams.chips import write_label_png
-from robocompose.teams.cli import register
 
 
 def run(argv: list[str], capsys) -> dict:
-    parser = argparse.ArgumentParser(prog="robocompose")
-    register(parser.add_subparsers(dest="command", required=True))
-    args = parser.parse_args(argv)
+    args = parser().parse_args(argv)
     args.handler(args)
     return json.loads(capsys.readouterr().out)
 
@@ -122,7 +119,7 @@ def test_compose_teams_rejects_a_chip_in_the_wrong_format(tmp_path, tiny_model, 
 
     Image.fromarray(np.full((300, 300, 3), 7, dtype=np.uint8)).save(tmp_path / "photo.png")
     assert main(["compose", "teams", "--chip", str(tmp_path / "photo.png"), "--model", str(tiny_model)]) == 2
-    assert "not a DroneDeploy label PNG" in capsys.readouterr().err
+    assert "photo.png: pixel (row 0, col 0)" in capsys.readouterr().err  # not a label colour
     write_label_png(np.full((100, 100), 4, dtype=np.uint8), tmp_path / "small.png")
     assert main(["compose", "teams", "--chip", str(tmp_path / "small.png"), "--model", str(tiny_model)]) == 2
     assert "no 300 x 300 window" in capsys.readouterr().err

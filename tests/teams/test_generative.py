@@ -7,7 +7,7 @@ from robocompose.eggan.networks import NetworkConfig
 from robocompose.eggan.train import TrainConfig, train
 from robocompose.io.provenance import ROOT, code_digest
 from robocompose.teams.chips import synthetic_chip
-from robocompose.teams.cli import SHIPPED_MODEL
+from robocompose.teams.compose import SHIPPED_MODEL
 from robocompose.teams.decompose import DecomposeConfig, decompose_chip
 from robocompose.teams.eggan_problem import TeamsProblem
 from robocompose.teams.ergodic import CoverageConfig
