@@ -142,3 +142,17 @@ def check_in_browser(page: Path, expression: str, profile: Path) -> dict:
 def in_browser(tmp_path):
     """`in_browser(page, expression)`: what `expression` evaluates to on local `page` in headless Chromium."""
     return lambda page, expression: check_in_browser(page, expression, tmp_path / "browser-profile")
+
+
+# --- a real Dask cluster on loopback ---
+
+
+@pytest.fixture(scope="session")
+def dask_address():
+    """The scheduler address of a LocalCluster on loopback (2 worker processes, one thread each), shared by the
+    session's tests."""
+    from dask.distributed import LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
+                      silence_logs=40) as cluster:
+        yield cluster.scheduler_address

@@ -21,6 +21,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     nsga2.add_argument("--pop", type=int, default=50, help="population size (thesis: 20 or 50)")
     nsga2.add_argument("--generations", type=int, default=50, help="generations (thesis: 50)")
     nsga2.add_argument("--seed", type=int, default=0, help="seed of NSGA-II and of the robots' starts")
+    nsga2.add_argument("--address", default="",
+                       help="a running Dask scheduler (tcp://host:8786) to run on instead of this process")
     nsga2.set_defaults(handler=_nsga2)
 
     coverage = commands.add_parser("coverage", help="coverage and deployment cost of one allocation")
@@ -39,13 +41,12 @@ def _add_chip_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--regions", type=int, default=8, help="regions K (terrain-driven decomposition)")
 
 
-def _setup(args: argparse.Namespace):
+def _chip(args: argparse.Namespace):
+    """The chip named by --chip / --synthetic-seed and its --regions decomposition."""
     import torch
 
     from robocompose.teams.chips import chips_in_file, synthetic_chip
     from robocompose.teams.decompose import DecomposeConfig, decompose_chip
-    from robocompose.teams.ergodic import CoverageConfig
-    from robocompose.teams.evaluator import AllocationEvaluator, chip_coverage
 
     torch.set_num_threads(1)
     if args.chip is not None:
@@ -56,19 +57,29 @@ def _setup(args: argparse.Namespace):
             raise SystemExit(f"--chip {args.chip}: no 300 x 300 window without IGNORE pixels")
     else:
         chip = synthetic_chip(args.synthetic_seed)
-    decomposition = decompose_chip(chip, DecomposeConfig(n_regions=args.regions))
+    return chip, decompose_chip(chip, DecomposeConfig(n_regions=args.regions))
+
+
+def _setup(args: argparse.Namespace):
+    from robocompose.teams.ergodic import CoverageConfig
+    from robocompose.teams.evaluator import AllocationEvaluator, chip_coverage
+
+    chip, decomposition = _chip(args)
     coverage = chip_coverage(chip, decomposition, CoverageConfig())
     return AllocationEvaluator(coverage, chip.chip_id, args.seed)
 
 
 def _nsga2(args: argparse.Namespace) -> None:
-    from robocompose.teams.nsga2 import NSGA2Config, run_nsga2
-    from robocompose.teams.species import SPECIES
+    from robocompose.evaluation.executor import Executor
+    from robocompose.teams.ergodic import CoverageConfig
+    from robocompose.teams.experiments import _nsga2_run
+    from robocompose.teams.nsga2 import NSGA2Config
 
-    evaluate = _setup(args)
+    chip, decomposition = _chip(args)
     config = NSGA2Config(population=args.pop, generations=args.generations, seed=args.seed)
-    result = run_nsga2(evaluate, args.regions, len(SPECIES), evaluate.coverage.config.robots_per_species,
-                       config)
+    # The run is one executor task (the experiments stage's own), here or on a Dask worker: same result.
+    with Executor(workers=1, address=args.address or None) as executor:
+        result, _ = executor.map(_nsga2_run, [(chip, decomposition, CoverageConfig(), config, 1)])[0]
     print(json.dumps({"hypervolume": result.hypervolume, "seconds": result.seconds,
                       "front": [[float(c), int(d)] for c, d in result.front]}))
 

@@ -40,3 +40,15 @@ def test_ga_prints_the_best_design(tmp_path, capsys):
     out = json.loads(capsys.readouterr().out)
     assert out["evaluations"] == 3 and len(out["best_design"]) == 6
     assert set(out) >= {"best_design", "best_distance", "distinct", "evaluations", "seconds"}
+
+
+def test_ga_on_a_dask_cluster_finds_what_local_processes_find(tmp_path, capsys, dask_address):
+    params = tmp_path / "params.yaml"
+    params.write_text(TINY)
+    outs = []
+    for where in (["--workers", "2"], ["--address", dask_address]):
+        assert main(["modular", "ga", "--variant", "random", "--terrain-seed", "3", "--seed", "1",
+                     "--params", str(params), *where]) == 0
+        outs.append(json.loads(capsys.readouterr().out))
+    keys = ("best_design", "best_distance", "distinct", "evaluations")
+    assert [outs[0][k] for k in keys] == [outs[1][k] for k in keys]

@@ -37,3 +37,9 @@ def test_wrong_number_of_allocation_rows_is_explained(tmp_path, capsys):
     with pytest.raises(SystemExit, match="2 rows, expected one per region"):
         run(["teams", "coverage", "--synthetic-seed", "0", "--regions", "3",
              "--allocation", "0.1,0,0;0,0,0"], capsys)
+
+
+def test_nsga2_on_a_dask_cluster_gives_the_local_front(capsys, dask_address):
+    argv = ["teams", "nsga2", "--synthetic-seed", "1", "--regions", "3", "--pop", "6", "--generations", "2"]
+    local, remote = run(argv, capsys), run([*argv, "--address", dask_address], capsys)
+    assert remote["front"] == local["front"] and remote["hypervolume"] == local["hypervolume"]
