@@ -1,6 +1,7 @@
-"""Artifacts: atomic writes, schema-checked parquet tables, MCAP logs with Foxglove schemas."""
+"""Artifacts: atomic writes, checksummed binary files, schema-checked parquet tables, MCAP logs (Foxglove)."""
 
 from robocompose.io.atomic import atomic_path, atomic_write_json, atomic_write_text
+from robocompose.io.checked import read_checked, set_aside, write_checked
 from robocompose.io.errors import ArtifactError
 from robocompose.io.mcap_log import (
     FRAME_TRANSFORMS,
@@ -42,11 +43,14 @@ __all__ = [
     "frame_transform",
     "get_schema",
     "pose",
+    "read_checked",
     "read_mcap",
     "read_table",
     "scene_entity",
+    "set_aside",
     "sphere_primitive",
     "time_msg",
     "to_ns",
+    "write_checked",
     "write_table",
 ]
