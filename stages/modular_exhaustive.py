@@ -15,7 +15,8 @@ from robocompose.report.timings import timed
 def main() -> None:
     params = load_modular_params("params.yaml")
     cache = EvaluationCache(params.cache or None)
-    with timed("modular_exhaustive") as timing, Executor(params.workers, params.address or None) as executor:
+    with timed("modular_exhaustive") as timing, Executor(params.workers, params.address or None,
+                                                         progress="modular_exhaustive") as executor:
         table = exhaustive_table(params, cache, executor)
         timing["simulated"] = int((table.sim_steps > 0).sum())
         timing["sim_steps"] = int(table.sim_steps.sum())

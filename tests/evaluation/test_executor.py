@@ -30,6 +30,16 @@ def test_local_processes_return_results_in_order():
         Executor(workers=-1)
 
 
+def test_a_progress_label_shows_a_bar_without_changing_results(capsys):
+    with Executor(workers=2, progress="scoring") as ex:
+        assert ex.map(abs, [-3, 2, -1]) == [3, 2, 1]
+    bar = capsys.readouterr().err
+    assert "scoring" in bar and "3/3" in bar
+    with Executor(workers=1) as ex:
+        ex.map(abs, [-1])
+    assert capsys.readouterr().err == ""  # no label, no bar
+
+
 def test_evaluate_many_evaluates_each_missing_key_once(tmp_path):
     calls = []
 
