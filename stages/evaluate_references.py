@@ -11,6 +11,7 @@ from robocompose.evaluation.references import ReferencesConfig, best_per_task, e
 from robocompose.io import atomic_write_json, read_table, write_table
 from robocompose.params import load_section
 from robocompose.report.timings import timed
+from robocompose.stage import run_stage
 
 
 def main() -> None:
@@ -32,4 +33,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_stage(main)

@@ -1,4 +1,5 @@
-"""Shared fixtures: the two reference designs of the RoboGrammar/GLSO papers; a Foxglove validator of MCAP logs."""
+"""Shared fixtures: the two reference designs of the RoboGrammar/GLSO papers; a Foxglove validator of MCAP logs;
+the bad-input check of the `robocompose` command."""
 
 import json
 from pathlib import Path
@@ -142,6 +143,28 @@ def check_in_browser(page: Path, expression: str, profile: Path) -> dict:
 def in_browser(tmp_path):
     """`in_browser(page, expression)`: what `expression` evaluates to on local `page` in headless Chromium."""
     return lambda page, expression: check_in_browser(page, expression, tmp_path / "browser-profile")
+@pytest.fixture
+def cli_error(capsys):
+    """cli_error(argv, *fragments): run `robocompose argv` in-process; assert it exits 2 with one error line (after
+    argparse's usage line, if argparse caught it) that holds every fragment, no traceback, nothing on stdout.
+    Returns the error line."""
+    from robocompose.cli import main
+
+    def run(argv: list[str], *fragments: str) -> str:
+        try:
+            code = main(argv)
+        except SystemExit as exit_:  # argparse's own errors
+            code = exit_.code
+        out, err = capsys.readouterr()
+        lines = err.strip().splitlines()
+        assert code == 2, f"exit code {code}, stderr {err!r}"
+        assert out == "" and "Traceback" not in err, err
+        assert lines and (len(lines) == 1 or lines[0].startswith("usage:")), err
+        line = lines[-1]
+        assert ": error: " in line and all(f in line for f in fragments), line
+        return line
+
+    return run
 
 
 # --- a real Dask cluster on loopback ---

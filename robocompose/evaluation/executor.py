@@ -31,6 +31,7 @@ from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
 from robocompose.evaluation.cache import CacheKey, EvaluationCache
+from robocompose.io.errors import InputError
 
 
 class Executor:
@@ -39,7 +40,7 @@ class Executor:
     def __init__(self, workers: int = 0, address: str | None = None, progress: str | None = None):
         """`progress`: a label; every map then shows a tqdm bar (on stderr) of the items done."""
         if workers < 0:
-            raise ValueError(f"executor: workers must be >= 0 (0 = all cores), got {workers}")
+            raise InputError(f"executor: workers must be >= 0 (0 = all cores), got {workers}")
         self.address = address
         self.progress = progress
         self.workers = workers or os.cpu_count() or 1

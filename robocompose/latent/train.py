@@ -13,6 +13,7 @@ import hashlib
 import io
 import math
 import os
+import pickle
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -23,6 +24,7 @@ import torch
 
 from robocompose.grammar.tree import DesignTree
 from robocompose.io import ArtifactError, McapWriter, read_checked, read_table, set_aside, write_checked
+from robocompose.io.errors import InputError
 from robocompose.io.provenance import code_digest, settings_digest
 from robocompose.latent.batch import collate
 from robocompose.latent.constraints import Replay, replay
@@ -60,13 +62,13 @@ class TrainConfig:
         for name in ("steps", "batch_size", "lr_decay_every", "beta_every", "log_every", "eval_every",
                      "eval_designs", "checkpoint_every", "threads"):
             if getattr(self, name) < 1:
-                raise ValueError(f"{name} must be a positive integer, got {getattr(self, name)}")
+                raise InputError(f"{name} must be a positive integer, got {getattr(self, name)}")
         for name in ("eval_every", "checkpoint_every"):  # logged rows must not straddle a resume
             if getattr(self, name) % self.log_every:
-                raise ValueError(f"{name} must be a multiple of log_every ({self.log_every}), "
+                raise InputError(f"{name} must be a multiple of log_every ({self.log_every}), "
                                  f"got {getattr(self, name)}")
         if not 0 < self.holdout < 1:
-            raise ValueError(f"holdout must lie in (0, 1), got {self.holdout}")
+            raise InputError(f"holdout must lie in (0, 1), got {self.holdout}")
 
 
 @dataclass(frozen=True)
@@ -106,7 +108,7 @@ def load_designs(path: str | Path, constraints: str, max_nodes: int) -> Designs:
         try:
             replays.append(replay(tree, constraints, max_nodes))
         except ValueError as err:
-            raise ValueError(f"{path}: design {design_id} cannot be decoded under {constraints!r}: {err}") from None
+            raise InputError(f"{path}: design {design_id} cannot be decoded under {constraints!r}: {err}") from None
     contacts = np.array([np.asarray(c, dtype=np.float32) for c in table["contacts"]]).reshape(len(table), 16)
     return Designs(list(table["design_id"]), trees, replays, contacts)
 
@@ -184,12 +186,31 @@ def save_model(model: GraphVAE, path: str | Path) -> Path:
 
 
 def load_model(path: str | Path) -> GraphVAE:
+    """The VAE saved by `save_model` at `path`; any other file is an InputError naming it.
+
+    Loaded with `weights_only=True`: tensors and plain containers only, never arbitrary pickled objects.
+    """
     path = Path(path)
-    if not path.exists():
-        raise FileNotFoundError(f"{path}: no such model file (train one with `dvc repro train_vae`)")
-    saved = load_torch(path)
-    model = GraphVAE(VAEConfig(**saved["config"]))
-    model.load_state_dict(saved["state"])
+    expected = "expected a VAE saved by train_vae, e.g. models/vae_full.pt"
+    if not path.is_file():
+        raise InputError(f"{path}: no such model file ({expected}; train one with `dvc repro train_vae`)")
+    try:
+        saved = load_torch(path)  # the checksum first: a cut or flipped file never reaches torch.load
+    except ArtifactError as err:
+        raise InputError(f"{err} ({expected})") from None
+    except pickle.UnpicklingError:
+        raise InputError(f"{path}: holds Python objects other than tensors and plain values, which are not loaded "
+                         f"(models load with weights_only=True; {expected})") from None
+    except Exception as err:  # an intact checksum over a payload that is no torch archive: torch raises many types
+        raise InputError(f"{path}: damaged torch archive ({type(err).__name__}; {expected})") from None
+    if not isinstance(saved, dict) or not {"config", "state"} <= set(saved):
+        raise InputError(f"{path}: not a robocompose model ({expected}, a dict with 'config' and 'state')")
+    try:
+        model = GraphVAE(VAEConfig(**saved["config"]))
+        model.load_state_dict(saved["state"])
+    except (TypeError, ValueError, RuntimeError) as err:  # other fields, other shapes: another model's file
+        raise InputError(f"{path}: model does not match this code's VAE ({expected}): "
+                         f"{str(err).splitlines()[0]}") from None
     return model.eval()
 
 

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from robocompose.io import read_table
+from robocompose.io.errors import ArtifactError
 
 VARIANTS = {"full": "GLSO (with property predictor)", "nopred": "GLSO_nopred", "nogram": "GLSO_nogram"}
 COLUMNS = [("reconstruction_accuracy", "reconstruction (held out)"), ("prior_validity", "prior valid (builds)"),
@@ -113,7 +114,7 @@ def _evaluation(path: Path) -> dict:
     try:
         return json.loads(path.read_text())["evaluation"]
     except (json.JSONDecodeError, KeyError, TypeError) as err:
-        raise ValueError(f"{path}: expected dvclive's summary with an `evaluation` object ({err})") from None
+        raise ArtifactError(f"{path}: expected dvclive's summary with an `evaluation` object ({err})") from None
 
 
 def _landscape(path: Path, figures: Path, plt) -> list[str]:

@@ -231,6 +231,16 @@ def yaml_dump(document: dict) -> str:
     return yaml.safe_dump(document)
 
 
+def test_unknown_stage_is_rejected_before_any_prefect_server_starts(tmp_path: Path) -> None:
+    project = make_dvc_project(tmp_path / "project")
+    home = tmp_path / "prefect_home"
+    env = {**os.environ, "PREFECT_HOME": str(home), "PREFECT_API_URL": "", "DVC_NO_ANALYTICS": "1",
+           "DVC_SITE_CACHE_DIR": str(tmp_path / "dvc_site_cache")}
+    result = subprocess.run([sys.executable, str(PIPELINE_FILE), "--stage", "nosuch", "--project-dir", str(project)],
+                            capture_output=True, text=True, env=env)
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    assert "error: unknown DVC stage(s) ['nosuch']; dvc.yaml defines" in result.stderr.splitlines()[-1]
+    assert not list(home.rglob("*.db"))  # the ephemeral server's database: never created
 # --- served on a real Prefect server ---
 
 # `b` fails on its first attempt (it leaves a marker), succeeds on the second: the task's retry.
