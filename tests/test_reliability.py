@@ -27,6 +27,8 @@ ROOT = Path(__file__).resolve().parents[1]
 FAULTS = {
     "kill-enumerate": "kill -9 of the enumerate stage mid-run, then `dvc repro`",
     "kill-train-vae": "kill -9 of the train_vae@full stage after a checkpoint, then `dvc repro`",
+    "kill-glso": "kill -9 of the glso stage after its first search run, then `dvc repro`",
+    "kill-eggan": "kill -9 of the teams_eggan stage (EG-GAN training) after a checkpoint, then `dvc repro`",
     "kill-dask-worker": "SIGKILL of a Dask worker process during a map",
     "corrupt-parquet": "a flipped byte inside a parquet data page",
     "truncated-parquet": "a parquet table cut in half",
@@ -40,8 +42,6 @@ FAULTS = {
     "full-disk-mcap": "the disk full while an MCAP log is rewritten",
     "full-disk-checkpoint": "the disk full while a checkpoint is rewritten",
 }
-# Pending (their stages are not on main yet): kill -9 of a GLSO run and of EG-GAN training through their
-# stages + `dvc repro`, as `test_killed_train_vae_stage_resumes_to_the_same_bytes` does for train_vae.
 
 
 def injects(*faults: str):
@@ -65,6 +65,13 @@ def truncate(path: Path) -> None:
 TINY = {
     "enumerate": {"n": 80, "seed": 0, "workers": 1, "chunk": 8},
     "nogram": {"n": 12, "seed": 1},
+    "evaluation": {"mppi": {"samples": 4, "first_samples": 4, "horizon": 4, "episode": 4}, "workers": 1},
+    "glso": {"methods": ["random", "ga", "glso"], "seeds": [0], "budget": 6, "workers": 1,
+             "bo": {"init": 3}, "ga": {"population": 4}},
+    "teams": {"chips": {"n_synthetic": 4}, "decompose": {"n_regions": 3},
+              "coverage": {"iterations": 3, "n_observations": 5, "robots_per_species": 5},
+              "experiments": {"table_5_4_chips": 1, "table_5_5_chips": 1, "budgets": [5]},
+              "eggan": {"iterations": 40, "batch": 4, "samples": 8, "checkpoint_every": 10}},
     "train_vae": {"model": {"hidden": 16, "latent": 4, "predictor_hidden": 8, "max_nodes": 50},
                   "train": {"steps": 200, "batch_size": 8, "log_every": 10, "eval_every": 50, "eval_designs": 4,
                             "checkpoint_every": 50, "beta_start": 50, "beta_every": 20, "lr_decay_every": 100},
@@ -138,13 +145,23 @@ def kill_stage(project: Path, stage: str, ready) -> None:
     log.close()
 
 
-def outputs(project: Path, paths: list[str]) -> dict[str, bytes]:
-    found = {}
+def outputs(project: Path, paths: list[str]) -> dict[str, object]:
+    """The bytes of every file under `paths`; for a parquet table with a wall-time column (`seconds`: how long
+    a step took, which no rerun repeats), its other columns."""
+    import pyarrow.parquet as pq
+
+    found: dict[str, object] = {}
     for name in paths:
         path = project / name
         for file in sorted(path.rglob("*") if path.is_dir() else [path]):
-            if file.is_file():
-                found[file.relative_to(project).as_posix()] = file.read_bytes()
+            if not file.is_file():
+                continue
+            key = file.relative_to(project).as_posix()
+            columns = pq.read_schema(file).names if file.suffix == ".parquet" else []
+            if "seconds" in columns:
+                found[key] = pq.read_table(file, columns=[c for c in columns if c != "seconds"]).to_pylist()
+            else:
+                found[key] = file.read_bytes()
     return found
 
 
@@ -187,6 +204,43 @@ def test_killed_train_vae_stage_resumes_to_the_same_bytes(project: Path) -> None
         file.unlink()
     dvc(project, "repro", "-f", "train_vae@full")
     assert outputs(project, TRAIN_OUTS) == resumed and "models/vae_full.pt" in resumed
+
+
+GLSO_OUTS = ["data/glso/steps.parquet", "data/glso/runs", "data/glso/rollouts", "reports/metrics/glso.json"]
+EGGAN_OUTS = ["models/teams_eggan.pt", "data/teams/eggan_queries.parquet", "data/teams/eggan_fronts.parquet",
+              "data/teams/coverage_examples.parquet", "reports/metrics/teams_eggan.json"]
+
+
+@pytest.mark.slow
+@injects("kill-glso")
+def test_killed_glso_stage_resumes_to_the_same_results(project: Path) -> None:
+    """The stage runs its searches one after another here (workers 1); killed after the first, `dvc repro`
+    keeps the finished run, resumes the others from their per-step checkpoints, and gives the same step
+    tables (but their wall times), rollouts and metrics as an uninterrupted run."""
+    runs = project / "data" / "glso" / "runs"
+    kill_stage(project, "glso", lambda _: runs.is_dir() and any(runs.iterdir()))
+    assert not (project / "data" / "glso" / "steps.parquet").exists()
+    dvc(project, "repro", "glso")
+    resumed = outputs(project, GLSO_OUTS)
+    for folder in (runs, project / "data" / "glso" / "checkpoints"):  # the uninterrupted run starts afresh
+        for file in folder.iterdir():
+            file.unlink()
+    dvc(project, "repro", "-f", "glso")
+    assert outputs(project, GLSO_OUTS) == resumed and "data/glso/steps.parquet" in resumed
+
+
+@pytest.mark.slow
+@injects("kill-eggan")
+def test_killed_eggan_training_resumes_to_the_same_bytes(project: Path) -> None:
+    checkpoint = project / "models" / "checkpoints" / "teams_eggan.pt"
+    dvc(project, "repro", "decompose")
+    kill_stage(project, "teams_eggan", lambda _: checkpoint.exists())
+    assert not (project / "models" / "teams_eggan.pt").exists()
+    dvc(project, "repro", "teams_eggan")
+    resumed = outputs(project, EGGAN_OUTS)
+    checkpoint.unlink()
+    dvc(project, "repro", "-f", "teams_eggan")
+    assert outputs(project, EGGAN_OUTS) == resumed and "models/teams_eggan.pt" in resumed
 
 
 # --- a Dask worker killed during a map ---
