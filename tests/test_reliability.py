@@ -79,31 +79,6 @@ TINY = {
 }
 
 
-def copy_project(root: Path) -> Path:
-    """The project's tracked files in a new git repo, with TINY params (nested sections merged)."""
-    import shutil
-
-    import yaml
-
-    files = subprocess.run(["git", "ls-files"], cwd=ROOT, check=True, capture_output=True, text=True).stdout.split()
-    for name in files:
-        if (ROOT / name).is_file():
-            (root / name).parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(ROOT / name, root / name)
-    document = yaml.safe_load((root / "profiles" / "default.yaml").read_text())
-
-    def merge(into: dict, values: dict) -> None:
-        for key, value in values.items():
-            merge(into[key], value) if isinstance(value, dict) else into.__setitem__(key, value)
-
-    merge(document, TINY)
-    (root / "params.yaml").write_text(yaml.safe_dump(document))
-    for command in (["init", "-q"], ["add", "-A"], ["commit", "-qm", "tiny copy"]):  # dvclive needs a commit
-        subprocess.run(["git", "-c", "user.name=t", "-c", "user.email=t@t", *command], cwd=root, check=True,
-                       capture_output=True)
-    return root
-
-
 def dvc_env(project: Path) -> dict:
     return {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}",
             "PYTHONPATH": str(project), "DVC_NO_ANALYTICS": "1", "DO_NOT_TRACK": "1", "MPLBACKEND": "Agg"}
@@ -166,8 +141,9 @@ def outputs(project: Path, paths: list[str]) -> dict[str, object]:
 
 
 @pytest.fixture(scope="module")
-def project(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    return copy_project(tmp_path_factory.mktemp("reliability") / "project")
+def project(tmp_path_factory: pytest.TempPathFactory, copy_project) -> Path:
+    """A tiny copy of the project (TINY params), committed: dvclive in the train_vae stage needs a revision."""
+    return copy_project(tmp_path_factory.mktemp("reliability") / "project", TINY, commit=True)
 
 
 ENUMERATE_OUTS = ["data/designs.parquet", "data/designs_nogram.parquet", "reports/metrics/enumerate.json"]
