@@ -40,6 +40,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     ga.add_argument("--terrain-seed", type=non_negative_int, required=True)
     ga.add_argument("--seed", type=non_negative_int, default=0, help="seed of the search")
     ga.add_argument("--workers", type=non_negative_int, help="evaluation processes (default: params; 0 = all cores)")
+    ga.add_argument("--address", help="a running Dask scheduler (tcp://host:8786) for the evaluations "
+                    "(default: params' modular.address; \"\" = local processes)")
     _add_params_argument(ga)
     ga.set_defaults(handler=_ga)
 
@@ -94,7 +96,8 @@ def _ga(args: argparse.Namespace) -> None:
     params = _params(args.params)
     workers = params.workers if args.workers is None else args.workers
     cache = EvaluationCache(params.cache or None)
-    with Executor(workers=workers, address=params.address or None) as executor:
+    address = params.address if args.address is None else args.address
+    with Executor(workers=workers, address=address or None) as executor:
         run = run_method(args.variant, args.terrain_seed, args.seed, params, cache, executor)
     print(json.dumps({"variant": args.variant, "terrain_seed": args.terrain_seed, "seed": args.seed,
                       "best_design": run.best_design, "best_fitness": run.best_fitness,

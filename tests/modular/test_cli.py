@@ -76,3 +76,15 @@ def test_exhaustive_commits_one_terrains_table_with_its_provenance(tmp_path, cap
     assert out["best_design"] in ("wwwwww", "llllll") and out["table"].endswith("blocks-1003.parquet")
     record = json.loads((tmp_path / "truth" / "blocks-1003.json").read_text())
     assert record["simulated"] == 2 and record["settings"]["control_steps"] == 3 and record["physics_digest"]
+
+
+def test_ga_on_a_dask_cluster_finds_what_local_processes_find(tmp_path, capsys, dask_address):
+    params = tmp_path / "params.yaml"
+    params.write_text(TINY)
+    outs = []
+    for where in (["--workers", "2"], ["--address", dask_address]):
+        assert main(["modular", "ga", "--variant", "random", "--terrain-seed", "3", "--seed", "1",
+                     "--params", str(params), *where]) == 0
+        outs.append(json.loads(capsys.readouterr().out))
+    keys = ("best_design", "best_fitness", "distinct", "evaluations")
+    assert [outs[0][k] for k in keys] == [outs[1][k] for k in keys]

@@ -123,3 +123,9 @@ def test_compose_teams_rejects_a_chip_in_the_wrong_format(tmp_path, tiny_model, 
     write_label_png(np.full((100, 100), 4, dtype=np.uint8), tmp_path / "small.png")
     assert main(["compose", "teams", "--chip", str(tmp_path / "small.png"), "--model", str(tiny_model)]) == 2
     assert "no 300 x 300 window" in capsys.readouterr().err
+
+
+def test_nsga2_on_a_dask_cluster_gives_the_local_front(capsys, dask_address):
+    argv = ["teams", "nsga2", "--synthetic-seed", "1", "--regions", "3", "--pop", "6", "--generations", "2"]
+    local, remote = run(argv, capsys), run([*argv, "--address", dask_address], capsys)
+    assert remote["front"] == local["front"] and remote["hypervolume"] == local["hypervolume"]
