@@ -18,7 +18,7 @@ def main() -> None:
     evaluation = load_section(EvaluationConfig, "evaluation")
     config = load_section(ReferencesConfig, "evaluate_references")
     designs = read_table("data/designs.parquet", "designs")
-    with timed("evaluate_references") as timing, evaluation.executor() as executor:
+    with timed("evaluate_references") as timing, evaluation.executor("evaluate_references") as executor:
         table = evaluate_references(designs, config, evaluation, evaluation.open_cache(), executor, save_every=8)
         timing["evaluations"] = len(table)
         timing["sim_steps"] = int(table["sim_steps"].sum())

@@ -165,3 +165,59 @@ def cli_error(capsys):
         return line
 
     return run
+
+
+# --- a real Dask cluster on loopback ---
+
+
+@pytest.fixture(scope="session")
+def dask_address():
+    """The scheduler address of a LocalCluster on loopback (2 worker processes, one thread each), shared by the
+    session's tests."""
+    from dask.distributed import LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
+                      silence_logs=40) as cluster:
+        yield cluster.scheduler_address
+
+
+# --- a tiny copy of the project ---
+
+
+def copy_of_project(root: Path, params: dict, commit: bool = False) -> Path:
+    """The project's tracked files (as in the working tree) in a new git repo at `root`, with params.yaml from
+    profiles/default.yaml and `params` merged into it section by section (nested dicts merged, not replaced).
+    `commit`: commit everything once (dvclive, in the train_vae stage, needs a revision)."""
+    import shutil
+    import subprocess
+
+    import yaml
+
+    source = Path(__file__).resolve().parents[1]
+    files = subprocess.run(["git", "ls-files"], cwd=source, check=True, capture_output=True, text=True).stdout.split()
+    for name in files:
+        if (source / name).is_file():
+            (root / name).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(source / name, root / name)
+    document = yaml.safe_load((root / "profiles" / "default.yaml").read_text())
+
+    def merge(into: dict, values: dict) -> None:
+        for key, value in values.items():
+            if isinstance(value, dict):
+                merge(into[key], value)
+            else:
+                into[key] = value
+
+    merge(document, params)
+    (root / "params.yaml").write_text(yaml.safe_dump(document))
+    commands = [["init", "-q"], *([["add", "-A"], ["commit", "-qm", "tiny copy"]] if commit else [])]
+    for command in commands:
+        subprocess.run(["git", "-c", "user.name=t", "-c", "user.email=t@t", *command], cwd=root, check=True,
+                       capture_output=True)
+    return root
+
+
+@pytest.fixture(scope="session")
+def copy_project():
+    """copy_project(root, params, commit=False): a tiny copy of the project (see copy_of_project)."""
+    return copy_of_project

@@ -71,8 +71,9 @@ class EvaluationConfig:
         """16 hex digits identifying everything that changes a result on `task` besides design and seed."""
         return settings_digest({"simulation": simulation_digest(task), "mppi": self.mppi.as_dict()})
 
-    def executor(self) -> Executor:
-        return Executor(workers=self.workers, address=self.address or None)
+    def executor(self, progress: str | None = None) -> Executor:
+        """The executor these settings name; `progress` labels a progress bar for its maps."""
+        return Executor(workers=self.workers, address=self.address or None, progress=progress)
 
     def open_cache(self) -> EvaluationCache:
         return EvaluationCache(self.cache or None)

@@ -1,4 +1,5 @@
-"""Artifacts: atomic writes, schema-checked parquet tables, MCAP logs with Foxglove schemas, input errors.
+"""Artifacts: atomic writes, checksummed binary files, schema-checked parquet tables, MCAP logs (Foxglove schemas),
+input errors.
 
 Names load on first use (PEP 562), so `robocompose.io.errors` and `robocompose.arguments` (needed while
 the command line is parsed) do not pull in pandas, pyarrow and mcap.
@@ -11,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 _EXPORTS = {
     "robocompose.io.atomic": ("atomic_path", "atomic_write_json", "atomic_write_text", "read_json"),
+    "robocompose.io.checked": ("read_checked", "set_aside", "write_checked"),
     "robocompose.io.errors": ("ArtifactError", "InputError"),
     "robocompose.io.mcap_log": (
         "FRAME_TRANSFORMS", "SCALARS", "SCENE_UPDATE", "JsonDecoderFactory", "McapMessage", "McapWriter",
@@ -32,6 +34,7 @@ def __getattr__(name: str) -> Any:
 
 if TYPE_CHECKING:  # for type checkers and editors: the same names, imported eagerly
     from robocompose.io.atomic import atomic_path, atomic_write_json, atomic_write_text, read_json  # noqa: F401
+    from robocompose.io.checked import read_checked, set_aside, write_checked  # noqa: F401
     from robocompose.io.errors import ArtifactError, InputError  # noqa: F401
     from robocompose.io.mcap_log import (  # noqa: F401
         FRAME_TRANSFORMS,

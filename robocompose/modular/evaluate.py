@@ -45,7 +45,7 @@ BLOWUP_SPEED = 50.0  # m/s; a chassis faster than this has exploded
 class EvalSettings:
     """Everything a rollout depends on (all of it enters the settings hash)."""
 
-    control_steps: int = 250  # thesis: 250 (~20.8 s)
+    control_steps: int = 50  # the default profile (4.2 s); thesis and paper profile: 250 (~20.8 s)
     sim_steps_per_control: int = 20
     settle_steps: int = 100  # sim steps in the rest pose before the episode
     time_step: float = 1 / 240  # s

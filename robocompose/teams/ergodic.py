@@ -246,14 +246,26 @@ class ChipCoverage:
 
         Returns (coverage costs (B,) float64, the robots, their observations (N, T, 2)).
         """
+        costs, robots, observations = self.evaluate_teams(counts, seed)
+        return costs.sum(1), robots, observations
+
+    def evaluate_teams(self, counts: np.ndarray, seed: int) -> tuple[np.ndarray, Robots, torch.Tensor]:
+        """As `evaluate`, with the (B, K) team costs a_i E_i / G_i (their row sums are the coverage costs)."""
         counts = np.asarray(counts)
-        n_batch = len(counts)
         robots = self.deploy(counts, seed)
-        phi = self.phi.repeat(n_batch, 1, 1)  # (B*K, n, n)
+        phi = self.phi.repeat(len(counts), 1, 1)  # (B*K, n, n)
         metrics, observations = optimise_trajectories(robots, phi, self.terrain, self.config)
-        return self.coverage_cost(metrics), robots, observations
+        return self.team_costs(metrics), robots, observations
+
+    def team_costs(self, metrics: torch.Tensor) -> np.ndarray:
+        """(B, K) team costs a_i E_i / G_i of (B*K,) raw team metrics (team b*K + i in region i)."""
+        return (metrics.reshape(-1, self.n_regions) / self.glance * self.area).numpy()
+
+    def empty_team_costs(self) -> np.ndarray:
+        """(K,) the team cost of each region without robots: a_i sum_k Lambda_k phi_k^2 / G_i."""
+        _, sobolev = frequencies(self.config.n_coefficients)
+        return (self.area * (sobolev * self.phi**2).sum((-2, -1)) / self.glance).numpy()
 
     def coverage_cost(self, metrics: torch.Tensor) -> np.ndarray:
-        """(B,) coverage costs sum_i a_i E_i / G_i of (B*K,) raw team metrics (team b*K + i in region i)."""
-        per_team = metrics.reshape(-1, self.n_regions) / self.glance * self.area  # (B, K)
-        return per_team.sum(1).numpy()
+        """(B,) coverage costs sum_i a_i E_i / G_i of (B*K,) raw team metrics."""
+        return self.team_costs(metrics).sum(1)

@@ -31,3 +31,10 @@ def test_enumerate_output_is_checked_before_any_work(tmp_path, cli_error, monkey
     (tmp_path / "folder").mkdir()
     cli_error(["enumerate", "--n", "2", "--out", out], *fragments)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["folder"] and not any((tmp_path / "folder").iterdir())
+
+
+def test_enumerate_on_a_dask_cluster_writes_the_same_bytes(tmp_path, capsys, dask_address):
+    local, remote = tmp_path / "local.parquet", tmp_path / "dask.parquet"
+    assert main(["enumerate", "--n", "3", "--seed", "2", "--out", str(local), "--workers", "2"]) == 0
+    assert main(["enumerate", "--n", "3", "--seed", "2", "--out", str(remote), "--address", dask_address]) == 0
+    assert local.read_bytes() == remote.read_bytes()

@@ -7,7 +7,7 @@ from robocompose.cli import main
 from robocompose.evaluation.references import REFERENCE_DESIGNS
 from robocompose.grammar.derivation import derive
 from robocompose.latent.model import GraphVAE, VAEConfig
-from robocompose.latent.train import save_model
+from robocompose.latent.train import save_model, save_torch
 
 
 @pytest.fixture(scope="module")
@@ -64,10 +64,11 @@ def _model_files(folder, model_path) -> dict:
     files = {"text.pt": b"hello\n", "truncated.pt": good[: len(good) // 2], "legacy.pt": b"\x80\x04K\x01."}
     for name, data in files.items():
         (folder / name).write_bytes(data)
-    torch.save({"weights": torch.zeros(2)}, folder / "other_dict.pt")
-    torch.save({"x": Opaque()}, folder / "object.pt")
-    return {"text.pt": "not a torch model archive", "truncated.pt": "not a torch model archive",
-            "legacy.pt": "not a torch model archive", "other_dict.pt": "not a robocompose model",
+    save_torch({"weights": torch.zeros(2)}, folder / "other_dict.pt")
+    save_torch({"x": Opaque()}, folder / "object.pt")
+    torch.save({"weights": torch.zeros(2)}, folder / "plain_torch.pt")  # a torch file without our checksum header
+    return {"text.pt": "no checksum header", "truncated.pt": "checksum mismatch", "legacy.pt": "no checksum header",
+            "plain_torch.pt": "no checksum header", "other_dict.pt": "not a robocompose model",
             "object.pt": "holds Python objects other than tensors"}
 
 

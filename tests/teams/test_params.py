@@ -17,6 +17,7 @@ teams:
   decompose: {n_regions: 4}
   coverage: {iterations: 7, learning_rate: 1}
   experiments: {populations: [4, 6], budgets: [3]}
+  eggan: {}
 """))
     assert params.chips.n_synthetic == 5 and params.chips.directory == ""
     assert params.decompose.n_regions == 4 and params.decompose.lloyd_iterations == 10
