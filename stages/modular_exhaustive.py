@@ -19,7 +19,8 @@ from robocompose.stage import run_stage
 def main() -> None:
     params = load_modular_params("params.yaml")
     cache = EvaluationCache(params.cache or None)
-    with timed("modular_exhaustive") as timing, Executor(params.workers, params.address or None) as executor:
+    with timed("modular_exhaustive") as timing, Executor(params.workers, params.address or None,
+                                                         progress="modular_exhaustive") as executor:
         table, sources = truth_tables(params.experiments.truth_terrains, params.eval, params.fitness, cache,
                                       executor)
         timing["simulated_terrains"] = sum(source == "simulated" for source in sources.values())

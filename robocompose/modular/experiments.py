@@ -27,6 +27,7 @@ import pandas as pd
 
 from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.executor import Executor
+from robocompose.io.errors import InputError
 from robocompose.modular.evaluate import Result
 from robocompose.modular.params import ModularParams
 from robocompose.modular.problem import ModularProblem
@@ -91,7 +92,7 @@ def search(variant: str, problem: ModularProblem, seed: int, params: ModularPara
                                                     seed=seed))
     if variant == "random":
         return run_random(problem, e.random_designs, seed)
-    raise ValueError(f"method {variant!r}: expected one of {sorted(METHODS)}")
+    raise InputError(f"method {variant!r}: expected one of {sorted(METHODS)}")
 
 
 def run_method(variant: str, terrain_seed: int, seed: int, params: ModularParams,
@@ -104,7 +105,7 @@ def run_method(variant: str, terrain_seed: int, seed: int, params: ModularParams
     import time
 
     if variant not in METHODS:
-        raise ValueError(f"method {variant!r}: expected one of {sorted(METHODS)}")
+        raise InputError(f"method {variant!r}: expected one of {sorted(METHODS)}")
     problem = ModularProblem(terrain_seed, params.eval, params.fitness, cache, executor, known)
     started = time.perf_counter()
     result = search(variant, problem, _seed(seed, terrain_seed, list(METHODS).index(variant)), params)
@@ -151,7 +152,7 @@ def baseline_runs(params: ModularParams, truth: pd.DataFrame) -> pd.DataFrame:
     for terrain_seed in e.test_terrains:
         table = truth[truth.terrain_seed == terrain_seed]
         if len(table) == 0:
-            raise ValueError(f"terrain {terrain_seed}: not in the exhaustive table (run modular_exhaustive first)")
+            raise InputError(f"terrain {terrain_seed}: not in the exhaustive table (run modular_exhaustive first)")
         known = table_results(table)
         distances = table.dropna(subset=["distance"])
         for variant in METHODS:

@@ -34,6 +34,8 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet as pb
 
+from robocompose.io.errors import InputError
+
 MODULE_LETTERS = "nlwb"  # none, leg, wheel, leg-wheel (both)
 N_PORTS = 6
 PORT_NAMES = ("front-left", "mid-left", "back-left", "back-right", "mid-right", "front-right")
@@ -102,7 +104,7 @@ ROLE_REST = {"base": math.pi / 2, "shoulder": 0.0, "elbow": math.pi / 2, "steer"
 def parse_design(design: str) -> str:
     """Check a port string (6 letters of n/l/w/b) and return it lower-cased."""
     if not isinstance(design, str) or len(design) != N_PORTS or any(c not in MODULE_LETTERS for c in design.lower()):
-        raise ValueError(f"design {design!r}: expected {N_PORTS} letters of {MODULE_LETTERS!r} (none/leg/wheel/"
+        raise InputError(f"design {design!r}: expected {N_PORTS} letters of {MODULE_LETTERS!r} (none/leg/wheel/"
                          f"leg-wheel), one per port in the order {', '.join(PORT_NAMES)}")
     return design.lower()
 

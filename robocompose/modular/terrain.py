@@ -20,6 +20,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from robocompose.io.errors import InputError
+
 GRID_X, GRID_Y = 50, 20  # height-map samples along x and y
 
 
@@ -40,13 +42,13 @@ class TerrainConfig:
     def __post_init__(self):
         for name in ("x_range", "y_range", "spacing_range", "side_range", "max_height_range"):
             if len(getattr(self, name)) != 2:
-                raise ValueError(f"{name}: expected [low, high], found {getattr(self, name)}")
+                raise InputError(f"{name}: expected [low, high], found {getattr(self, name)}")
             object.__setattr__(self, name, tuple(float(v) for v in getattr(self, name)))  # YAML gives lists
             lo, hi = getattr(self, name)
             if not lo <= hi:
-                raise ValueError(f"{name}: expected low <= high, found {getattr(self, name)}")
+                raise InputError(f"{name}: expected low <= high, found {getattr(self, name)}")
         if self.spacing_range[0] <= 0:
-            raise ValueError(f"spacing_range: expected a positive minimum distance, found {self.spacing_range}")
+            raise InputError(f"spacing_range: expected a positive minimum distance, found {self.spacing_range}")
 
     def as_dict(self) -> dict:
         return asdict(self)

@@ -26,6 +26,7 @@ import pandas as pd
 from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.executor import Executor
 from robocompose.io import atomic_write_json, read_table, write_table
+from robocompose.io.atomic import read_json
 from robocompose.io.provenance import module_path
 from robocompose.modular import evaluate
 from robocompose.modular.evaluate import EvalSettings, FitnessRule, evaluate_designs
@@ -118,7 +119,7 @@ def read_committed(terrain_seed: int, settings: EvalSettings, rule: FitnessRule,
     record = path.with_suffix(".json")
     if not (path.exists() and record.exists()):
         return None
-    stored = json.loads(record.read_text())
+    stored = read_json(record)
     if {k: stored.get(k) for k in ("settings", "fitness", "physics_digest")} != provenance(settings, rule):
         return None
     return read_table(path, "modular_exhaustive")

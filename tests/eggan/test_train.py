@@ -1,0 +1,149 @@
+"""Algorithm 1 on the toy problem: it learns a task-dependent answer, losses are the thesis's, and a killed
+run resumes to the same bytes."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from robocompose.eggan.networks import NetworkConfig
+from robocompose.eggan.query import generate, rank_distinct
+from robocompose.eggan.train import (
+    TrainConfig,
+    bgan_generator_loss,
+    discriminator_loss,
+    gan_generator_loss,
+    train,
+    write_logs,
+)
+from tests.eggan.conftest import MatchProblem
+
+NETWORK = NetworkConfig(latent=16)
+CONFIG = TrainConfig(iterations=600, batch=32, tasks=8, samples=8, evolution_steps=3, lr_generator=1e-3,
+                     lr_discriminator=1e-3, log_every=50, checkpoint_every=50)
+
+
+def held_out_matches(trained, problem, tasks=20) -> float:
+    """Mean matches of the generator's most probable design on tasks drawn apart from training's streams."""
+    rng = np.random.default_rng(999)
+    scores = []
+    for _ in range(tasks):
+        task = problem.sample_task(rng)
+        sampled, output = generate(trained.generator, problem, task, 64, seed=1)
+        best = rank_distinct(problem, sampled, output, 1)[0].design
+        scores.append(sum(a == b for a, b in zip(best, task, strict=True)))
+    return float(np.mean(scores))
+
+
+def test_eggan_learns_a_task_dependent_answer(match_problem):
+    trained = train(match_problem, NETWORK, CONFIG)
+    # A random design matches 1.5 of 6 ports on average; an unconditioned generator cannot beat that.
+    assert held_out_matches(trained, match_problem) > 2.3
+    assert trained.rows[-1]["gen_matches_mean"] > trained.rows[0]["gen_matches_mean"] + 0.4
+    assert trained.rows[-1]["real_evaluations"] == match_problem.evaluations > 0
+
+
+def test_evolution_improves_on_the_generated_batch(match_problem):
+    trained = train(match_problem, NETWORK, TrainConfig(iterations=20, batch=32, tasks=4, evolution_steps=3,
+                                                        log_every=10, checkpoint_every=10))
+    for row in trained.rows:  # crowding replaces a parent only by a strictly fitter child
+        assert row["pop_matches_mean"] > row["gen_matches_mean"]
+
+
+def test_bgan_weights_are_the_softmax_of_the_logits_without_gradient():
+    d = torch.tensor([[0.0, np.log(3.0)]], requires_grad=True)  # weights 1/4, 3/4
+    log_prob = torch.tensor([[-1.0, -2.0]], requires_grad=True)
+    loss = bgan_generator_loss(d, log_prob)
+    assert float(loss.detach()) == pytest.approx(0.25 * 1 + 0.75 * 2)
+    loss.backward()
+    assert d.grad is None or float(d.grad.abs().sum()) == 0.0
+    assert torch.allclose(log_prob.grad, torch.tensor([[-0.25, -0.75]]))
+
+
+def test_gan_and_discriminator_losses_at_chance():
+    zero = torch.zeros(4)
+    assert float(discriminator_loss(zero, zero)) == pytest.approx(np.log(2))
+    assert float(gan_generator_loss(zero)) == pytest.approx(-np.log(2))  # log(1 - 1/2)
+    confident = discriminator_loss(torch.full((4,), 5.0), torch.full((4,), -5.0))
+    assert float(confident) < 0.01
+
+
+def test_bad_config_is_a_clear_error(match_problem):
+    with pytest.raises(ValueError, match="even number of noise vectors per task"):
+        TrainConfig(batch=24, tasks=8)
+    with pytest.raises(ValueError, match="supports"):
+        train(match_problem, NETWORK, TrainConfig(iterations=1, evolution="nsga2"))
+
+
+RESUME_SCRIPT = """
+import sys, time
+from pathlib import Path
+sys.path.insert(0, {root!r})
+from robocompose.eggan.networks import NetworkConfig
+from robocompose.eggan.train import TrainConfig, train
+import robocompose.eggan.train as T
+from tests.eggan.conftest import MatchProblem
+slow = {slow}
+if slow:  # give the parent time to kill us after the first checkpoint
+    original = T.train_step
+    def step(*args, **kwargs):
+        time.sleep(0.05)
+        return original(*args, **kwargs)
+    T.train_step = step
+config = TrainConfig(iterations=40, batch=16, tasks=4, samples=4, log_every=5, checkpoint_every=10)
+train(MatchProblem(), NetworkConfig(latent=8, hidden=16), config, Path(sys.argv[1]), Path(sys.argv[2]))
+"""
+
+
+def _run(tmp: Path, name: str, slow: bool, kill_after_checkpoint: bool) -> Path:
+    script = tmp / f"{name}.py"
+    script.write_text(RESUME_SCRIPT.format(root=str(Path(__file__).resolve().parents[2]), slow=slow))
+    checkpoint, csv = tmp / f"{name}.pt", tmp / f"{name}.csv"
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
+    process = subprocess.Popen([sys.executable, str(script), str(checkpoint), str(csv)], env=env,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    if kill_after_checkpoint:
+        deadline = time.time() + 120
+        while not checkpoint.exists() and time.time() < deadline:
+            time.sleep(0.02)
+        process.send_signal(signal.SIGKILL)
+        process.wait()
+        assert torch.load(checkpoint, weights_only=False)["iteration"] < 40  # really interrupted
+        process = subprocess.Popen([sys.executable, str(script), str(checkpoint), str(csv)], env=env,
+                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    assert process.wait(timeout=300) == 0
+    return checkpoint
+
+
+def test_killed_training_resumes_to_the_same_checkpoint(tmp_path):
+    straight = torch.load(_run(tmp_path, "straight", False, False), weights_only=False)
+    resumed = torch.load(_run(tmp_path, "resumed", True, True), weights_only=False)
+    assert straight["iteration"] == resumed["iteration"] == 40
+    for part in ("generator", "discriminator"):
+        for name, value in straight[part].items():
+            assert torch.equal(value, resumed[part][name]), f"{part}.{name}"
+    assert straight["rows"] == resumed["rows"]
+    assert straight["problem"] == resumed["problem"]
+    assert (tmp_path / "straight.csv").read_bytes() == (tmp_path / "resumed.csv").read_bytes()
+
+
+def test_a_checkpoint_of_other_settings_is_not_resumed(tmp_path, match_problem, capsys):
+    checkpoint = tmp_path / "run.pt"
+    small = TrainConfig(iterations=10, batch=16, tasks=4, samples=4, log_every=5, checkpoint_every=5)
+    train(match_problem, NetworkConfig(latent=8, hidden=16), small, checkpoint)
+    train(MatchProblem(), NetworkConfig(latent=8, hidden=16), TrainConfig(**{**small.__dict__, "seed": 1}), checkpoint)
+    assert "starting afresh" in capsys.readouterr().out
+
+
+def test_training_log_validates_against_its_schema(tmp_path, valid_foxglove_log):
+    rows = [{"iteration": i, "d_loss": 0.5, "g_loss": float("nan"), "gen_distinct": 3} for i in (1, 2)]
+    write_logs(rows, None, tmp_path / "log.mcap", "/eggan/train")
+    assert valid_foxglove_log(tmp_path / "log.mcap") == 2
