@@ -3,11 +3,16 @@
 Task: a training chip; its tensor is the K x 4 terrain-feature matrix of its regions (rows: terrain
 shares of a region), flattened, so the generator is the thesis's MLP on (z, task).
 Design: a K x O allocation, entry (i, j) = the fraction of species j sent to region i. The generator
-gives (K + 1) x O logits; a softmax over the K + 1 rows of each species column gives the fractions
-(the last row, "kept in the depot", is what is not deployed, so a design can deploy anywhere from no
-robot to the whole bank; the group's code had no such row and always deployed every robot). The
-design is continuous (the output is the design), so the trainer uses the GAN loss of eq. 4.1 and the
-discriminator sees the (K + 1) x O fractions. Counts: species.allocation_to_counts, as for NSGA-II.
+gives (K + 1) x O logits; per species, the first K give the split over the regions (a softmax) and
+the last the deployed share s = sigmoid(logit), so fraction (i, j) = s_j * split_ij and a design can
+deploy anywhere from no robot to the whole bank (the group's code split every robot over the regions,
+always deploying all of them). This is the factorisation NSGA-II's initial population uses (a share of
+each species, split over the regions), and an untrained generator deploys about half the bank with a
+spread over z (a softmax over K regions + a depot row would start at K / (K + 1) of the bank and stay
+there: we measured every allocation of 100 iterations above 50 robots). The design is continuous (the
+output is the design), so the trainer uses the GAN loss of eq. 4.1 and the discriminator sees the
+(K + 1) x O matrix [fractions; 1 - s] (the last row: what stays in the depot).
+Counts: species.allocation_to_counts, as for NSGA-II.
 Objectives, both minimised: coverage cost (ergodic.py) and deployment cost (robots deployed).
 Evolution-guided data creation: `steps` NSGA-II generations (nsga2.nsga2_generation: rank, crowding,
 roulette-wheel selection, the thesis's crossover and mutation, elitist survival) on the generated
@@ -69,6 +74,9 @@ def with_depot_row(fractions: np.ndarray) -> np.ndarray:
     return np.concatenate([fractions, 1.0 - fractions.sum(-2, keepdims=True)], axis=-2)
 
 
+DESIGN_HEAD = "share-split"  # the generator-output -> design map above (stored in generator files)
+
+
 class TeamsProblem:
     """The teams EG-GAN problem on a set of training chips (see the module docstring)."""
 
@@ -100,7 +108,9 @@ class TeamsProblem:
         return torch.as_tensor(self.features[task].ravel(), dtype=torch.float32)  # (K*4,)
 
     def design_head(self, logits: torch.Tensor) -> torch.Tensor:
-        return torch.softmax(logits, dim=1)  # (B, K+1, O): per species, over the K regions and the depot
+        split = torch.softmax(logits[:, :-1], dim=1)  # (B, K, O): each species' split over the regions
+        share = torch.sigmoid(logits[:, -1:])  # (B, 1, O): each species' deployed share
+        return torch.cat([split * share, 1.0 - share], dim=1)  # (B, K+1, O), columns sum to 1
 
     def sample_designs(self, output: torch.Tensor, generator: torch.Generator | None) -> Sampled:
         designs = list(output[:, :self.n_regions].detach().double().numpy())  # B (K, O) fractions

@@ -29,6 +29,8 @@ def test_designs_are_fractions_with_a_depot_row(chips):
     sampled = problem.sample_designs(output, None)
     assert sampled.log_prob is None and sampled.tensor is output and sampled.designs[0].shape == (3, 3)
     torch.testing.assert_close(problem.design_tensor(sampled.designs), output, atol=1e-6, rtol=0)
+    neutral = problem.design_head(torch.zeros(1, 4, 3))  # untrained: half of each species, split evenly
+    torch.testing.assert_close(neutral[0], torch.tensor([[1 / 6] * 3] * 3 + [[0.5] * 3]))
     over = with_depot_row(np.full((1, 3, 3), 0.6))  # asks for 180% of each species: scaled to all of it
     np.testing.assert_allclose(over[0, :3], 1 / 3) and np.testing.assert_allclose(over[0, 3], 0, atol=1e-12)
 

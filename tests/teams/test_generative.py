@@ -32,6 +32,10 @@ def test_generator_file_round_trips_weights_settings_and_metrics(tmp_path):
     torch.save({"weights": 1}, tmp_path / "other.pt")
     with pytest.raises(ValueError, match="not a teams generator file"):
         load_generator(tmp_path / "other.pt")
+    old_head = torch.load(tmp_path / "g.pt", weights_only=False) | {"design_head": "softmax-depot"}
+    torch.save(old_head, tmp_path / "old.pt")
+    with pytest.raises(ValueError, match="trained with design head 'softmax-depot'.*retrain"):
+        load_generator(tmp_path / "old.pt")
 
 
 def test_the_shipped_generator_is_the_default_profiles_and_matches_the_model_code():
