@@ -8,7 +8,8 @@ Protocol (`realtime_table`), for every method that answers a query in real time 
 candidate designs) on every held-out test terrain and query:
 - the method outputs `candidates` designs (EG-GAN: the most probable distinct designs among `samples` draws);
 - all of them are simulated (real evaluator, through the cache); max distance = the best valid one;
-- distinct solutions = the niching metric (delta 1 Hamming, epsilon 0.5 m) over the candidates;
+- distinct solutions = the niching metric (delta 1 Hamming, epsilon 0.5 m) over the valid candidates (0 if none:
+  penalty scores are not distances);
 - EC: `ec_draws` random caps on one module type; the answer is the best satisfying valid candidate, else a
   random valid satisfying design (modular `ec_answers`); the answer is simulated. Answers are valid designs,
   so EC is a distance; a query whose candidates are all invalid is counted as a failure, not averaged;
@@ -151,6 +152,7 @@ def realtime_table(proposers: dict[str, Proposer], problem: ModularEgganProblem,
         if truth is not None and (truth.terrain_seed == terrain_seed).any():
             optimum = float(truth[truth.terrain_seed == terrain_seed].fitness.max())
         for method, propose in proposers.items():
+            problem.encode_task(terrain_seed)  # the height map is the query's input: not part of its time
             for query in range(p.queries):
                 query_seed = _seed(query, terrain_seed, 4999)
                 started = time.perf_counter()
@@ -171,7 +173,7 @@ def realtime_table(proposers: dict[str, Proposer], problem: ModularEgganProblem,
                     "candidates": len(candidates), "valid": int(valid.sum()),
                     "best_design": candidates[int(np.argmax(np.where(valid, fitness, -np.inf)))] if valid.any()
                     else "", "max_distance": best,
-                    "distinct": distinct_solutions(candidates, fitness, lambda a, b: float(hamming(a, b)), DELTA,
+                    "distinct": distinct_solutions(ok, fitness[valid], lambda a, b: float(hamming(a, b)), DELTA,
                                                    EPSILON),
                     "ec_distance": float(np.mean(ec_ok)) if ec_ok else np.nan,
                     "ec_failures": len(ec) - len(ec_ok), "optimum": optimum, "regret": optimum - best,
