@@ -133,9 +133,11 @@ SCHEMAS: dict[str, pa.Schema] = {
     # held-out test terrain x query; distances in m (NaN: no valid candidate / no exhaustive optimum).
     "modular_realtime": pa.schema([_required(n, t) for n, t in [
         ("method", pa.string()), ("terrain_seed", pa.int64()), ("query", pa.int64()), ("candidates", pa.int64()),
-        ("valid", pa.int64()), ("best_design", pa.string()), ("max_distance", pa.float64()),
-        ("distinct", pa.int64()), ("ec_distance", pa.float64()), ("ec_failures", pa.int64()),
-        ("optimum", pa.float64()), ("regret", pa.float64()), ("query_ms", pa.float64())]]),
+        ("valid", pa.int64()), ("best_design", pa.string())]] + [
+        pa.field("max_distance", pa.float64(), nullable=True), _required("distinct", pa.int64()),
+        pa.field("ec_distance", pa.float64(), nullable=True), _required("ec_failures", pa.int64()),
+        pa.field("optimum", pa.float64(), nullable=True), pa.field("regret", pa.float64(), nullable=True),
+        _required("query_ms", pa.float64())]),
     # The latent landscape (robocompose.latent.landscape, thesis Fig. 7.1): one row per (VAE variant, dataset
     # design): the first two principal components of its latent mean (and the variance fraction each explains)
     # and, for the scored subset, the evaluator's flat-terrain status and reward ("" / null when not scored).

@@ -8,7 +8,8 @@ Protocol (`realtime_table`), for every method that answers a query in real time 
 candidate designs) on every held-out test terrain and query:
 - the method outputs `candidates` designs (EG-GAN: the most probable distinct designs among `samples` draws);
 - all of them are simulated (real evaluator, through the cache); max distance = the best valid one;
-- distinct solutions = the niching metric (delta 1 Hamming, epsilon 0.5 m) over the candidates;
+- distinct solutions = the niching metric (delta 1 Hamming, epsilon 0.5 m) over the valid candidates (0 if none:
+  penalty scores are not distances);
 - EC: `ec_draws` random caps on one module type; the answer is the best satisfying valid candidate, else a
   random valid satisfying design (modular `ec_answers`); the answer is simulated. Answers are valid designs,
   so EC is a distance; a query whose candidates are all invalid is counted as a failure, not averaged;
@@ -18,6 +19,7 @@ candidate designs) on every held-out test terrain and query:
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -45,8 +47,15 @@ Proposer = Callable[[ModularEgganProblem, int, int, int], list[str]]
 
 
 def make_problem(modular: ModularParams, params: EgganModularParams, cache: EvaluationCache | None,
-                 executor: Executor | None) -> ModularEgganProblem:
-    return ModularEgganProblem(modular, params.fitness, cache, executor, modular.experiments.mutation_rate,
+                 executor: Executor | None, evaluate_calls: int | None = None) -> ModularEgganProblem:
+    """The training problem. `evaluate_calls`: how many evaluate calls the method's run makes; the real rounds
+    are then spaced so that every method spends the same budget evenly over its run (the default spacing
+    otherwise)."""
+    fitness = params.fitness
+    if evaluate_calls is not None:
+        rounds = max(1, math.ceil((fitness.budget - fitness.warmup) / fitness.real_per_round))
+        fitness = dataclasses.replace(fitness, real_every=max(1, evaluate_calls // rounds))
+    return ModularEgganProblem(modular, fitness, cache, executor, modular.experiments.mutation_rate,
                                modular.experiments.crossover_rate)
 
 
@@ -55,8 +64,10 @@ def train_variant(variant: str, modular: ModularParams, params: EgganModularPara
     """Train one EG-GAN variant; writes out/eggan_modular_VARIANT.{pt,json,mcap,csv} and its checkpoint."""
     if variant not in VARIANTS:
         raise ValueError(f"variant {variant!r}: expected one of {sorted(VARIANTS)}")
-    problem = make_problem(modular, params, cache, executor)
     config = dataclasses.replace(params.train, evolution=variant, evolution_steps=params.evolution_steps[variant])
+    # per iteration and task: X_gen, then one batch per crowding step / GA generation
+    problem = make_problem(modular, params, cache, executor,
+                           config.iterations * config.tasks * (1 + config.evolution_steps))
     name = f"eggan_modular_{variant}"
     started = time.perf_counter()
     trained = train(problem, params.network, config, out / "checkpoints" / f"{name}.pt",
@@ -110,8 +121,8 @@ def realtime_proposers(problem: ModularEgganProblem, params: EgganModularParams,
 def train_fit2form_baseline(modular: ModularParams, params: EgganModularParams, cache: EvaluationCache | None,
                             executor: Executor | None, out: Path, progress: bool = False) -> dict:
     """Fit2form on the same problem and budget of real rollouts; writes out/eggan_modular_fit2form.{pt,json}."""
-    problem = make_problem(modular, params, cache, executor)
     config = build_config(Fit2formConfig, params.baselines.get("fit2form", {}), "eggan_modular.baselines.fit2form")
+    problem = make_problem(modular, params, cache, executor, config.iterations * config.tasks)
     started = time.perf_counter()
     generator, rows = train_fit2form(problem, params.network, config, progress)
     metrics = {"method": "Fit2form", "iterations": config.iterations, "real_evaluations": problem.real_evaluations,
@@ -141,6 +152,7 @@ def realtime_table(proposers: dict[str, Proposer], problem: ModularEgganProblem,
         if truth is not None and (truth.terrain_seed == terrain_seed).any():
             optimum = float(truth[truth.terrain_seed == terrain_seed].fitness.max())
         for method, propose in proposers.items():
+            problem.encode_task(terrain_seed)  # the height map is the query's input: not part of its time
             for query in range(p.queries):
                 query_seed = _seed(query, terrain_seed, 4999)
                 started = time.perf_counter()
@@ -161,7 +173,7 @@ def realtime_table(proposers: dict[str, Proposer], problem: ModularEgganProblem,
                     "candidates": len(candidates), "valid": int(valid.sum()),
                     "best_design": candidates[int(np.argmax(np.where(valid, fitness, -np.inf)))] if valid.any()
                     else "", "max_distance": best,
-                    "distinct": distinct_solutions(candidates, fitness, lambda a, b: float(hamming(a, b)), DELTA,
+                    "distinct": distinct_solutions(ok, fitness[valid], lambda a, b: float(hamming(a, b)), DELTA,
                                                    EPSILON),
                     "ec_distance": float(np.mean(ec_ok)) if ec_ok else np.nan,
                     "ec_failures": len(ec) - len(ec_ok), "optimum": optimum, "regret": optimum - best,

@@ -52,7 +52,7 @@ class FitnessConfig:
     warmup: int = 240  # real rollouts of random valid designs before training
     warmup_terrains: int = 40  # ... spread over this many training terrains
     budget: int = 400  # real rollouts in all, warm-up included
-    real_every: int = 960  # evaluate calls between real rounds
+    real_every: int = 960  # evaluate calls between real rounds (the experiments space them per method's run)
     real_per_round: int = 16  # rollouts per round: the fittest designs of the batch without a real value
     surrogate: SurrogateConfig = field(default_factory=SurrogateConfig)
     seed: int = 0  # seed of the warm-up draws and the surrogate
