@@ -163,7 +163,7 @@ def test_killed_enumerate_stage_reruns_to_the_same_bytes(project: Path) -> None:
     assert not (project / "data" / "designs.parquet").exists()  # really killed mid-stage
     dvc(project, "repro", "enumerate")
     resumed = outputs(project, ENUMERATE_OUTS)
-    dvc(project, "repro", "-f", "enumerate")  # the uninterrupted run
+    dvc(project, "repro", "-f", "-s", "enumerate")  # the uninterrupted run
     assert outputs(project, ENUMERATE_OUTS) == resumed and len(resumed) == 3
 
 
@@ -178,7 +178,7 @@ def test_killed_train_vae_stage_resumes_to_the_same_bytes(project: Path) -> None
     resumed = outputs(project, TRAIN_OUTS)
     for file in checkpoint.parent.iterdir():  # the uninterrupted run starts without a checkpoint
         file.unlink()
-    dvc(project, "repro", "-f", "train_vae@full")
+    dvc(project, "repro", "-f", "-s", "train_vae@full")
     assert outputs(project, TRAIN_OUTS) == resumed and "models/vae_full.pt" in resumed
 
 
@@ -201,7 +201,7 @@ def test_killed_glso_stage_resumes_to_the_same_results(project: Path) -> None:
     for folder in (runs, project / "data" / "glso" / "checkpoints"):  # the uninterrupted run starts afresh
         for file in folder.iterdir():
             file.unlink()
-    dvc(project, "repro", "-f", "glso")
+    dvc(project, "repro", "-f", "-s", "glso")
     assert outputs(project, GLSO_OUTS) == resumed and "data/glso/steps.parquet" in resumed
 
 
@@ -215,7 +215,7 @@ def test_killed_eggan_training_resumes_to_the_same_bytes(project: Path) -> None:
     dvc(project, "repro", "teams_eggan")
     resumed = outputs(project, EGGAN_OUTS)
     checkpoint.unlink()
-    dvc(project, "repro", "-f", "teams_eggan")
+    dvc(project, "repro", "-f", "-s", "teams_eggan")
     assert outputs(project, EGGAN_OUTS) == resumed and "models/teams_eggan.pt" in resumed
 
 
