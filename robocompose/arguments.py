@@ -57,6 +57,15 @@ def output_file(suffix: str, what: str) -> Callable[[str], Path]:
     return parse
 
 
+def output_directory(text: str) -> Path:
+    """argparse type of a directory a command writes into: absent (it is created) or a directory, not a file."""
+    path = Path(text)
+    blocking = next((p for p in (path, *path.parents) if p.exists() and not p.is_dir()), None)
+    if blocking is not None:
+        raise argparse.ArgumentTypeError(f"{path}: {blocking} is a file, expected a directory")
+    return path
+
+
 def input_file(what: str) -> Callable[[str], Path]:
     """argparse type of a file that must exist (a model, a label PNG)."""
     def parse(text: str) -> Path:

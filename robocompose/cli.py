@@ -10,6 +10,8 @@ import sys
 COMMAND_MODULES = ("robocompose.grammar.cli", "robocompose.sim.cli", "robocompose.dataset.cli",
                    "robocompose.teams.cli", "robocompose.evaluation.cli", "robocompose.modular.cli",
                    "robocompose.latent.cli", "robocompose.glso.cli")
+# `robocompose compose PROBLEM ...`: real-time composition with a trained EG-GAN generator, one module per problem
+COMPOSE_MODULES = ("robocompose.modular.compose", "robocompose.teams.compose")
 
 
 def _profile(args: argparse.Namespace) -> int:
@@ -27,6 +29,10 @@ def parser() -> argparse.ArgumentParser:
     profile.set_defaults(handler=_profile)
     for module in COMMAND_MODULES:
         importlib.import_module(module).register(commands)
+    compose = commands.add_parser("compose", help="designs for a task in milliseconds from a trained EG-GAN generator")
+    problems = compose.add_subparsers(dest="compose_problem", required=True)
+    for module in COMPOSE_MODULES:
+        importlib.import_module(module).register(problems)
     return top
 
 

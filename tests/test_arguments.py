@@ -2,7 +2,14 @@ import argparse
 
 import pytest
 
-from robocompose.arguments import check_output_file, input_file, int_at_least, non_negative_int, output_file
+from robocompose.arguments import (
+    check_output_file,
+    input_file,
+    int_at_least,
+    non_negative_int,
+    output_directory,
+    output_file,
+)
 from robocompose.io.errors import InputError
 
 
@@ -38,3 +45,11 @@ def test_input_file_must_exist_and_be_a_file(tmp_path):
         parse(str(tmp_path))
     (tmp_path / "m.pt").write_bytes(b"x")
     assert parse(str(tmp_path / "m.pt")) == tmp_path / "m.pt"
+
+
+def test_output_directory_may_be_new_but_not_a_file(tmp_path):
+    assert output_directory(str(tmp_path / "new" / "dir")) == tmp_path / "new" / "dir"
+    (tmp_path / "file").write_text("")
+    for text in (tmp_path / "file", tmp_path / "file" / "sub"):
+        with pytest.raises(argparse.ArgumentTypeError, match="file is a file, expected a directory"):
+            output_directory(str(text))

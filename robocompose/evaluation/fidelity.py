@@ -101,7 +101,7 @@ def dataset_candidates(seed: int):
 
     seen, k = set(), 0
     while True:
-        reason, row = candidate(seed, k, MIN_LINKS, 40)
+        reason, row, _ = candidate(seed, k, MIN_LINKS, 40)
         k += 1
         if reason or row["design_id"] in seen:
             continue
@@ -263,7 +263,7 @@ def summarise(scores: pd.DataFrame, designs: pd.DataFrame, top: int = 3) -> pd.D
         samples, first_samples, horizon, episode = LADDER[rung]
         rows.append({
             "task": task, "rung": rung, "samples": samples, "first_samples": first_samples, "horizon": horizon,
-            "episode": episode, "n_scored": len(group), "n_common": len(common),
+            "episode": episode, "n_designs": len(designs), "n_scored": len(group), "n_common": len(common),
             "complete": len(common) == len(designs),
             "sim_steps_per_eval": float(group["sim_steps"].mean()),
             "seconds_per_eval": float(group["seconds"].mean()),

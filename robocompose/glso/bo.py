@@ -4,6 +4,8 @@ The loop, one objective call per step:
 - steps 0 .. init-1: random points inside the bounds [-3, 3]^latent (paper 50);
 - every later step i: a random point when (i - init + 1) % 10 == 0 (GLSO's --rd_explore), else the
   suggestion of expected improvement (xi 0.01) on a GP (Matern nu 2.5, alpha 1e-3, normalised targets);
+- (the acquisition's L-BFGS-B gets its finite-difference gradient from one batched GP call, see
+  `ExpectedImprovement`: faster, the same search);
 - the latent point is decoded greedily into a design; the design's score (the invalid score when it
   cannot be simulated) is registered at that point;
 - after every step past the initial points, sequential domain reduction (gamma_osc 0.7, gamma_pan 1.0,
@@ -21,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 from bayes_opt import BayesianOptimization, SequentialDomainReductionTransformer, acquisition
+from scipy.optimize import minimize
 
 from robocompose.glso.designs import Proposal
 from robocompose.grammar.tree import DesignTree
@@ -46,6 +49,33 @@ class BOConfig:
         check_field(self.random_every >= 0, "random_every", ">= 0 (0 = never)", self.random_every)
 
 
+class ExpectedImprovement(acquisition.ExpectedImprovement):
+    """bayes_opt's expected improvement, maximised the same way (10,000 random points, then L-BFGS-B from the
+    best 10), with one change of speed only: L-BFGS-B gets the forward-difference gradient scipy would
+    compute (step sqrt(eps) max(1, |x|), signed like x, turned back at an upper bound) from one batched GP
+    prediction of the d + 1 points instead of d + 1 separate predictions (28 dimensions: ~29x fewer calls).
+    """
+
+    def _smart_minimize(self, acq, space, x_seeds, random_state):
+        bounds = space.bounds
+        step_size = np.sqrt(np.finfo(float).eps)
+
+        def value_and_gradient(x: np.ndarray) -> tuple[float, np.ndarray]:
+            h = step_size * np.where(x >= 0, 1.0, -1.0) * np.maximum(1.0, np.abs(x))  # (d,)
+            h = np.where(x + h > bounds[:, 1], -np.abs(h), h)
+            values = acq(np.vstack([x, x + np.diag(h)]))  # (d + 1,)
+            return float(values[0]), (values[1:] - values[0]) / h
+
+        best_x, best_value = None, np.inf
+        for x_try in x_seeds:
+            res = minimize(value_and_gradient, x_try, bounds=bounds, method="L-BFGS-B", jac=True)
+            if res.success and res.fun < best_value:
+                best_x, best_value = res.x, float(res.fun)
+        if best_x is None:
+            return np.full(len(bounds), np.nan), np.inf
+        return np.clip(best_x, bounds[:, 0], bounds[:, 1]), best_value
+
+
 def decode(model, z: np.ndarray) -> DesignTree:
     """Greedy decoding of one latent point (latent,) into a design tree."""
     with torch.no_grad():
@@ -61,7 +91,7 @@ class LatentBO:
                        if config.domain_reduction else None)
         self.optimizer = BayesianOptimization(
             f=None, pbounds={k: (-config.bound, config.bound) for k in self.keys},
-            acquisition_function=acquisition.ExpectedImprovement(xi=config.xi), random_state=seed, verbose=0,
+            acquisition_function=ExpectedImprovement(xi=config.xi), random_state=seed, verbose=0,
             bounds_transformer=transformer, allow_duplicate_points=True)
         self.optimizer.set_gp_params(alpha=config.alpha)  # the kernel stays bayes_opt's Matern(nu=2.5)
         self.step = 0

@@ -148,11 +148,16 @@ class GraphHeuristicSearch:
         self.pool: list[Graph] = []  # states with a target, in the order they were first seen
         self.iteration = 0
 
-    def predict(self, graphs: list[Graph]) -> np.ndarray:
-        with torch.no_grad():
-            return self.net(*collate(graphs)).numpy()
+    def predict(self, graphs: list[Graph], memo: dict[Graph, float] | None = None) -> np.ndarray:
+        """V of each graph; `memo` keeps values while the network is unchanged (rollouts share states)."""
+        memo = {} if memo is None else memo
+        new = list(dict.fromkeys(g for g in graphs if g not in memo))
+        if new:
+            with torch.no_grad():
+                memo.update(zip(new, self.net(*collate(new)).numpy().tolist(), strict=True))
+        return np.array([memo[g] for g in graphs])
 
-    def _rollout(self, eps: float) -> tuple[list[Graph], list[int]] | None:
+    def _rollout(self, eps: float, memo: dict[Graph, float]) -> tuple[list[Graph], list[int]] | None:
         """One epsilon-greedy derivation: its states (start to end) and rules; None if it is not valid."""
         states, rules = [START_GRAPH], []
         while children := successors(states[-1], len(rules), self.config.max_depth):
@@ -160,7 +165,7 @@ class GraphHeuristicSearch:
             if self.rng.random() < eps:
                 action = actions[int(self.rng.integers(len(actions)))]
             else:
-                action = actions[int(np.argmax(self.predict([children[a] for a in actions])))]
+                action = actions[int(np.argmax(self.predict([children[a] for a in actions], memo)))]
             rules.append(action)
             states.append(children[action])
         if not states[-1].complete or self_colliding(graph_to_tree(states[-1])):
@@ -172,16 +177,16 @@ class GraphHeuristicSearch:
         eps = exp_decay(c.eps_start, c.eps_end, c.eps_decay, e, self.budget)
         eps_sample = exp_decay(c.eps_sample_start, c.eps_sample_end, c.eps_sample_decay, e, self.budget)
         n = 1 if self.rng.random() < eps_sample else c.num_samples
-        samples = []
+        samples, memo = [], {}
         for _ in range(n):
             for _ in range(MAX_TRIES):
-                sample = self._rollout(eps)
+                sample = self._rollout(eps, memo)
                 if sample is not None:
                     samples.append(sample)
                     break
             else:
                 raise RuntimeError(f"GHS: no valid rollout in {MAX_TRIES} tries")
-        best = int(np.argmax(self.predict([states[-1] for states, _ in samples])))
+        best = int(np.argmax(self.predict([states[-1] for states, _ in samples], memo)))
         states, rules = samples[best]
         return Proposal(graph_to_tree(states[-1]), tuple(rules), info=states)
 

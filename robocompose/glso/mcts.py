@@ -7,11 +7,14 @@ itself (a transposition table: rule orders that reach one graph share its statis
 One iteration = one evaluated design:
 1. Selection: from the start graph, while the state has a tree node, take the action with the highest
        (1 - w) * max_a + w * amaf_max_a + sqrt(2 ln N / n_a),   w = sqrt(k / (3 N + k)), k = 10,
-   unvisited actions first (+inf; the lowest rule index breaks ties), skipping actions into blocked nodes.
-   Only maxima of results are used, never means (the original stores sums but scores with maxes).
+   unvisited actions first (+inf; the first maximum, i.e. the lowest rule index, wins ties), skipping
+   actions into blocked nodes. Only maxima of results are used, never means (the original stores sums
+   but scores with maxes).
 2. Expansion: the first state without a node gets one (exactly one node per iteration).
-3. Rollout: uniformly random actions to a terminal state, redrawn (up to 1000 times) until the design is
-   complete and does not self-penetrate; if none is, the expanded node is blocked and the iteration restarts.
+3. Simulation: the same action choice to a terminal state: the tree policy at states with a node (so the
+   new node's first untried rule, and transpositions), uniformly random elsewhere; redrawn (up to 1000
+   times) until the design is complete and does not self-penetrate; if none is, the expanded node is
+   blocked and the iteration restarts.
 4. Backpropagation of the result (`tell`): every state on the path that has a node updates N, n_a, max_a,
    and its AMAF statistics once for each distinct action taken from it onwards.
 """
@@ -67,52 +70,48 @@ class TreeSearch:
         self.rng = np.random.default_rng([seed, 0x4D435453])  # "MCTS"
         self.nodes: dict[Graph, Node] = {}
 
-    def _select(self, graph: Graph, children: dict[int, Graph]) -> int:
-        node = self.nodes[graph]
+    def _uct(self, node: Node, action: int) -> float:
+        n = node.action_visits[action]
+        if n == 0:
+            return math.inf  # each action is tried once first
+        k = self.config.amaf_threshold
+        w = math.sqrt(k / (3 * node.visits + k))  # AMAF and maxima weigh the same at N = k
+        return (1 - w) * node.action_max[action] + w * node.amaf_max[action] + math.sqrt(2 * math.log(node.visits) / n)
+
+    def _select_action(self, graph: Graph, n_rules: int) -> tuple[int, Graph] | None:
+        """The original's select_action: among actions not leading into a blocked node, the tree policy at a
+        state with a node (the first maximum, so the lowest untried rule first), else uniformly random."""
+        children = successors(graph, n_rules, self.config.max_depth)
         actions = [a for a, child in children.items() if not (child in self.nodes and self.nodes[child].blocked)]
         if not actions:
-            raise RuntimeError("MCTS: every action of a state is blocked (no valid design below it)")
-        k = self.config.amaf_threshold
-        w = math.sqrt(k / (3 * node.visits + k))
-        best, best_score = actions[0], -math.inf
-        for a in actions:
-            n = node.action_visits[a]
-            if n == 0:
-                return a  # each child is tried once first (+inf), lowest rule index first
-            score = ((1 - w) * node.action_max[a] + w * node.amaf_max[a]
-                     + math.sqrt(2 * math.log(node.visits) / n))
-            if score > best_score:
-                best, best_score = a, score
-        return best
+            return None
+        node = self.nodes.get(graph)
+        if node is None:
+            action = actions[int(self.rng.integers(len(actions)))]
+        else:
+            action = max(actions, key=lambda a: self._uct(node, a))
+        return action, children[action]
 
     def propose(self, env) -> Proposal:
-        depth = self.config.max_depth
         while True:
-            graph, rules, states = START_GRAPH, [], []
-            if graph not in self.nodes:
-                self.nodes[graph] = Node()
-            while graph in self.nodes:  # selection
-                children = successors(graph, len(rules), depth)
-                if not children:
-                    break
-                action = self._select(graph, children)
-                states.append(graph)
-                rules.append(action)
-                graph = children[action]
-            self.nodes.setdefault(graph, Node())  # expansion: one new node
-            expanded, prefix = graph, list(rules)
-            for _ in range(MAX_TRIES):  # rollout, redrawn until valid
-                graph, rules, path = expanded, list(prefix), list(states)
-                while children := successors(graph, len(rules), depth):
-                    action = list(children)[int(self.rng.integers(len(children)))]
-                    path.append(graph)
-                    rules.append(action)
-                    graph = children[action]
-                if graph.complete:
-                    tree = graph_to_tree(graph)
+            states, rules = [START_GRAPH], []
+            self.nodes.setdefault(START_GRAPH, Node())
+            step = self._select_action(START_GRAPH, 0)
+            while step is not None and states[-1] in self.nodes:  # selection
+                rules.append(step[0])
+                states.append(step[1])
+                step = self._select_action(states[-1], len(rules))
+            expanded = self.nodes.setdefault(states[-1], Node())  # expansion: at most one new node
+            for _ in range(MAX_TRIES):  # simulation, redrawn until the result is valid
+                path, path_rules = list(states), list(rules)
+                while (step := self._select_action(path[-1], len(path_rules))) is not None:
+                    path_rules.append(step[0])
+                    path.append(step[1])
+                if path[-1].complete:
+                    tree = graph_to_tree(path[-1])
                     if not self_colliding(tree):
-                        return Proposal(tree, tuple(rules), info=path)
-            self.nodes[expanded].blocked = True
+                        return Proposal(tree, tuple(path_rules), info=path[:-1])
+            expanded.blocked = True  # no valid simulation below it: the next iteration avoids it
 
     def tell(self, proposal: Proposal, score: float) -> None:
         path, rules = proposal.info, proposal.rules

@@ -187,9 +187,9 @@ def run_search(spec: RunSpec, config: GLSOConfig, evaluation: EvaluationConfig,
     key = run_key(spec, config, evaluation, model_path)
     method, rows = None, []
     if checkpoint is not None and checkpoint.exists():
-        saved = pickle.loads(checkpoint.read_bytes())
-        if saved["key"] == key:
-            method, rows = saved["method"], saved["rows"]
+        saved = pickle.loads(checkpoint.read_bytes())  # {key, state}: the state is unpickled only if the key
+        if saved["key"] == key:  # matches (an old checkpoint's classes may no longer exist)
+            method, rows = pickle.loads(saved["state"])
     if method is None:
         method = make_method(spec, config, env)
     if objective_fn is None:
@@ -208,7 +208,7 @@ def run_search(spec: RunSpec, config: GLSOConfig, evaluation: EvaluationConfig,
         rows.append(step_row(spec, step, proposal, result, score, repeat, best, time.perf_counter() - started))
         if checkpoint is not None:
             with atomic_path(checkpoint) as tmp:
-                tmp.write_bytes(pickle.dumps({"key": key, "method": method, "rows": rows}))
+                tmp.write_bytes(pickle.dumps({"key": key, "state": pickle.dumps((method, rows))}))
         if table is not None:
             write_table(pd.DataFrame(rows), table, "glso_steps")
         if on_step is not None:

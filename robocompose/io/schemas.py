@@ -129,6 +129,15 @@ SCHEMAS: dict[str, pa.Schema] = {
         _required("ec_failures", pa.int64()), _required("ec_optimum", pa.float64()),
         _required("optimum", pa.float64()), _required("evaluations", pa.int64()), _required("sim_steps", pa.int64()),
         _required("sim_seconds", pa.float64())]),
+    # The real-time test protocol (robocompose.modular.eggan_experiments, thesis Table 5.1): one row per method x
+    # held-out test terrain x query; distances in m (NaN: no valid candidate / no exhaustive optimum).
+    "modular_realtime": pa.schema([_required(n, t) for n, t in [
+        ("method", pa.string()), ("terrain_seed", pa.int64()), ("query", pa.int64()), ("candidates", pa.int64()),
+        ("valid", pa.int64()), ("best_design", pa.string())]] + [
+        pa.field("max_distance", pa.float64(), nullable=True), _required("distinct", pa.int64()),
+        pa.field("ec_distance", pa.float64(), nullable=True), _required("ec_failures", pa.int64()),
+        pa.field("optimum", pa.float64(), nullable=True), pa.field("regret", pa.float64(), nullable=True),
+        _required("query_ms", pa.float64())]),
     # The latent landscape (robocompose.latent.landscape, thesis Fig. 7.1): one row per (VAE variant, dataset
     # design): the first two principal components of its latent mean (and the variance fraction each explains)
     # and, for the scored subset, the evaluator's flat-terrain status and reward ("" / null when not scored).

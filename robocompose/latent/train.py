@@ -210,7 +210,7 @@ def load_model(path: str | Path) -> GraphVAE:
         model.load_state_dict(saved["state"])
     except (TypeError, ValueError, RuntimeError) as err:  # other fields, other shapes: another model's file
         raise InputError(f"{path}: model does not match this code's VAE ({expected}): "
-                         f"{str(err).splitlines()[0]}") from None
+                         f"{' '.join(str(err).split())[:240]}") from None
     return model.eval()
 
 
@@ -295,7 +295,7 @@ def train(model_config: VAEConfig, config: TrainConfig, designs: Designs, checkp
     saved = None
     if checkpoint.exists():
         try:
-            saved = load_torch(checkpoint, weights_only=False)
+            saved = load_torch(checkpoint, weights_only=True)
         except ArtifactError as err:  # a checkpoint only saves time: keep the file, start afresh
             set_aside(checkpoint, str(err).removeprefix(f"{checkpoint}: "))
     if saved is not None:

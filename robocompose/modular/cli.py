@@ -12,7 +12,7 @@ import argparse
 import json
 from pathlib import Path
 
-from robocompose.arguments import non_negative_int, output_file
+from robocompose.arguments import non_negative_int, output_directory, output_file
 
 VARIANTS = ("ga20", "ga50", "crowding", "random")
 
@@ -48,7 +48,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     exhaustive = commands.add_parser(
         "exhaustive", help="every design on one terrain, kept under reports/modular/exhaustive/ (resumes)")
     exhaustive.add_argument("--terrain-seed", type=non_negative_int, required=True)
-    exhaustive.add_argument("--out-dir", type=Path, default=None,
+    exhaustive.add_argument("--out-dir", type=output_directory, default=None,
                             help="where the table and its provenance record go (default reports/modular/exhaustive)")
     exhaustive.add_argument("--workers", type=non_negative_int,
                             help="evaluation processes (default: params; 0 = all cores)")

@@ -13,6 +13,7 @@
 
 from __future__ import annotations
 
+import ast
 import hashlib
 import inspect
 import json
@@ -25,7 +26,8 @@ import pandas as pd
 from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.executor import Executor
 from robocompose.io import atomic_write_json, read_table, write_table
-from robocompose.io.provenance import code_digest
+from robocompose.io.atomic import read_json
+from robocompose.io.provenance import module_path
 from robocompose.modular import evaluate
 from robocompose.modular.evaluate import EvalSettings, FitnessRule, evaluate_designs
 from robocompose.modular.robot import all_designs
@@ -33,7 +35,8 @@ from robocompose.modular.robot import all_designs
 COMMITTED_DIR = Path("reports/modular/exhaustive")
 # What decides a rollout besides its settings: the robot, the terrain, the gait and pybullet's settings (modules),
 # and the episode loop of evaluate.py (functions: the rest of that file is caching and batching).
-PHYSICS_MODULES = ("robocompose.modular.robot", "robocompose.modular.terrain", "robocompose.modular.controller")
+PHYSICS_MODULES = ("robocompose.modular.robot", "robocompose.modular.terrain", "robocompose.modular.controller",
+                   "robocompose.sim.physics")
 EPISODE_FUNCTIONS = ("rollout", "_state", "up_z", "_stop_reason")
 
 
@@ -52,11 +55,37 @@ def exhaustive_terrain(terrain_seed: int, settings: EvalSettings, rule: FitnessR
                          "seconds": [r.seconds for r in results]})
 
 
+class _RolloutCode(ast.NodeTransformer):
+    """Drops what cannot change the numbers of a rollout that runs to its end: docstrings, imports (the physics
+    modules among them are digested themselves) and raise statements (error types and messages)."""
+
+    def visit_Import(self, node: ast.AST) -> None:
+        return None
+
+    visit_ImportFrom = visit_Import
+
+    def visit_Raise(self, node: ast.Raise) -> ast.Pass:
+        return ast.Pass()
+
+    def generic_visit(self, node: ast.AST) -> ast.AST:
+        body = getattr(node, "body", None)
+        if (isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)) and body
+                and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant)
+                and isinstance(body[0].value.value, str)):
+            node.body = body[1:]
+        return super().generic_visit(node)
+
+
+def _rollout_code(source: str) -> str:
+    return ast.dump(_RolloutCode().visit(ast.parse(source)))  # no line numbers: comments and layout drop out
+
+
 def physics_digest() -> str:
-    """SHA-256 (16 hex digits) of the physics modules' sources and the episode functions' sources."""
-    episode = "".join(inspect.getsource(getattr(evaluate, name)) for name in EPISODE_FUNCTIONS)
-    text = code_digest(*PHYSICS_MODULES) + episode
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
+    """SHA-256 (16 hex digits) of the physics modules' code and the episode functions' code, as `_RolloutCode`
+    keeps them: a change of layout, comments, docstrings, imports or error types keeps the digest."""
+    sources = [module_path(name).read_text() for name in PHYSICS_MODULES]
+    sources += [inspect.getsource(getattr(evaluate, name)) for name in EPISODE_FUNCTIONS]
+    return hashlib.sha256("\0".join(_rollout_code(source) for source in sources).encode()).hexdigest()[:16]
 
 
 def provenance(settings: EvalSettings, rule: FitnessRule) -> dict:
@@ -90,7 +119,7 @@ def read_committed(terrain_seed: int, settings: EvalSettings, rule: FitnessRule,
     record = path.with_suffix(".json")
     if not (path.exists() and record.exists()):
         return None
-    stored = json.loads(record.read_text())
+    stored = read_json(record)
     if {k: stored.get(k) for k in ("settings", "fitness", "physics_digest")} != provenance(settings, rule):
         return None
     return read_table(path, "modular_exhaustive")

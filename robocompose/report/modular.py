@@ -11,13 +11,13 @@ as failures.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from robocompose.io import read_table
+from robocompose.io.atomic import read_json
 
 # Thesis Table 5.2 (learned modular controller): max distance (m), distinct solutions, runtime (min), each mean +- std.
 THESIS_TABLE_5_2 = {"ga20": ("4.21 ± 1.43", "1.8 ± 0.8", "25.4 ± 0.7"),
@@ -42,7 +42,7 @@ def _steps_per_second(reports_dir: Path) -> float | None:
     path = Path(reports_dir) / "benchmarks.json"
     if not path.exists():
         return None
-    return json.loads(path.read_text()).get("modular.steps_per_s")
+    return read_json(path).get("modular.steps_per_s")
 
 
 def _failures(group: pd.DataFrame) -> str:
@@ -228,6 +228,7 @@ def _plot_terrains(summary: pd.DataFrame, params, path: Path) -> None:
         axes[1, k].imshow(_design_picture(row.best_design, terrain))
         axes[1, k].set_title(f"best: {row.best_design} ({row.optimum:.2f} m)")
         axes[1, k].axis("off")
+    fig.subplots_adjust(hspace=0.35)
     fig.colorbar(top, ax=axes[0, :].tolist(), label="block height (m)", shrink=0.8)
     fig.savefig(path, dpi=80)
     plt.close(fig)

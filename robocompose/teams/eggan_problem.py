@@ -3,11 +3,16 @@
 Task: a training chip; its tensor is the K x 4 terrain-feature matrix of its regions (rows: terrain
 shares of a region), flattened, so the generator is the thesis's MLP on (z, task).
 Design: a K x O allocation, entry (i, j) = the fraction of species j sent to region i. The generator
-gives (K + 1) x O logits; a softmax over the K + 1 rows of each species column gives the fractions
-(the last row, "kept in the depot", is what is not deployed, so a design can deploy anywhere from no
-robot to the whole bank; the group's code had no such row and always deployed every robot). The
-design is continuous (the output is the design), so the trainer uses the GAN loss of eq. 4.1 and the
-discriminator sees the (K + 1) x O fractions. Counts: species.allocation_to_counts, as for NSGA-II.
+gives (K + 1) x O logits; per species, the first K give the split over the regions (a softmax) and
+the last the deployed share s = sigmoid(logit), so fraction (i, j) = s_j * split_ij and a design can
+deploy anywhere from no robot to the whole bank (the group's code split every robot over the regions,
+always deploying all of them). This is the factorisation NSGA-II's initial population uses (a share of
+each species, split over the regions), and an untrained generator deploys about half the bank with a
+spread over z (a softmax over K regions + a depot row would start at K / (K + 1) of the bank and stay
+there: we measured every allocation of 100 iterations above 50 robots). The design is continuous (the
+output is the design), so the trainer uses the GAN loss of eq. 4.1 and the discriminator sees the
+(K + 1) x O matrix [fractions; 1 - s] (the last row: what stays in the depot).
+Counts: species.allocation_to_counts, as for NSGA-II.
 Objectives, both minimised: coverage cost (ergodic.py) and deployment cost (robots deployed).
 Evolution-guided data creation: `steps` NSGA-II generations (nsga2.nsga2_generation: rank, crowding,
 roulette-wheel selection, the thesis's crossover and mutation, elitist survival) on the generated
@@ -18,8 +23,9 @@ counts (ergodic.ChipCoverage.deploy), and the coverage cost is a sum over teams,
 cached per (chip, region, team counts) and an allocation costs the sum of its teams' entries; the
 cache is part of the problem's state, so a resumed training sees the same values.
 
-The front of a query (`query_front`): the trained generator on one task, `samples` noise vectors ->
-allocations -> both objectives measured by the optimiser -> the non-dominated set and its hypervolume.
+The front of a query (`query_front`): the trained generator on one task (robocompose.eggan.query's
+`generate`), `samples` noise vectors -> allocations -> both objectives measured by the optimiser -> the
+non-dominated set and its hypervolume.
 """
 
 from __future__ import annotations
@@ -35,6 +41,7 @@ import torch
 
 from robocompose.eggan.networks import Generator
 from robocompose.eggan.problem import Objective, Sampled
+from robocompose.eggan.query import generate
 from robocompose.io.provenance import code_digest
 from robocompose.teams.chips import Chip
 from robocompose.teams.decompose import Decomposition, terrain_features
@@ -67,9 +74,7 @@ def with_depot_row(fractions: np.ndarray) -> np.ndarray:
     return np.concatenate([fractions, 1.0 - fractions.sum(-2, keepdims=True)], axis=-2)
 
 
-def allocation_head(logits: torch.Tensor) -> torch.Tensor:
-    """(B, K+1, O) logits -> fractions: per species, a softmax over the K regions and the depot."""
-    return torch.softmax(logits, dim=1)
+DESIGN_HEAD = "share-split"  # the generator-output -> design map above (stored in generator files)
 
 
 class TeamsProblem:
@@ -103,7 +108,9 @@ class TeamsProblem:
         return torch.as_tensor(self.features[task].ravel(), dtype=torch.float32)  # (K*4,)
 
     def design_head(self, logits: torch.Tensor) -> torch.Tensor:
-        return allocation_head(logits)
+        split = torch.softmax(logits[:, :-1], dim=1)  # (B, K, O): each species' split over the regions
+        share = torch.sigmoid(logits[:, -1:])  # (B, 1, O): each species' deployed share
+        return torch.cat([split * share, 1.0 - share], dim=1)  # (B, K+1, O), columns sum to 1
 
     def sample_designs(self, output: torch.Tensor, generator: torch.Generator | None) -> Sampled:
         designs = list(output[:, :self.n_regions].detach().double().numpy())  # B (K, O) fractions
@@ -184,16 +191,6 @@ class TeamsProblem:
 
 # ---- the front of a query ----------------------------------------------------------------------------
 
-def generate_fractions(generator: Generator, features: np.ndarray, samples: int, seed: int) -> np.ndarray:
-    """(samples, K, O) allocation fractions from the generator for one (K, 4) task."""
-    generator.eval()
-    z = torch.randn(samples, generator.config.latent, generator=torch.Generator().manual_seed(seed))  # (S, P)
-    task = torch.as_tensor(features.ravel(), dtype=torch.float32)[None]  # (1, K*4)
-    with torch.no_grad():
-        output = allocation_head(generator(z, generator.encode(task).expand(samples, -1)))  # (S, K+1, O)
-    return output[:, :-1].double().numpy()
-
-
 @dataclass
 class QueryFront:
     front: np.ndarray  # (F, 2) non-dominated [coverage cost, deployment cost], by deployment cost
@@ -207,10 +204,10 @@ def query_front(generator: Generator, chip: Chip, decomposition: Decomposition, 
                 samples: int, seed: int, evaluator: AllocationEvaluator | None = None) -> QueryFront:
     """The front of one query: `samples` noise vectors -> allocations -> objectives measured by the
     ergodic optimiser (robots' starts seeded by `seed`) -> the non-dominated set."""
-    features = task_features(chip, decomposition)
+    problem = TeamsProblem([(chip, decomposition)], coverage)  # the task: this chip's features
     started = time.perf_counter()
-    counts = allocation_to_counts(generate_fractions(generator, features, samples, seed),
-                                  coverage.robots_per_species)  # (S, K, O)
+    sampled, _ = generate(generator, problem, 0, samples, seed)
+    counts = allocation_to_counts(np.stack(sampled.designs), coverage.robots_per_species)  # (S, K, O)
     seconds = time.perf_counter() - started
     distinct = np.unique(counts.reshape(len(counts), -1), axis=0).reshape(-1, *counts.shape[1:])
     evaluate = evaluator or AllocationEvaluator(chip_coverage(chip, decomposition, coverage), chip.chip_id, seed)

@@ -29,7 +29,7 @@ from robocompose.io.provenance import code_digest
 from robocompose.teams.baselines import joint_plan
 from robocompose.teams.chips import Chip
 from robocompose.teams.decompose import Decomposition
-from robocompose.teams.eggan_problem import EvolutionConfig, TeamsProblem, query_front
+from robocompose.teams.eggan_problem import DESIGN_HEAD, EvolutionConfig, TeamsProblem, query_front
 from robocompose.teams.ergodic import CoverageConfig
 from robocompose.teams.evaluator import chip_coverage
 from robocompose.teams.experiments import baseline_draws
@@ -41,7 +41,7 @@ MODEL_CODE = "robocompose.eggan.networks"  # the code a generator file's weights
 
 def train_config(config: EgganConfig, threads: int) -> TrainConfig:
     """The trainer's settings for `teams.eggan`."""
-    return TrainConfig(iterations=config.iterations, batch=config.batch, evolution="nsga2",
+    return TrainConfig(iterations=config.iterations, batch=config.batch, tasks=config.tasks, evolution="nsga2",
                        evolution_steps=config.evolution_steps, lr_generator=config.lr, lr_discriminator=config.lr,
                        seed=config.seed, threads=threads, log_every=min(5, config.checkpoint_every),
                        checkpoint_every=config.checkpoint_every)
@@ -67,7 +67,7 @@ def save_generator(trained: Trained, n_regions: int, params: dict, metrics: dict
     buffer = io.BytesIO()  # saved to memory first: torch names the archive after a file, not a buffer
     torch.save({"generator": trained.generator.state_dict(), "network": dataclasses.asdict(trained.network),
                 "n_regions": n_regions, "n_species": len(SPECIES), "params": params, "metrics": metrics,
-                "code_digest": code_digest(MODEL_CODE), "run_key": trained.key}, buffer)
+                "code_digest": code_digest(MODEL_CODE), "design_head": DESIGN_HEAD, "run_key": trained.key}, buffer)
     with atomic_path(path) as tmp:
         tmp.write_bytes(buffer.getvalue())
 
@@ -80,6 +80,9 @@ def load_generator(path: Path) -> tuple[Generator, dict]:
     saved = torch.load(path, map_location="cpu", weights_only=False)
     if not isinstance(saved, dict) or "generator" not in saved or "network" not in saved:
         raise ValueError(f"{path}: not a teams generator file (expected keys generator, network, n_regions)")
+    if saved.get("design_head") != DESIGN_HEAD:
+        raise ValueError(f"{path}: trained with design head {saved.get('design_head')!r}, the code's is "
+                         f"{DESIGN_HEAD!r}: retrain (stage teams_eggan)")
     k, o = saved["n_regions"], saved["n_species"]
     generator = Generator((k * 4,), (k + 1, o), NetworkConfig(**saved["network"]))
     generator.load_state_dict(saved["generator"])

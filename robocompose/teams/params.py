@@ -46,12 +46,13 @@ class ExperimentsConfig:
 
 @dataclass(frozen=True)
 class EgganConfig:
-    iterations: int = 300  # Algorithm 1 iterations (one training chip each)
-    batch: int = 32  # noise vectors per iteration = |X_gen| = |X_pop|
+    iterations: int = 100  # Algorithm 1 iterations (`tasks` training chips each)
+    batch: int = 32  # noise vectors per iteration = |X_gen| = |X_pop|, over `tasks` tasks
+    tasks: int = 4  # training chips per iteration (batch / tasks z each; several, so batch norm keeps the task)
     evolution_steps: int = 1  # NSGA-II generations per iteration (the group's code: 1)
     lr: float = 1e-3  # Adam step of both networks (group's code 1e-3; thesis 1e-5 for 20 h)
     latent: int = 16  # P, the size of z (the group's code: 16)
-    samples: int = 256  # noise vectors per query (the front of a task)
+    samples: int = 64  # noise vectors per query (the front of a task)
     seed: int = 0  # seeds training
     checkpoint_every: int = 25  # iterations between checkpoints
 

@@ -51,10 +51,17 @@ def test_selection_blends_max_and_amaf_with_the_amaf_weight():
     w = math.sqrt(10 / (3 * node.visits + 10))
     scores = {a: (1 - w) * node.action_max[a] + w * node.amaf_max[a]
               + math.sqrt(2 * math.log(node.visits) / node.action_visits[a]) for a in children}
-    assert search._select(START_GRAPH, children) == max(scores, key=scores.get)
+    assert search._select_action(START_GRAPH, 0)[0] == max(scores, key=scores.get)
 
 
 def test_mcts_is_reproducible_per_seed():
     a = [p.tree.design_id for p in _run(TreeSearch(MCTSConfig(), 3, 5), 5)]
     b = [p.tree.design_id for p in _run(TreeSearch(MCTSConfig(), 3, 5), 5)]
     assert a == b and np.unique(a).size > 1
+
+
+def test_a_new_nodes_simulation_starts_with_its_first_untried_rule():
+    search = TreeSearch(MCTSConfig(), seed=0, budget=10)
+    first = search.propose(None)  # the start graph's rule, then the expanded node's lowest applicable rule
+    expanded = successors(START_GRAPH, 0, 40)[first.rules[0]]
+    assert expanded in search.nodes and first.rules[1] == min(successors(expanded, 1, 40))

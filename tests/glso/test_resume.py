@@ -19,6 +19,10 @@ EVALUATION = EvaluationConfig()
 ROOT = Path(__file__).resolve().parents[2]
 
 
+def saved_rows(checkpoint: Path) -> list:
+    return pickle.loads(pickle.loads(checkpoint.read_bytes())["state"])[1]
+
+
 class Killed(Exception):
     pass
 
@@ -39,7 +43,7 @@ def test_a_stopped_run_resumes_to_the_same_table(method, kill_at, small_config, 
     with pytest.raises(Killed):
         run_search(spec, small_config, EVALUATION, objective_fn=fake_objective, checkpoint=checkpoint,
                    on_step=stop_at(kill_at))
-    assert len(pickle.loads(checkpoint.read_bytes())["rows"]) == kill_at + 1
+    assert len(saved_rows(checkpoint)) == kill_at + 1
     resumed = run_search(spec, small_config, EVALUATION, objective_fn=fake_objective, checkpoint=checkpoint)
     assert resumed.drop(columns="seconds").equals(whole.drop(columns="seconds"))
 
@@ -82,13 +86,13 @@ def test_a_killed_process_resumes_to_the_same_table(method, small_config, tmp_pa
     try:
         deadline = time.monotonic() + 120
         while time.monotonic() < deadline:  # kill it mid-run: after >= 3 checkpointed steps
-            if checkpoint.exists() and len(pickle.loads(checkpoint.read_bytes())["rows"]) >= 3:
+            if checkpoint.exists() and len(saved_rows(checkpoint)) >= 3:
                 break
             time.sleep(0.05)
         os.kill(process.pid, signal.SIGKILL)
     finally:
         process.wait()
-    done = len(pickle.loads(checkpoint.read_bytes())["rows"])
+    done = len(saved_rows(checkpoint))
     assert 3 <= done < small_config.budget
     resumed = run_search(RunSpec("flat", method, 0), small_config, EVALUATION, objective_fn=fake_objective,
                          checkpoint=checkpoint)

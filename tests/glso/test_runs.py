@@ -106,3 +106,19 @@ def test_run_all_fans_the_runs_out_resumes_them_and_replays_each_tasks_best(tiny
         best = record_best(steps, evaluation, tmp_path / "rollouts", executor)
     assert float(best["score"].iloc[0]) == steps["score"].max()
     assert (tmp_path / "rollouts" / "flat.mcap").stat().st_size > 0 and (tmp_path / "rollouts" / "flat.gif").exists()
+
+
+def test_runs_on_a_dask_cluster_match_local_processes(tiny_models, tmp_path):
+    from dask.distributed import LocalCluster
+
+    from robocompose.evaluation.executor import Executor
+    from robocompose.glso.runs import run_all
+
+    config = GLSOConfig(tasks=["flat"], methods=["random", "ghs"], seeds=[0], budget=2, models=tiny_models,
+                        ghs={"num_samples": 2, "opt_iter": 2})
+    with Executor(workers=2) as executor:
+        local = run_all(config, TINY, tmp_path / "local", executor)
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
+                      silence_logs=40) as cluster, Executor(address=cluster.scheduler_address) as executor:
+        remote = run_all(config, TINY, tmp_path / "dask", executor)
+    assert remote.drop(columns="seconds").equals(local.drop(columns="seconds"))

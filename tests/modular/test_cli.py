@@ -66,6 +66,18 @@ def test_ga_rejects_a_negative_seed(cli_error):
               "argument --seed", "expected an integer >= 0, found -2")
 
 
+def test_exhaustive_commits_one_terrains_table_with_its_provenance(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr("robocompose.modular.truth.all_designs", lambda: ["wwwwww", "llllll", "nnnnnn"])
+    params = tmp_path / "params.yaml"
+    params.write_text(TINY)
+    assert main(["modular", "exhaustive", "--terrain-seed", "1003", "--out-dir", str(tmp_path / "truth"),
+                 "--params", str(params)]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["best_design"] in ("wwwwww", "llllll") and out["table"].endswith("blocks-1003.parquet")
+    record = json.loads((tmp_path / "truth" / "blocks-1003.json").read_text())
+    assert record["simulated"] == 2 and record["settings"]["control_steps"] == 3 and record["physics_digest"]
+
+
 def test_ga_on_a_dask_cluster_finds_what_local_processes_find(tmp_path, capsys, dask_address):
     params = tmp_path / "params.yaml"
     params.write_text(TINY)

@@ -93,3 +93,13 @@ def test_terrain_criterion_counts_optima_up_to_mirror_and_the_regret_of_the_best
     mirrored = _table({1: {"lwwwww": 2.0, "wwwwwl": 1.0}, 2: {"lwwwww": 1.0, "wwwwwl": 2.0}})
     assert terrain_criterion(mirrored)[1]["distinct_optima"] == 1  # each other's mirror image
 
+
+
+def test_the_physics_digest_ignores_error_types_imports_and_layout_but_not_code():
+    from robocompose.modular.truth import _rollout_code
+
+    base = 'import math\n\ndef f(x):\n    """Doc."""\n    if x < 0:\n        raise ValueError("no")\n    return 2 * x\n'
+    same = ('from errors import InputError\nimport math\n\n\ndef f(x):  # comment\n    if x < 0:\n'
+            '        raise InputError(f"negative {x}")\n    return 2 * x\n')
+    other = base.replace("2 * x", "3 * x")
+    assert _rollout_code(base) == _rollout_code(same) != _rollout_code(other)

@@ -1,17 +1,14 @@
-import argparse
 import json
 
 import numpy as np
 import pytest
 
+from robocompose.cli import parser
 from robocompose.teams.chips import write_label_png
-from robocompose.teams.cli import register
 
 
 def run(argv: list[str], capsys) -> dict:
-    parser = argparse.ArgumentParser(prog="robocompose")
-    register(parser.add_subparsers(dest="command", required=True))
-    args = parser.parse_args(argv)
+    args = parser().parse_args(argv)
     args.handler(args)
     return json.loads(capsys.readouterr().out)
 
@@ -79,7 +76,7 @@ def tiny_model(tmp_path_factory):
     chips = [synthetic_chip(4, index, size=40) for index in range(2)]
     problem = TeamsProblem([(chip, decompose_chip(chip, decompose)) for chip in chips], coverage)
     trained = train(problem, NetworkConfig(latent=4, hidden=16),
-                    TrainConfig(iterations=2, batch=6, evolution="nsga2", log_every=1, checkpoint_every=2))
+                    TrainConfig(iterations=2, batch=8, tasks=2, evolution="nsga2", log_every=1, checkpoint_every=2))
     params = {"coverage": dataclasses.asdict(coverage), "decompose": dataclasses.asdict(decompose),
               "eggan": dataclasses.asdict(EgganConfig(samples=16))}
     path = tmp_path_factory.mktemp("model") / "teams.pt"
@@ -122,7 +119,7 @@ def test_compose_teams_rejects_a_chip_in_the_wrong_format(tmp_path, tiny_model, 
 
     Image.fromarray(np.full((300, 300, 3), 7, dtype=np.uint8)).save(tmp_path / "photo.png")
     assert main(["compose", "teams", "--chip", str(tmp_path / "photo.png"), "--model", str(tiny_model)]) == 2
-    assert "not a DroneDeploy label PNG" in capsys.readouterr().err
+    assert "photo.png: pixel (row 0, col 0)" in capsys.readouterr().err  # not a label colour
     write_label_png(np.full((100, 100), 4, dtype=np.uint8), tmp_path / "small.png")
     assert main(["compose", "teams", "--chip", str(tmp_path / "small.png"), "--model", str(tiny_model)]) == 2
     assert "no 300 x 300 window" in capsys.readouterr().err

@@ -29,6 +29,8 @@ def test_designs_are_fractions_with_a_depot_row(chips):
     sampled = problem.sample_designs(output, None)
     assert sampled.log_prob is None and sampled.tensor is output and sampled.designs[0].shape == (3, 3)
     torch.testing.assert_close(problem.design_tensor(sampled.designs), output, atol=1e-6, rtol=0)
+    neutral = problem.design_head(torch.zeros(1, 4, 3))  # untrained: half of each species, split evenly
+    torch.testing.assert_close(neutral[0], torch.tensor([[1 / 6] * 3] * 3 + [[0.5] * 3]))
     over = with_depot_row(np.full((1, 3, 3), 0.6))  # asks for 180% of each species: scaled to all of it
     np.testing.assert_allclose(over[0, :3], 1 / 3) and np.testing.assert_allclose(over[0, 3], 0, atol=1e-12)
 
@@ -59,7 +61,7 @@ def test_evolution_does_not_lose_hypervolume_and_keeps_the_batch_size(chips):
 
 
 def test_a_killed_training_resumes_to_the_same_checkpoint(chips, tmp_path):
-    config = TrainConfig(iterations=4, batch=6, evolution="nsga2", log_every=1, checkpoint_every=2,
+    config = TrainConfig(iterations=4, batch=8, tasks=2, evolution="nsga2", log_every=1, checkpoint_every=2,
                          lr_generator=1e-3, lr_discriminator=1e-3)
     whole = train(TeamsProblem(chips, TINY), NETWORK, config, tmp_path / "whole.pt")
     path = tmp_path / "killed.pt"
@@ -74,7 +76,7 @@ def test_a_killed_training_resumes_to_the_same_checkpoint(chips, tmp_path):
 
 def test_query_front_is_measured_and_non_dominated(chips):
     trained = train(TeamsProblem(chips, TINY), NETWORK,
-                    TrainConfig(iterations=2, batch=6, evolution="nsga2", log_every=1, checkpoint_every=2))
+                    TrainConfig(iterations=2, batch=8, tasks=2, evolution="nsga2", log_every=1, checkpoint_every=2))
     chip, decomposition = chips[1]
     query = query_front(trained.generator, chip, decomposition, TINY, samples=32, seed=0)
     assert 1 <= len(query.front) <= query.distinct <= 32

@@ -38,7 +38,7 @@ def test_stages_write_their_tables_deterministically(tmp_path, monkeypatch):
 
 def test_eggan_stage_trains_queries_and_resumes(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    (tmp_path / "params.yaml").write_text(TINY_PARAMS + "  eggan: {iterations: 2, batch: 6, samples: 16, "
+    (tmp_path / "params.yaml").write_text(TINY_PARAMS + "  eggan: {iterations: 2, batch: 8, tasks: 2, samples: 16, "
                                           "checkpoint_every: 1, latent: 4}\n")
     run_stage("decompose")
     run_stage("teams_eggan")
