@@ -69,9 +69,9 @@ TINY = {
     "glso": {"methods": ["random", "ga", "glso"], "seeds": [0], "budget": 6, "workers": 1,
              "bo": {"init": 3}, "ga": {"population": 4}},
     "teams": {"chips": {"n_synthetic": 4}, "decompose": {"n_regions": 3},
-              "coverage": {"iterations": 3, "n_observations": 5, "robots_per_species": 5},
+              "coverage": {"iterations": 3, "n_observations": 5},
               "experiments": {"table_5_4_chips": 1, "table_5_5_chips": 1, "budgets": [5]},
-              "eggan": {"iterations": 40, "batch": 4, "samples": 8, "checkpoint_every": 10}},
+              "eggan": {"iterations": 40, "batch": 16, "samples": 8, "checkpoint_every": 10}},
     "train_vae": {"model": {"hidden": 16, "latent": 4, "predictor_hidden": 8, "max_nodes": 50},
                   "train": {"steps": 200, "batch_size": 8, "log_every": 10, "eval_every": 50, "eval_designs": 4,
                             "checkpoint_every": 50, "beta_start": 50, "beta_every": 20, "lr_decay_every": 100},
@@ -163,7 +163,7 @@ def test_killed_enumerate_stage_reruns_to_the_same_bytes(project: Path) -> None:
     assert not (project / "data" / "designs.parquet").exists()  # really killed mid-stage
     dvc(project, "repro", "enumerate")
     resumed = outputs(project, ENUMERATE_OUTS)
-    dvc(project, "repro", "-f", "enumerate")  # the uninterrupted run
+    dvc(project, "repro", "-f", "-s", "enumerate")  # the uninterrupted run
     assert outputs(project, ENUMERATE_OUTS) == resumed and len(resumed) == 3
 
 
@@ -178,7 +178,7 @@ def test_killed_train_vae_stage_resumes_to_the_same_bytes(project: Path) -> None
     resumed = outputs(project, TRAIN_OUTS)
     for file in checkpoint.parent.iterdir():  # the uninterrupted run starts without a checkpoint
         file.unlink()
-    dvc(project, "repro", "-f", "train_vae@full")
+    dvc(project, "repro", "-f", "-s", "train_vae@full")
     assert outputs(project, TRAIN_OUTS) == resumed and "models/vae_full.pt" in resumed
 
 
@@ -201,7 +201,7 @@ def test_killed_glso_stage_resumes_to_the_same_results(project: Path) -> None:
     for folder in (runs, project / "data" / "glso" / "checkpoints"):  # the uninterrupted run starts afresh
         for file in folder.iterdir():
             file.unlink()
-    dvc(project, "repro", "-f", "glso")
+    dvc(project, "repro", "-f", "-s", "glso")
     assert outputs(project, GLSO_OUTS) == resumed and "data/glso/steps.parquet" in resumed
 
 
@@ -215,7 +215,7 @@ def test_killed_eggan_training_resumes_to_the_same_bytes(project: Path) -> None:
     dvc(project, "repro", "teams_eggan")
     resumed = outputs(project, EGGAN_OUTS)
     checkpoint.unlink()
-    dvc(project, "repro", "-f", "teams_eggan")
+    dvc(project, "repro", "-f", "-s", "teams_eggan")
     assert outputs(project, EGGAN_OUTS) == resumed and "models/teams_eggan.pt" in resumed
 
 
@@ -346,14 +346,14 @@ def _tensor_byte(path: Path) -> int:
 @injects("corrupt-model", "truncated-model")
 def test_a_corrupted_or_truncated_model_is_an_error_naming_the_file(tmp_path: Path) -> None:
     """torch.load alone reads a flipped tensor byte without complaint; the checksum header catches it."""
-    from robocompose.io import ArtifactError
+    from robocompose.io import InputError
     from robocompose.latent.train import load_model, save_model
 
     model, _ = _tiny_vae_run(tmp_path, "run")
     for fault in (lambda p: flip_byte(p, _tensor_byte(p)), truncate):
         path = save_model(model, tmp_path / "vae.pt")
         fault(path)
-        with pytest.raises(ArtifactError, match=re.escape(f"{path}: checksum mismatch")):
+        with pytest.raises(InputError, match=re.escape(f"{path}: checksum mismatch")):
             load_model(path)
 
 

@@ -122,7 +122,7 @@ def test_teams_experiments_on_a_dask_cluster_match_local_processes(dask_address,
     chips = prepare_chips(ChipsConfig(n_synthetic=2, seed=2), tmp_path / "chips")
     test_chips = decomposed_chips(regions_table(chips, DecomposeConfig(n_regions=3, test_fraction=0.5)), "test")
     coverage = CoverageConfig(iterations=3, n_observations=5)
-    experiments = ExperimentsConfig(populations=[4], generations=2, test_chips=1, seeds=[0, 1], budgets=[3])
+    experiments = ExperimentsConfig(populations=[4], generations=2, table_5_4_chips=1, seeds=[0, 1], budgets=[3])
     with Executor(workers=2) as local, Executor(address=dask_address) as remote:
         out = [nsga2_runs(test_chips, coverage, experiments, teams_cache(), ex)[:2] for ex in (local, remote)]
     for a, b in zip(out[0], out[1], strict=True):
