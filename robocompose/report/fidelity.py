@@ -46,7 +46,9 @@ def section(reports_dir: Path, params: Path = Path("params.yaml")) -> str:
              "top 3 | random designs (min-max) |", "|---|---|---|---|---|---|---|---|---|---|---|"]
     lines += [_row(r) for _, r in summary.iterrows()]
     lines += ["", f"Selection rule: {choice.get('reason', 'not computed')}. "
-              f"Selected: **{choice.get('rung') or 'none'}**; the default profile runs `evaluation.mppi` = "
+              f"Selected by the rule: **{choice.get('rung') or 'none (the table is not complete)'}**; the default "
+              f"profile runs `evaluation.mppi` = "
               f"{mppi.samples}/{mppi.first_samples} samples, horizon {mppi.horizon}, {mppi.episode} control steps "
-              f"({mppi.sim_steps() / 1e3:.0f}k sim steps per evaluation on flat)."]
+              f"({mppi.sim_steps() / 1e3:.0f}k sim steps per evaluation on flat); without a selection it is a "
+              "trade-off argued in the README's \"Evaluator fidelity\" section."]
     return "\n".join(lines) + "\n"

@@ -21,7 +21,7 @@ def test_section_shows_every_measured_setting_and_the_choice(tmp_path):
     text = section(tmp_path)
     assert "| flat | s16_h8_e48 | 16/64 | 8 | 48 | 107k | 1.0 | 3 of 3 | 1.00 | yes | 4.00-4.05 |" in text
     assert "| flat | thesis | 64/512 | 16 | 128 | 2229k |" in text
-    assert "Selected: **s16_h8_e48**" in text
+    assert "Selected by the rule: **s16_h8_e48**" in text
 
 
 def test_section_says_what_is_missing(tmp_path):
