@@ -25,7 +25,7 @@ class ExperimentsConfig:
     test_terrains: list[int] = field(default_factory=lambda: [1000, 1001, 1002, 1003])
     # Terrains with an exhaustive table (the regret reference and the terrain criterion); must hold every test
     # terrain. Tables measured under the current settings are committed under reports/modular/exhaustive/.
-    truth_terrains: list[int] = field(default_factory=lambda: list(range(1000, 1008)))
+    truth_terrains: list[int] = field(default_factory=lambda: [1000, 1001, 1002, 1003])
     ga_seeds: list[int] = field(default_factory=lambda: [0, 1, 2])  # independent runs per terrain and method
     generations: int = 50
     mutation_rate: float = 1 / 6  # per-port probability of a uniformly drawn new module
