@@ -18,7 +18,7 @@ import torch
 
 from robocompose.io.provenance import ROOT
 from robocompose.teams.chips import synthetic_chip
-from robocompose.teams.cli import SHIPPED_MODEL
+from robocompose.teams.compose import SHIPPED_MODEL
 from robocompose.teams.decompose import DecomposeConfig, decompose_chip
 from robocompose.teams.eggan_problem import query_front
 from robocompose.teams.ergodic import CoverageConfig

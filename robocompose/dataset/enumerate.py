@@ -24,6 +24,7 @@ import pandas as pd
 
 from robocompose.grammar.derivation import MAX_DEPTH, random_derivation
 from robocompose.grammar.tree import DesignTree
+from robocompose.io.errors import InputError
 
 MIN_LINKS = 11  # the thesis keeps designs with at least 11 links
 
@@ -43,9 +44,9 @@ class EnumerateConfig:
     def __post_init__(self) -> None:
         for name in ("n", "chunk", "min_links", "max_depth"):
             if getattr(self, name) < 1:
-                raise ValueError(f"{name} must be a positive integer, got {getattr(self, name)}")
+                raise InputError(f"{name} must be a positive integer, got {getattr(self, name)}")
         if self.workers < 0:
-            raise ValueError(f"workers must be >= 0 (0 = all cores), got {self.workers}")
+            raise InputError(f"workers must be >= 0 (0 = all cores), got {self.workers}")
 
 
 @dataclass

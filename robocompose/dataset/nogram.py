@@ -16,6 +16,7 @@ import pandas as pd
 
 from robocompose.dataset.enumerate import EnumerateStats, Outcome, collect, design_row
 from robocompose.grammar.tree import N_TOKENS, DesignTree
+from robocompose.io.errors import InputError
 
 MIN_NODES, MAX_NODES = 2, 24
 MAX_CHILDREN, MAX_ROOT_CHILDREN = 3, 4
@@ -31,7 +32,7 @@ class NogramConfig:
 
     def __post_init__(self) -> None:
         if self.n < 1:
-            raise ValueError(f"n must be a positive integer, got {self.n}")
+            raise InputError(f"n must be a positive integer, got {self.n}")
 
 
 def random_graph(rng: np.random.Generator) -> DesignTree:

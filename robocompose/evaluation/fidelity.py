@@ -36,6 +36,7 @@ from robocompose.evaluation.references import REFERENCE_DESIGNS
 from robocompose.grammar.derivation import derive, parse_rules
 from robocompose.grammar.tree import DesignTree
 from robocompose.io import atomic_write_text
+from robocompose.io.errors import InputError
 from robocompose.tasks.terrains import get_task
 
 THESIS = "thesis"
@@ -55,7 +56,7 @@ SCREEN = MPPIConfig(samples=8, first_samples=32, horizon=8, episode=24)  # the q
 DESIGN_COLUMNS = ("name", "kind", "design_id", "rules", "screen_reward")
 SCORE_COLUMNS = ("task", "rung", "name", "design_id", "reward", "status", "objective", "sim_steps", "seconds",
                  "evaluator")  # evaluator: `simulation_digest(task)` of the code that measured the row
-MEASURE_ORDER = ("reference", "screened", "random")  # kinds of design, measured in this order
+MEASURE_ORDER = ("reference", "screened", "random")  # kinds of design, in `measure_order`
 DESIGNS_FILE, SUMMARY_FILE = "designs.csv", "summary.csv"
 SCORES_DIR = "scores"
 
@@ -63,7 +64,7 @@ SCORES_DIR = "scores"
 def rung_config(name: str) -> MPPIConfig:
     """The MPPI config of ladder rung `name`."""
     if name not in LADDER:
-        raise ValueError(f"unknown fidelity rung {name!r}; known rungs: {list(LADDER)}")
+        raise InputError(f"unknown fidelity rung {name!r}; known rungs: {list(LADDER)}")
     samples, first_samples, horizon, episode = LADDER[name]
     return MPPIConfig(samples=samples, first_samples=first_samples, horizon=horizon, episode=episode)
 
@@ -91,16 +92,16 @@ class FidelityConfig:
             rung_config(rung)
         for name in ("n_screen", "n_screened", "top"):
             if getattr(self, name) < 1:
-                raise ValueError(f"evaluator_fidelity.{name} must be >= 1, got {getattr(self, name)}")
+                raise InputError(f"evaluator_fidelity.{name} must be >= 1, got {getattr(self, name)}")
 
 
 def dataset_candidates(seed: int):
     """(rules, tree) of the enumeration's valid candidates of `seed`, in candidate order, each design once."""
-    from robocompose.grammar.enumerate import MIN_LINKS, candidate
+    from robocompose.dataset.enumerate import MIN_LINKS, candidate
 
     seen, k = set(), 0
     while True:
-        reason, row = candidate(seed, k, MIN_LINKS, 40)
+        reason, row, _ = candidate(seed, k, MIN_LINKS, 40)
         k += 1
         if reason or row["design_id"] in seen:
             continue
@@ -142,12 +143,12 @@ def write_summary(summary: pd.DataFrame, directory: str | Path) -> Path:
 def read_design_set(directory: str | Path) -> pd.DataFrame:
     path = Path(directory) / DESIGNS_FILE
     if not path.exists():
-        raise FileNotFoundError(f"{path}: fidelity design set not found (run `robocompose evaluator-fidelity "
+        raise InputError(f"{path}: fidelity design set not found (run `robocompose evaluator-fidelity "
                                 "build-set`)")
     table = pd.read_csv(path, dtype={"rules": str})
     missing = [c for c in DESIGN_COLUMNS if c not in table.columns]
     if missing:
-        raise ValueError(f"{path}: missing column {missing[0]!r}; expected {list(DESIGN_COLUMNS)}")
+        raise InputError(f"{path}: missing column {missing[0]!r}; expected {list(DESIGN_COLUMNS)}")
     return table
 
 
@@ -168,7 +169,7 @@ def read_piece(path: Path) -> pd.DataFrame:
     lines = text.splitlines(keepends=True)
     complete = [line for line in lines[1:] if line.endswith("\n") and line.count(",") == len(SCORE_COLUMNS) - 1]
     if not lines or lines[0].strip() != ",".join(SCORE_COLUMNS):
-        raise ValueError(f"{path}: expected the header {','.join(SCORE_COLUMNS)}")
+        raise InputError(f"{path}: expected the header {','.join(SCORE_COLUMNS)}")
     rows = list(csv.reader(complete))
     table = pd.DataFrame(rows, columns=list(SCORE_COLUMNS))
     for column in ("reward", "objective", "seconds"):  # an empty reward is a result without one (not ok)
@@ -196,15 +197,23 @@ def _append(path: Path, row: dict) -> None:
         os.close(fd)
 
 
+def measure_order(designs: pd.DataFrame) -> pd.DataFrame:
+    """The reference designs first, then the other kinds taken in turn (screened_0, random_0, screened_1, ...),
+    so that the designs measured first span the score range, strong designs included."""
+    turn = designs.groupby("kind", sort=False).cumcount() + (designs["kind"] != "reference") * len(designs)
+    kind = designs["kind"].map(MEASURE_ORDER.index)
+    return designs.assign(_turn=turn, _kind=kind).sort_values(["_turn", "_kind"], kind="stable").drop(
+        columns=["_turn", "_kind"])
+
+
 def measure(config: FidelityConfig, designs: pd.DataFrame) -> int:
     """Score every (task, rung, design) not yet in the pieces; the number scored now.
 
-    Order: task, then design, then rung (config order). Designs go by `MEASURE_ORDER` of their kinds: the
-    strong designs that the ladder must rank correctly come first. Design-major order makes a partial run
-    useful: every design measured so far has a score at every rung, so a Spearman over them exists.
+    Order: task, then design (`measure_order`), then rung (config order). Design-major order makes a partial
+    run useful: every design measured so far has a score at every rung, so a Spearman over them exists.
     """
     trees = {row.design_id: derive(parse_rules(row.rules)).tree for row in designs.itertuples()}
-    designs = designs.sort_values("kind", key=lambda kind: kind.map(MEASURE_ORDER.index), kind="stable")
+    designs = measure_order(designs)
     done = {(task, rung): set(read_piece(piece_path(config.directory, task, rung))["design_id"])
             for task in config.tasks for rung in config.rungs}
     jobs = [(task, rung, row.name, row.design_id) for task in config.tasks for row in designs.itertuples()
@@ -254,7 +263,7 @@ def summarise(scores: pd.DataFrame, designs: pd.DataFrame, top: int = 3) -> pd.D
         samples, first_samples, horizon, episode = LADDER[rung]
         rows.append({
             "task": task, "rung": rung, "samples": samples, "first_samples": first_samples, "horizon": horizon,
-            "episode": episode, "n_scored": len(group), "n_common": len(common),
+            "episode": episode, "n_designs": len(designs), "n_scored": len(group), "n_common": len(common),
             "complete": len(common) == len(designs),
             "sim_steps_per_eval": float(group["sim_steps"].mean()),
             "seconds_per_eval": float(group["seconds"].mean()),

@@ -9,11 +9,12 @@ import numpy as np
 
 from robocompose.grammar.rules import RULES, START_GRAPH, Graph, apply_rule, first_match
 from robocompose.grammar.tree import DesignTree, classify_joint, classify_link, mirrored, token_of
+from robocompose.io.errors import InputError
 
 MAX_DEPTH = 40  # rule-sequence length limit of random derivation (RoboGrammar's search depth)
 
 
-class DerivationError(ValueError):
+class DerivationError(InputError):
     """A rule sequence that does not derive a complete design; the message names the step and rule."""
 
 

@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass
 
 from robocompose.grammar.rules import Quaternion, axis_angle
+from robocompose.io.errors import InputError
 
 # (length, radius, density) of each link type.
 LINK_TYPES: tuple[tuple[str, float, float, float], ...] = (
@@ -84,11 +85,11 @@ class DesignTree:
 
     def __post_init__(self) -> None:
         if len(self.parents) != len(self.tokens) or not self.parents:
-            raise ValueError("a design tree needs one parent and one token per node, and at least one node")
+            raise InputError("a design tree needs one parent and one token per node, and at least one node")
         if self.parents[0] != -1 or any(not 0 <= p < i for i, p in enumerate(self.parents) if i):
-            raise ValueError(f"parents must list the root first and each parent before its child: {self.parents}")
+            raise InputError(f"parents must list the root first and each parent before its child: {self.parents}")
         if any(not 0 <= t < N_TOKENS for t in self.tokens):
-            raise ValueError(f"tokens must lie in 0..{N_TOKENS - 1}: {self.tokens}")
+            raise InputError(f"tokens must lie in 0..{N_TOKENS - 1}: {self.tokens}")
 
     @property
     def n_links(self) -> int:
@@ -176,14 +177,14 @@ def classify_joint(kind: str, rot: Quaternion, axis: tuple[float, float, float],
             r = _Y90
         if k == kind and _close(r, rot) and (kind == "fixed" or _close(a, axis)):
             return j
-    raise ValueError(f"no joint type for kind={kind} rotation={rot} axis={axis} on link type {link_type}")
+    raise InputError(f"no joint type for kind={kind} rotation={rot} axis={axis} on link type {link_type}")
 
 
 def classify_link(length: float, radius: float) -> int:
     for i, (_, l_, r_, _) in enumerate(LINK_TYPES):
         if math.isclose(length, l_) and math.isclose(radius, r_):
             return i
-    raise ValueError(f"no link type of length {length} and radius {radius}")
+    raise InputError(f"no link type of length {length} and radius {radius}")
 
 
 def _close(a, b) -> bool:

@@ -23,6 +23,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from robocompose.grammar.tree import N_TOKENS
+from robocompose.io.errors import InputError
 from robocompose.latent.batch import MAX_INCOMING, Levels, TreeBatch
 from robocompose.latent.constraints import KINDS, Walk
 
@@ -43,9 +44,9 @@ class VAEConfig:
     def __post_init__(self) -> None:
         for name in ("hidden", "latent", "predictor_hidden", "max_nodes"):
             if getattr(self, name) < 1:
-                raise ValueError(f"{name} must be a positive integer, got {getattr(self, name)}")
+                raise InputError(f"{name} must be a positive integer, got {getattr(self, name)}")
         if self.constraints not in KINDS:
-            raise ValueError(f"constraints must be one of {KINDS}, got {self.constraints!r}")
+            raise InputError(f"constraints must be one of {KINDS}, got {self.constraints!r}")
 
 
 class TreeGRU(nn.Module):

@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
 from robocompose.evaluation.references import REFERENCE_DESIGNS
 from robocompose.io import read_table
+from robocompose.io.atomic import read_json
 from robocompose.sim.contacts import PAD_X
 
 
@@ -28,7 +28,7 @@ def section(reports_dir: Path, data_dir: Path, gallery: int = 12, gallery_seed: 
     figures.mkdir(parents=True, exist_ok=True)
     designs = read_table(Path(data_dir) / "designs.parquet", "designs")
     nogram = read_table(Path(data_dir) / "designs_nogram.parquet", "designs")
-    stats = json.loads((Path(reports_dir) / "metrics" / "enumerate.json").read_text())
+    stats = read_json(Path(reports_dir) / "metrics" / "enumerate.json")
     grammar = stats["grammar"]
     contacts = np.stack(designs["contacts"].to_numpy())
     counts = contact_counts(contacts)

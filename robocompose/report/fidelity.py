@@ -6,19 +6,21 @@ reports/metrics/evaluator_fidelity.json) and the default profile's `evaluation.m
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import pandas as pd
+
+from robocompose.io.atomic import read_json
 
 
 def _row(r: pd.Series) -> str:
     spearman = "-" if pd.isna(r["spearman"]) else f"{r['spearman']:.2f}"
     top = "yes" if r["thesis_best_in_top"] else "no"
-    measured = f"{r['n_common']}" + ("" if r["complete"] else f" of {r['n_scored']}+ (partial)")
+    measured = f"{r['n_common']} of {r['n_designs']}"
+    random = "-" if pd.isna(r["random_min"]) else f"{r['random_min']:.2f}-{r['random_max']:.2f}"
     return (f"| {r['task']} | {r['rung']} | {r['samples']}/{r['first_samples']} | {r['horizon']} | {r['episode']} | "
             f"{r['sim_steps_per_eval'] / 1e3:.0f}k | {r['seconds_per_eval']:.1f} | {measured} | {spearman} | {top} | "
-            f"{r['random_min']:.2f}-{r['random_max']:.2f} |")
+            f"{random} |")
 
 
 def section(reports_dir: Path, params: Path = Path("params.yaml")) -> str:
@@ -31,7 +33,7 @@ def section(reports_dir: Path, params: Path = Path("params.yaml")) -> str:
     from robocompose.params import load_section
 
     summary = pd.read_csv(summary_path)
-    choice = json.loads(choice_path.read_text()) if choice_path.exists() else {}
+    choice = read_json(choice_path) if choice_path.exists() else {}
     mppi = load_section(EvaluationConfig, "evaluation", params).mppi
     lines = [title, "",
              "One fixed set of designs (the two RoboGrammar reference designs, random dataset designs and the best "
@@ -41,7 +43,7 @@ def section(reports_dir: Path, params: Path = Path("params.yaml")) -> str:
              "design is among the setting's three best. Seconds are wall time on the shared 2-core machine "
              "(background, nice 10): physics steps are the comparable cost.", "",
              "| task | setting | samples/first | horizon | episode | sim steps | s / eval | designs | Spearman | "
-             "top 3 | random designs |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "top 3 | random designs (min-max) |", "|---|---|---|---|---|---|---|---|---|---|---|"]
     lines += [_row(r) for _, r in summary.iterrows()]
     lines += ["", f"Selection rule: {choice.get('reason', 'not computed')}. "
               f"Selected: **{choice.get('rung') or 'none'}**; the default profile runs `evaluation.mppi` = "

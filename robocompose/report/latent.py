@@ -6,12 +6,13 @@ Built from the `train_vae@*` stages' training logs (reports/training/vae_*/: dvc
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
 from robocompose.io import read_table
+from robocompose.io.atomic import read_json
+from robocompose.io.errors import ArtifactError
 
 VARIANTS = {"full": "GLSO (with property predictor)", "nopred": "GLSO_nopred", "nogram": "GLSO_nogram"}
 COLUMNS = [("reconstruction_accuracy", "reconstruction (held out)"), ("prior_validity", "prior valid (builds)"),
@@ -97,7 +98,7 @@ def section(reports_dir: Path, data_dir: Path, params: Path = Path("params.yaml"
 
     lines += _landscape(data_dir / "vae_landscape.parquet", figures, plt)
     bench = reports_dir / "benchmarks.json"
-    figures_ = json.loads(bench.read_text()) if bench.exists() else {}
+    figures_ = read_json(bench) if bench.exists() else {}
     if "vae.steps_per_s" in figures_:
         lines += ["", f"Speed at thesis size (hidden 450, latent 28, batch 32, 2 threads): "
                   f"{figures_['vae.steps_per_s']:.2f} steps/s, {figures_['vae.speedup_vs_reference']:.1f}x the "
@@ -110,10 +111,10 @@ def section(reports_dir: Path, data_dir: Path, params: Path = Path("params.yaml"
 
 def _evaluation(path: Path) -> dict:
     """The final metrics of one variant from its dvclive summary (`evaluation`), naming the file if it is bad."""
-    try:
-        return json.loads(path.read_text())["evaluation"]
-    except (json.JSONDecodeError, KeyError, TypeError) as err:
-        raise ValueError(f"{path}: expected dvclive's summary with an `evaluation` object ({err})") from None
+    summary = read_json(path)  # names the file if it is not JSON
+    if not isinstance(summary, dict) or not isinstance(summary.get("evaluation"), dict):
+        raise ArtifactError(f"{path}: expected dvclive's summary with an `evaluation` object")
+    return summary["evaluation"]
 
 
 def _landscape(path: Path, figures: Path, plt) -> list[str]:

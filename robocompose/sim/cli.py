@@ -5,16 +5,18 @@ from __future__ import annotations
 import argparse
 import json
 
+from robocompose.arguments import output_file
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     render = subparsers.add_parser("render", help="render a design at rest to PNG (CPU renderer)")
     render.add_argument("--rules", required=True)
-    render.add_argument("--out", required=True)
+    render.add_argument("--out", type=output_file(".png", "PNG"), required=True, help="output .png path")
     render.set_defaults(handler=_render)
 
     urdf = subparsers.add_parser("export-urdf", help="write a design as URDF")
     urdf.add_argument("--rules", required=True)
-    urdf.add_argument("--out", required=True)
+    urdf.add_argument("--out", type=output_file(".urdf", "URDF"), required=True, help="output .urdf path")
     urdf.set_defaults(handler=_export_urdf)
 
 

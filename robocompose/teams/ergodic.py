@@ -47,6 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
+from robocompose.io.errors import check_field
 from robocompose.teams.decompose import pixel_centres
 from robocompose.teams.species import coverage_weights, step_lengths
 
@@ -60,6 +61,15 @@ class CoverageConfig:
     learning_rate: float = 0.15  # Adam step size on the controls u
     initial_control_std: float = 1.0  # controls start as N(0, std^2): robots start moving apart
     robots_per_species: int = 20  # N_j, robots of each species in the bank
+
+    def __post_init__(self) -> None:
+        for name in ("n_coefficients", "substeps", "robots_per_species"):
+            check_field(getattr(self, name) >= 1, name, "an integer >= 1", getattr(self, name))
+        check_field(self.n_observations >= 2, "n_observations", "an integer >= 2 (the start and a step)",
+                    self.n_observations)
+        check_field(self.iterations >= 0, "iterations", "an integer >= 0", self.iterations)
+        check_field(self.learning_rate > 0, "learning_rate", "a number > 0", self.learning_rate)
+        check_field(self.initial_control_std >= 0, "initial_control_std", "a number >= 0", self.initial_control_std)
 
     def settings_hash(self) -> str:
         """Short hash of every setting that changes a coverage cost (the cache key part)."""

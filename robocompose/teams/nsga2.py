@@ -44,6 +44,7 @@ from pymoo.operators.survival.rank_and_crowding import RankAndCrowding
 from pymoo.optimize import minimize
 from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting
 
+from robocompose.io.errors import check_field
 from robocompose.teams.species import allocation_to_counts
 
 REFERENCE_POINT = (0.25, 60.0)
@@ -56,6 +57,13 @@ class NSGA2Config:
     crossover_probability: float = 0.5  # share of matings that cross over
     mutation_rate: float = 0.1  # per-gene probability of a uniform redraw
     seed: int = 0  # seeds pymoo's Generator
+
+    def __post_init__(self) -> None:
+        check_field(self.population >= 2, "population", "an integer >= 2", self.population)
+        check_field(self.generations >= 1, "generations", "an integer >= 1", self.generations)
+        for name in ("crossover_probability", "mutation_rate"):
+            check_field(0 <= getattr(self, name) <= 1, name, "a probability in [0, 1]", getattr(self, name))
+        check_field(self.seed >= 0, "seed", "an integer >= 0", self.seed)
 
 
 class DeploymentShareSampling(Sampling):

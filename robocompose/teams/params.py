@@ -6,9 +6,10 @@ what was expected.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 
+from robocompose.io.errors import InputError, check_field
 from robocompose.params import build_config, read_params
 from robocompose.teams.chips import ChipsConfig
 from robocompose.teams.decompose import DecomposeConfig
@@ -29,12 +30,18 @@ class ExperimentsConfig:
     address: str = ""  # a running Dask scheduler (e.g. tcp://10.0.0.5:8786) to fan out over; "" = local
 
     def __post_init__(self) -> None:
-        if min(self.table_5_4_chips, self.table_5_5_chips) < 1 or not self.seeds:
-            raise ValueError(f"table_5_4_chips, table_5_5_chips, seeds: expected >= 1 chip each and a "
-                             f"non-empty seed list, found {self.table_5_4_chips}, {self.table_5_5_chips}, "
-                             f"{self.seeds}")
-        if self.workers < 0:
-            raise ValueError(f"workers: expected >= 0 (0 = all cores), found {self.workers}")
+        check_field(bool(self.populations) and min(self.populations) >= 2, "populations",
+                    "a non-empty list of integers >= 2", self.populations)
+        check_field(self.generations >= 1, "generations", "an integer >= 1", self.generations)
+        for name in ("crossover_probability", "mutation_rate"):
+            check_field(0 <= getattr(self, name) <= 1, name, "a probability in [0, 1]", getattr(self, name))
+        for name in ("table_5_4_chips", "table_5_5_chips"):
+            check_field(getattr(self, name) >= 1, name, "an integer >= 1", getattr(self, name))
+        check_field(bool(self.seeds) and min(self.seeds) >= 0, "seeds", "a non-empty list of integers >= 0",
+                    self.seeds)
+        check_field(bool(self.budgets) and min(self.budgets) >= 1, "budgets", "a non-empty list of integers >= 1",
+                    self.budgets)
+        check_field(self.workers >= 0, "workers", "an integer >= 0 (0 = all cores)", self.workers)
 
 
 @dataclass(frozen=True)
@@ -61,19 +68,29 @@ class TeamsParams:
 
 
 def load_teams_params(path: str | Path = "params.yaml") -> TeamsParams:
-    """Read the `teams:` section of a params file."""
+    """Read the `teams:` section of a params file.
+
+    All four sub-sections are required (the decompose stage reads chips and decompose, teams_baselines the
+    regions it made and coverage and experiments; a stage must not run on defaults that the params file does
+    not show); a field left out of a sub-section takes the dataclass default; `threads` defaults to 1.
+    """
     section = read_params(path).get("teams")
     where = f"{path}: teams"
-    if not isinstance(section, dict):
-        raise ValueError(f"{where}: missing section (expected chips, decompose, coverage, experiments, eggan)")
     parts = {"chips": ChipsConfig, "decompose": DecomposeConfig, "coverage": CoverageConfig,
              "experiments": ExperimentsConfig, "eggan": EgganConfig}
+    if not isinstance(section, dict):
+        raise InputError(f"{where}: missing section (expected sub-sections {list(parts)})")
     known = sorted([*parts, "threads"])
-    unknown = sorted(set(section) - set(known))
+    unknown = sorted(set(section) - set(known), key=str)
     if unknown:
-        raise ValueError(f"{where}.{unknown[0]}: unknown field; expected one of {known}")
-    built = {name: build_config(cls, section.get(name, {}), f"{where}.{name}") for name, cls in parts.items()}
+        raise InputError(f"{where}.{unknown[0]}: unknown field; expected one of {known}")
+    built = {name: build_config(cls, section[name], f"{where}.{name}") for name, cls in parts.items()
+             if name in section}  # a bad field of a given section is named before a missing section
     threads = section.get("threads", 1)
-    if not isinstance(threads, int) or threads < 1:
-        raise ValueError(f"{where}.threads: expected a positive integer, found {threads!r}")
+    if not isinstance(threads, int) or isinstance(threads, bool) or threads < 1:
+        raise InputError(f"{where}.threads: expected a positive integer, found {threads!r}")
+    missing = [name for name in parts if name not in section]
+    if missing:
+        raise InputError(f"{where}.{missing[0]}: missing section (expected fields "
+                         f"{[f.name for f in fields(parts[missing[0]])]})")
     return TeamsParams(**built, threads=threads)

@@ -30,6 +30,16 @@ def test_local_processes_return_results_in_order():
         Executor(workers=-1)
 
 
+def test_a_progress_label_shows_a_bar_without_changing_results(capsys):
+    with Executor(workers=2, progress="scoring") as ex:
+        assert ex.map(abs, [-3, 2, -1]) == [3, 2, 1]
+    bar = capsys.readouterr().err
+    assert "scoring" in bar and "3/3" in bar
+    with Executor(workers=1) as ex:
+        ex.map(abs, [-1])
+    assert capsys.readouterr().err == ""  # no label, no bar
+
+
 def test_evaluate_many_evaluates_each_missing_key_once(tmp_path):
     calls = []
 
@@ -68,16 +78,7 @@ def test_dask_cluster_backend():
             assert [r["reward"] for r in rows] == [1.0, 2.0]
 
 
-# --- a real Dask cluster: every kind of fan-out gives what local processes give ---
-
-@pytest.fixture(scope="module")
-def dask_address():
-    from dask.distributed import LocalCluster
-
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
-                      silence_logs=40) as cluster:
-        yield cluster.scheduler_address
-
+# --- a real Dask cluster (`dask_address`, tests/conftest.py): every kind of fan-out gives what local processes give ---
 
 def test_enumeration_on_a_dask_cluster_is_byte_identical_to_local_processes(dask_address, tmp_path):
     from robocompose.dataset.enumerate import EnumerateConfig, enumerate_designs

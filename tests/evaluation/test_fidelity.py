@@ -72,6 +72,12 @@ def test_summary_and_choice():
     assert choose_default(summary.reset_index(), ["flat", "ridged"])["rung"] == ""  # ridged not measured
 
 
+def test_measure_order_takes_references_then_the_other_kinds_in_turn():
+    designs = pd.DataFrame({"name": ["r0", "r1", "x0", "x1", "x2", "s0", "s1"],
+                            "kind": ["reference", "reference", "random", "random", "random", "screened", "screened"]})
+    assert list(fidelity.measure_order(designs)["name"]) == ["r0", "r1", "s0", "x0", "s1", "x1", "x2"]
+
+
 def test_measure_appends_rows_and_resumes(tmp_path, monkeypatch):
     monkeypatch.setitem(fidelity.LADDER, "tiny", (2, 2, 2, 3))
     rules = REFERENCE_DESIGNS["robogrammar_ridged"]

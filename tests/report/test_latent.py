@@ -2,7 +2,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from robocompose.io import write_table
+from robocompose.io import ArtifactError, write_table
 from robocompose.latent.train import LOG_FIELDS, log_evaluation, log_row, training_log
 from robocompose.report.latent import section
 
@@ -24,7 +24,10 @@ def test_section_reports_pending_without_metrics(tmp_path):
 def test_a_corrupt_summary_is_named(tmp_path):
     (tmp_path / "training" / "vae_full").mkdir(parents=True)
     (tmp_path / "training" / "vae_full" / "metrics.json").write_text("{not json")
-    with pytest.raises(ValueError, match="vae_full/metrics.json: expected dvclive's summary"):
+    with pytest.raises(ArtifactError, match="vae_full/metrics.json: not valid JSON"):
+        section(tmp_path, tmp_path, tmp_path / "params.yaml")
+    (tmp_path / "training" / "vae_full" / "metrics.json").write_text('{"loss": 1.0}')
+    with pytest.raises(ArtifactError, match="vae_full/metrics.json: expected dvclive's summary"):
         section(tmp_path, tmp_path, tmp_path / "params.yaml")
 
 
