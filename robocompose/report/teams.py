@@ -206,8 +206,9 @@ def _table_5_5(coverage: pd.DataFrame, eggan: Eggan | None) -> str:
                      f"{' | '.join(cells)} |")
         best = [min(means, key=lambda m: means[m][i]) for i in range(len(budgets))]
         held = [b for b, m in zip(budgets, best, strict=True) if m == "dec_eggan"]
+        where = ", ".join(f"<= {b}" for b in held) or "no budget"
         notes.append("Dec + EG-GAN best at every budget " + ("holds" if len(held) == len(budgets) else
-                     f"does NOT hold (best at {held or 'no budget'})") + " (thesis: it is).")
+                     f"does NOT hold (best at {where})") + " (thesis: it is).")
     order = ["holds" if nd < ra else "does NOT hold" for nd, ra in
              zip(means["no_decomposition"], means["dec_random_allocation"], strict=True)]
     notes.append("No decomposition < Dec + random at each budget (thesis: at every budget): "

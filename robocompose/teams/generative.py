@@ -15,6 +15,7 @@ not reproducible, so it stays out of the DVC-hashed tables).
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import io
 from pathlib import Path
 
@@ -25,7 +26,7 @@ import torch
 from robocompose.eggan.networks import Generator, NetworkConfig
 from robocompose.eggan.train import TrainConfig, Trained, train
 from robocompose.io import atomic_path
-from robocompose.io.provenance import code_digest
+from robocompose.io.provenance import ROOT
 from robocompose.teams.baselines import joint_plan
 from robocompose.teams.chips import Chip
 from robocompose.teams.decompose import Decomposition
@@ -36,7 +37,12 @@ from robocompose.teams.experiments import baseline_draws
 from robocompose.teams.params import EgganConfig
 from robocompose.teams.species import SPECIES
 
-MODEL_CODE = "robocompose.eggan.networks"  # the code a generator file's weights belong to
+MODEL_CODE = "robocompose/eggan/networks.py"  # the code a generator file's weights belong to
+
+
+def model_code_digest() -> str:
+    """SHA-256 (16 hex digits) of the network module's own source: the architecture the weights fit."""
+    return hashlib.sha256((ROOT / MODEL_CODE).read_bytes()).hexdigest()[:16]
 
 
 def train_config(config: EgganConfig, threads: int) -> TrainConfig:
@@ -67,7 +73,7 @@ def save_generator(trained: Trained, n_regions: int, params: dict, metrics: dict
     buffer = io.BytesIO()  # saved to memory first: torch names the archive after a file, not a buffer
     torch.save({"generator": trained.generator.state_dict(), "network": dataclasses.asdict(trained.network),
                 "n_regions": n_regions, "n_species": len(SPECIES), "params": params, "metrics": metrics,
-                "code_digest": code_digest(MODEL_CODE), "design_head": DESIGN_HEAD, "run_key": trained.key}, buffer)
+                "code_digest": model_code_digest(), "design_head": DESIGN_HEAD, "run_key": trained.key}, buffer)
     with atomic_path(path) as tmp:
         tmp.write_bytes(buffer.getvalue())
 

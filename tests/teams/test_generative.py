@@ -5,13 +5,13 @@ import torch
 
 from robocompose.eggan.networks import NetworkConfig
 from robocompose.eggan.train import TrainConfig, train
-from robocompose.io.provenance import ROOT, code_digest
+from robocompose.io.provenance import ROOT
 from robocompose.teams.chips import synthetic_chip
 from robocompose.teams.compose import SHIPPED_MODEL
 from robocompose.teams.decompose import DecomposeConfig, decompose_chip
 from robocompose.teams.eggan_problem import TeamsProblem
 from robocompose.teams.ergodic import CoverageConfig
-from robocompose.teams.generative import MODEL_CODE, load_generator, save_generator
+from robocompose.teams.generative import load_generator, model_code_digest, save_generator
 from robocompose.teams.params import load_teams_params
 
 
@@ -26,7 +26,7 @@ def test_generator_file_round_trips_weights_settings_and_metrics(tmp_path):
     for name, tensor in trained.generator.state_dict().items():
         assert torch.equal(tensor, generator.state_dict()[name])
     assert saved["params"] == {"coverage": {"iterations": 2}} and saved["metrics"]["mean_hypervolume"] == 1.5
-    assert saved["code_digest"] == code_digest(MODEL_CODE) and not generator.training
+    assert saved["code_digest"] == model_code_digest() and not generator.training
     with pytest.raises(FileNotFoundError, match="no such generator file"):
         load_generator(tmp_path / "missing.pt")
     torch.save({"weights": 1}, tmp_path / "other.pt")
@@ -40,7 +40,7 @@ def test_generator_file_round_trips_weights_settings_and_metrics(tmp_path):
 
 def test_the_shipped_generator_is_the_default_profiles_and_matches_the_model_code():
     _, saved = load_generator(ROOT / SHIPPED_MODEL)
-    assert saved["code_digest"] == code_digest(MODEL_CODE), "retrain and ship: the network code changed"
+    assert saved["code_digest"] == model_code_digest(), "retrain and ship: the network code changed"
     default = load_teams_params(ROOT / "profiles" / "default.yaml")
     for name in ("chips", "decompose", "coverage", "eggan"):
         assert saved["params"][name] == dataclasses.asdict(getattr(default, name)), name
