@@ -14,7 +14,7 @@ import numpy as np
 import torch
 
 from robocompose.teams.chips import synthetic_chip
-from robocompose.teams.decompose import DecomposeConfig, chip_seeds
+from robocompose.teams.decompose import DecomposeConfig, decompose_chip
 from robocompose.teams.ergodic import CoverageConfig
 from robocompose.teams.evaluator import chip_coverage
 from robocompose.teams.species import allocation_to_counts
@@ -26,7 +26,7 @@ SINGLE = 6
 def run() -> dict[str, float]:
     torch.set_num_threads(1)
     chip = synthetic_chip(0)
-    coverage = chip_coverage(chip, chip_seeds(chip.chip_id, DecomposeConfig()), CoverageConfig())
+    coverage = chip_coverage(chip, decompose_chip(chip, DecomposeConfig()), CoverageConfig())
     rng = np.random.default_rng(0)
     shares = rng.random((BATCH, 1, 3)) * rng.dirichlet(np.ones(8), size=(BATCH, 3)).transpose(0, 2, 1)
     counts = allocation_to_counts(shares, coverage.config.robots_per_species)  # (BATCH, 8, 3)

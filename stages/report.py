@@ -2,11 +2,13 @@
 
 from robocompose.params import load_section
 from robocompose.report.build import ReportConfig, build_report
+from robocompose.report.timings import timed
 from robocompose.stage import run_stage
 
 
 def main() -> None:
-    build_report(load_section(ReportConfig, "report"))
+    with timed("report"):
+        build_report(load_section(ReportConfig, "report"))
 
 
 if __name__ == "__main__":

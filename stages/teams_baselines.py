@@ -1,9 +1,14 @@
-"""DVC stage `teams_baselines`: NSGA-II (Table 5.4) and coverage baselines (Table 5.5) on test chips."""
+"""DVC stage `teams_baselines`: NSGA-II (Table 5.4) and coverage baselines (Table 5.5) on test chips.
+
+The runs' wall times go to reports/timings.json (not tracked by DVC), so the parquet outputs are
+byte-reproducible.
+"""
 
 import torch
 
 from robocompose.evaluation.executor import Executor
 from robocompose.io import read_table, write_table
+from robocompose.report.timings import timed
 from robocompose.stage import run_stage
 from robocompose.teams.evaluator import teams_cache
 from robocompose.teams.experiments import (
@@ -22,17 +27,18 @@ def main() -> None:
     test_chips = decomposed_chips(read_table("data/regions.parquet", "regions"), "test")
     cache = teams_cache("data/teams/eval_cache.parquet")
     experiments = params.experiments
-    with Executor(experiments.workers, experiments.address or None) as executor:
-        runs, fronts = nsga2_runs(test_chips, params.coverage, experiments, cache, executor)
+    with timed("teams_baselines") as timing, Executor(experiments.workers, experiments.address or None,
+                                                      progress="teams_baselines") as executor:
+        runs, fronts, timing["nsga2_runs"] = nsga2_runs(test_chips, params.coverage, experiments, cache, executor)
         coverage = coverage_baselines(test_chips, params.coverage, experiments, executor)
-    cache.save()
-    write_table(runs, "data/teams/nsga2.parquet", "teams_nsga2")
-    write_table(fronts, "data/teams/fronts.parquet", "teams_fronts")
-    write_table(coverage, "data/teams/coverage.parquet", "teams_coverage")
-    chip, seeds = test_chips[0]
-    counts, seed = example_allocation(fronts, chip.chip_id, len(seeds))
-    write_table(example_trajectories(chip, seeds, params.coverage, counts, seed),
-                "data/teams/trajectories.parquet", "teams_trajectories")
+        cache.save()
+        write_table(runs, "data/teams/nsga2.parquet", "teams_nsga2")
+        write_table(fronts, "data/teams/fronts.parquet", "teams_fronts")
+        write_table(coverage, "data/teams/coverage.parquet", "teams_coverage")
+        chip, decomposition = test_chips[0]
+        counts, seed = example_allocation(fronts, chip.chip_id, decomposition.n_regions)
+        write_table(example_trajectories(chip, decomposition, params.coverage, counts, seed),
+                    "data/teams/trajectories.parquet", "teams_trajectories")
 
 
 if __name__ == "__main__":

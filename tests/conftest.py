@@ -1,9 +1,16 @@
-"""Shared fixtures: the two reference designs of the RoboGrammar/GLSO papers."""
+"""Shared fixtures: the two reference designs of the RoboGrammar/GLSO papers; a Foxglove validator of MCAP logs;
+the bad-input check of the `robocompose` command."""
 
+import json
+from pathlib import Path
+
+import jsonschema
 import pytest
+from mcap.reader import make_reader
 
 from robocompose.evaluation.references import REFERENCE_DESIGNS
 from robocompose.grammar.tree import DesignTree
+from robocompose.io.mcap_log import SCALARS, SCALARS_SCHEMA, foxglove_schema_bytes
 
 FLAT_REFERENCE = REFERENCE_DESIGNS["robogrammar_flat"]
 RIDGED_REFERENCE = REFERENCE_DESIGNS["robogrammar_ridged"]
@@ -28,3 +35,189 @@ def reversed_siblings(tree: DesignTree) -> DesignTree:
 @pytest.fixture
 def reorder():
     return reversed_siblings
+
+
+def official_schema(name: str) -> dict:
+    """The published schema of message `name`: Foxglove's vendored files, or the project's own Scalars schema."""
+    return SCALARS_SCHEMA if name == SCALARS else json.loads(foxglove_schema_bytes(name))
+
+
+def assert_valid_foxglove_log(path: Path) -> int:
+    """Every message of the MCAP log at `path` validates against the official schema of its name (the draft the
+    schema declares; Draft 2020-12 if none), and each channel embeds exactly that schema. Returns the count."""
+    checked = 0
+    with Path(path).open("rb") as stream:
+        for schema, channel, message in make_reader(stream).iter_messages():
+            assert schema is not None and schema.encoding == "jsonschema" and channel.message_encoding == "json"
+            official = official_schema(schema.name)
+            assert json.loads(schema.data) == official, f"{channel.topic}: embedded schema is not {schema.name}'s"
+            validator = jsonschema.validators.validator_for(official, default=jsonschema.Draft202012Validator)
+            validator.check_schema(official)
+            error = jsonschema.exceptions.best_match(validator(official).iter_errors(json.loads(message.data)))
+            assert error is None, f"{channel.topic} at {message.log_time} ns: {error.json_path}: {error.message}"
+            checked += 1
+    assert checked > 0
+    return checked
+
+
+@pytest.fixture
+def valid_foxglove_log():
+    """assert_valid_foxglove_log(path): every message matches the official schema of its name."""
+    return assert_valid_foxglove_log
+
+
+# --- a page in a real browser (headless Chromium over the DevTools protocol) ---
+
+
+def _chromium() -> str:
+    import os
+    import shutil
+
+    found = shutil.which("chromium") or shutil.which("chromium-browser")
+    if found is None:
+        if os.environ.get("CI"):
+            pytest.fail("chromium is not installed (.ci/run installs it from the distribution's packages)")
+        pytest.skip("chromium is not installed (apt-get install chromium)")
+    return found
+
+
+def _cdp(ws_url: str, page_url: str, expression: str) -> dict:
+    """Open `page_url` in the browser tab at `ws_url` (DevTools protocol) and evaluate `expression`."""
+    import json
+
+    from websockets.sync.client import connect
+
+    events: set[str] = set()
+    with connect(ws_url, max_size=None, open_timeout=30) as ws:
+        def call(ident: int, method: str, **params) -> dict:
+            ws.send(json.dumps({"id": ident, "method": method, "params": params}))
+            while True:
+                message = json.loads(ws.recv(timeout=60))
+                if message.get("id") == ident:
+                    assert "error" not in message, message
+                    return message["result"]
+                events.add(message.get("method", ""))
+
+        call(1, "Page.enable")
+        call(2, "Page.navigate", url=page_url)
+        while "Page.loadEventFired" not in events:
+            events.add(json.loads(ws.recv(timeout=60)).get("method", ""))
+        result = call(3, "Runtime.evaluate", expression=expression, awaitPromise=True, returnByValue=True)
+    return json.loads(result["result"]["value"])
+
+
+def check_in_browser(page: Path, expression: str, profile: Path) -> dict:
+    """The JSON value of `expression` (a JS promise of a JSON string) on local `page` in headless Chromium."""
+    import json
+    import socket
+    import subprocess
+    import time
+    import urllib.request
+
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        port = sock.getsockname()[1]
+    browser = subprocess.Popen([_chromium(), "--headless=new", "--no-sandbox", "--disable-gpu",
+                                f"--remote-debugging-port={port}", "--remote-debugging-address=127.0.0.1",
+                                f"--user-data-dir={profile}", "about:blank"],
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 60
+        while True:
+            try:
+                with urllib.request.urlopen(f"http://127.0.0.1:{port}/json/list", timeout=2) as response:
+                    pages = [t for t in json.load(response) if t["type"] == "page"]
+                if pages:
+                    break
+            except OSError:
+                pass
+            assert time.monotonic() < deadline and browser.poll() is None, "chromium did not start"
+            time.sleep(0.2)
+        return _cdp(pages[0]["webSocketDebuggerUrl"], page.as_uri(), expression)
+    finally:
+        browser.terminate()
+        browser.wait(timeout=30)
+
+
+@pytest.fixture
+def in_browser(tmp_path):
+    """`in_browser(page, expression)`: what `expression` evaluates to on local `page` in headless Chromium."""
+    return lambda page, expression: check_in_browser(page, expression, tmp_path / "browser-profile")
+@pytest.fixture
+def cli_error(capsys):
+    """cli_error(argv, *fragments): run `robocompose argv` in-process; assert it exits 2 with one error line (after
+    argparse's usage line, if argparse caught it) that holds every fragment, no traceback, nothing on stdout.
+    Returns the error line."""
+    from robocompose.cli import main
+
+    def run(argv: list[str], *fragments: str) -> str:
+        try:
+            code = main(argv)
+        except SystemExit as exit_:  # argparse's own errors
+            code = exit_.code
+        out, err = capsys.readouterr()
+        lines = err.strip().splitlines()
+        assert code == 2, f"exit code {code}, stderr {err!r}"
+        assert out == "" and "Traceback" not in err, err
+        assert lines and (len(lines) == 1 or lines[0].startswith("usage:")), err
+        line = lines[-1]
+        assert ": error: " in line and all(f in line for f in fragments), line
+        return line
+
+    return run
+
+
+# --- a real Dask cluster on loopback ---
+
+
+@pytest.fixture(scope="session")
+def dask_address():
+    """The scheduler address of a LocalCluster on loopback (2 worker processes, one thread each), shared by the
+    session's tests."""
+    from dask.distributed import LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
+                      silence_logs=40) as cluster:
+        yield cluster.scheduler_address
+
+
+# --- a tiny copy of the project ---
+
+
+def copy_of_project(root: Path, params: dict, commit: bool = False) -> Path:
+    """The project's tracked files (as in the working tree) in a new git repo at `root`, with params.yaml from
+    profiles/default.yaml and `params` merged into it section by section (nested dicts merged, not replaced).
+    `commit`: commit everything once (dvclive, in the train_vae stage, needs a revision)."""
+    import shutil
+    import subprocess
+
+    import yaml
+
+    source = Path(__file__).resolve().parents[1]
+    files = subprocess.run(["git", "ls-files"], cwd=source, check=True, capture_output=True, text=True).stdout.split()
+    for name in files:
+        if (source / name).is_file():
+            (root / name).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(source / name, root / name)
+    document = yaml.safe_load((root / "profiles" / "default.yaml").read_text())
+
+    def merge(into: dict, values: dict) -> None:
+        for key, value in values.items():
+            if isinstance(value, dict):
+                merge(into[key], value)
+            else:
+                into[key] = value
+
+    merge(document, params)
+    (root / "params.yaml").write_text(yaml.safe_dump(document))
+    commands = [["init", "-q"], *([["add", "-A"], ["commit", "-qm", "tiny copy"]] if commit else [])]
+    for command in commands:
+        subprocess.run(["git", "-c", "user.name=t", "-c", "user.email=t@t", *command], cwd=root, check=True,
+                       capture_output=True)
+    return root
+
+
+@pytest.fixture(scope="session")
+def copy_project():
+    """copy_project(root, params, commit=False): a tiny copy of the project (see copy_of_project)."""
+    return copy_of_project

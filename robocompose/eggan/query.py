@@ -15,6 +15,7 @@ import torch
 
 from robocompose.eggan.networks import Generator
 from robocompose.eggan.problem import Design, EgganProblem, Sampled, Task
+from robocompose.io.errors import InputError
 
 
 @torch.no_grad()
@@ -22,7 +23,7 @@ def generate(generator: Generator, problem: EgganProblem, task: Task, n: int, se
              task_tensor: torch.Tensor | None = None) -> tuple[Sampled, torch.Tensor]:
     """n designs for `task` (or for a given task tensor) and the generator's (n, *design_shape) output."""
     if n < 1:
-        raise ValueError(f"samples: expected a positive number of designs, found {n}")
+        raise InputError(f"samples: expected a positive number of designs, found {n}")
     generator.eval()
     stream = torch.Generator().manual_seed(int(seed))
     tensor = problem.encode_task(task) if task_tensor is None else task_tensor

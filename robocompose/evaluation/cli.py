@@ -4,17 +4,24 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
+
+from robocompose.arguments import non_negative_int, output_file
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     evaluate = subparsers.add_parser("evaluate", help="score a design on a task (MPPI in pybullet); prints JSON")
     evaluate.add_argument("--rules", required=True, help="comma-separated rule indices, e.g. 0,7,1,13,...")
     evaluate.add_argument("--task", default="flat", help="flat, frozen_lake, ridged or wall")
-    evaluate.add_argument("--seed", type=int, default=None, help="controller seed (default: evaluation.seed)")
-    evaluate.add_argument("--params", default="params.yaml", help="params file whose `evaluation` section is used")
-    evaluate.add_argument("--mcap", help="write the trajectory as an MCAP log (Foxglove)")
-    evaluate.add_argument("--gif", help="write the trajectory as an animated GIF")
+    evaluate.add_argument("--seed", type=non_negative_int, default=None,
+                          help="controller seed (default: evaluation.seed)")
+    evaluate.add_argument("--params", type=Path, default=Path("params.yaml"),
+                          help="params file whose `evaluation` section is used")
+    evaluate.add_argument("--mcap", type=output_file(".mcap", "MCAP"), help="write the trajectory as an MCAP log "
+                          "(Foxglove)")
+    evaluate.add_argument("--gif", type=output_file(".gif", "GIF"), help="write the trajectory as an animated GIF")
     evaluate.set_defaults(handler=_evaluate)
+    register_fidelity(subparsers)
 
 
 def _evaluate(args: argparse.Namespace) -> int:
@@ -25,9 +32,9 @@ def _evaluate(args: argparse.Namespace) -> int:
     from robocompose.sim.physics import PhysicsSettings
     from robocompose.tasks.terrains import get_task
 
-    config = load_section(EvaluationConfig, "evaluation", args.params)
-    tree = derive(parse_rules(args.rules)).tree
+    tree = derive(parse_rules(args.rules)).tree  # the command line first: no params file needed to reject it
     task = get_task(args.task).name
+    config = load_section(EvaluationConfig, "evaluation", args.params)
     seed = config.seed if args.seed is None else args.seed
     recorder = None
     if args.mcap or args.gif:
@@ -41,4 +48,36 @@ def _evaluate(args: argparse.Namespace) -> int:
             written["gif"] = str(recorder.write_gif(args.gif))
     print(json.dumps({"design_id": tree.design_id, "task": task, "seed": seed,
                       "settings_hash": config.settings_hash(task), **row, **written}))
+    return 0
+
+
+def register_fidelity(subparsers: argparse._SubParsersAction) -> None:
+    fidelity = subparsers.add_parser("evaluator-fidelity",
+                                     help="score a fixed design set under a ladder of MPPI settings (hours)")
+    fidelity.add_argument("action", choices=("build-set", "measure", "summarise"),
+                          help="build-set: the design set; measure: score what the pieces lack; summarise: the table")
+    fidelity.add_argument("--params", default="params.yaml", help="params file whose `evaluator_fidelity` is used")
+    fidelity.add_argument("--tasks", help="comma-separated tasks instead of evaluator_fidelity.tasks")
+    fidelity.add_argument("--rungs", help="comma-separated ladder rungs instead of evaluator_fidelity.rungs")
+    fidelity.set_defaults(handler=_fidelity)
+
+
+def _fidelity(args: argparse.Namespace) -> int:
+    import dataclasses
+
+    from robocompose.evaluation import fidelity
+    from robocompose.params import load_section
+
+    config = load_section(fidelity.FidelityConfig, "evaluator_fidelity", args.params)
+    changes = {name: getattr(args, name).split(",") for name in ("tasks", "rungs") if getattr(args, name)}
+    config = dataclasses.replace(config, **changes)  # re-checked by __post_init__
+    if args.action == "build-set":
+        print(json.dumps({"designs": str(fidelity.write_design_set(fidelity.build_design_set(config),
+                                                                   config.directory))}))
+        return 0
+    designs = fidelity.read_design_set(config.directory)
+    if args.action == "measure":
+        print(json.dumps({"scored": fidelity.measure(config, designs)}))
+    summary = fidelity.summarise(fidelity.read_scores(config.directory), designs, config.top)
+    print(summary.to_string(index=False))
     return 0

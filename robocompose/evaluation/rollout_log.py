@@ -4,10 +4,10 @@ Pass a `RolloutRecorder` as the `observer` of `robocompose.evaluation.evaluate.e
 `visual=True` for pictures); after each control step it stores the world pose of every link frame, the
 step's reward and, every `frame_every` steps, a camera image following the robot.
 
-MCAP layout: `/scene` at t=0 holds the terrain (frame "world") and one frame-locked entity per link
-(a capsule along the link frame's x axis); `/tf` moves the link frames ("link0" is the root); `/reward`
-carries the mean per-step reward of each control step. Times are simulated seconds, so the log is
-deterministic.
+MCAP layout: `/scene` (logged right after the first `/tf`) holds the terrain (frame "world") and one
+frame-locked entity per link (a capsule along the link frame's x axis); `/tf` moves the link frames ("link0"
+is the root); `/reward` carries the mean per-step reward of each control step. Times are simulated
+seconds, so the log is deterministic.
 """
 
 from __future__ import annotations
@@ -65,9 +65,10 @@ class RolloutRecorder:
 
     def write_mcap(self, path: str | Path) -> Path:
         with McapWriter(path) as log:
-            log.scene_update(0.0, self.scene)
-            for t, frames, reward in zip(self.times, self.poses, self.rewards, strict=True):
+            for step, (t, frames, reward) in enumerate(zip(self.times, self.poses, self.rewards, strict=True)):
                 log.frame_transforms(t, [frame_transform("world", f"link{i}", p, q) for i, (p, q) in enumerate(frames)])
+                if step == 0:  # the scene after the first /tf, so the link frames it is locked to exist
+                    log.scene_update(t, self.scene)
                 log.scalars("/reward", t, {"reward": reward})
         return Path(path)
 

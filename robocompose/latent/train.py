@@ -10,20 +10,28 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import io
 import math
+import os
+import pickle
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 import torch
 
 from robocompose.grammar.tree import DesignTree
-from robocompose.io import McapWriter, atomic_path, atomic_write_text, read_table
+from robocompose.io import ArtifactError, McapWriter, read_checked, read_table, set_aside, write_checked
+from robocompose.io.errors import InputError
 from robocompose.io.provenance import code_digest, settings_digest
 from robocompose.latent.batch import collate
 from robocompose.latent.constraints import Replay, replay
 from robocompose.latent.model import GraphVAE, VAEConfig
+
+if TYPE_CHECKING:
+    from dvclive import Live
 
 
 @dataclass(frozen=True)
@@ -54,13 +62,13 @@ class TrainConfig:
         for name in ("steps", "batch_size", "lr_decay_every", "beta_every", "log_every", "eval_every",
                      "eval_designs", "checkpoint_every", "threads"):
             if getattr(self, name) < 1:
-                raise ValueError(f"{name} must be a positive integer, got {getattr(self, name)}")
+                raise InputError(f"{name} must be a positive integer, got {getattr(self, name)}")
         for name in ("eval_every", "checkpoint_every"):  # logged rows must not straddle a resume
             if getattr(self, name) % self.log_every:
-                raise ValueError(f"{name} must be a multiple of log_every ({self.log_every}), "
+                raise InputError(f"{name} must be a multiple of log_every ({self.log_every}), "
                                  f"got {getattr(self, name)}")
         if not 0 < self.holdout < 1:
-            raise ValueError(f"holdout must lie in (0, 1), got {self.holdout}")
+            raise InputError(f"holdout must lie in (0, 1), got {self.holdout}")
 
 
 @dataclass(frozen=True)
@@ -100,7 +108,7 @@ def load_designs(path: str | Path, constraints: str, max_nodes: int) -> Designs:
         try:
             replays.append(replay(tree, constraints, max_nodes))
         except ValueError as err:
-            raise ValueError(f"{path}: design {design_id} cannot be decoded under {constraints!r}: {err}") from None
+            raise InputError(f"{path}: design {design_id} cannot be decoded under {constraints!r}: {err}") from None
     contacts = np.array([np.asarray(c, dtype=np.float32) for c in table["contacts"]]).reshape(len(table), 16)
     return Designs(list(table["design_id"]), trees, replays, contacts)
 
@@ -130,14 +138,16 @@ def lr_at(step: int, c: TrainConfig) -> float:
     return c.lr * c.lr_decay ** (step // c.lr_decay_every)
 
 
-def reconstruction_accuracy(model: GraphVAE, designs: Designs, chunk: int = 256) -> float:
-    """Fraction of designs whose latent mean decodes (greedily) to the same design."""
+def reconstruction_accuracy(model: GraphVAE, designs: Designs, chunk: int = 256,
+                            constraints: str | None = None) -> float:
+    """Fraction of designs whose latent mean decodes (greedily, under `constraints`: None = the model's
+    own) to the same design."""
     hits = 0
     with torch.no_grad():
         for lo in range(0, len(designs.ids), chunk):
             part = designs.subset(np.arange(lo, min(lo + chunk, len(designs.ids))))
             mean, _ = model.encoder(collate(part.replays, part.contacts))
-            walks = model.decoder.decode(mean)
+            walks = model.decoder.decode(mean, constraints)
             hits += sum(w.tree().design_id == i for w, i in zip(walks, part.ids, strict=True))
     return hits / len(designs.ids)
 
@@ -156,40 +166,119 @@ def run_key(model_config: VAEConfig, config: TrainConfig, designs: Designs, trai
                             code_digest("robocompose.latent.train")])
 
 
+def save_torch(obj: dict, path: str | Path) -> Path:
+    """torch.save `obj` to `path` behind a SHA-256 header (robocompose.io.write_checked), atomically.
+
+    Serialised through memory, so the bytes do not depend on the file name (torch names the archive's
+    folder after the file it writes, here a random temporary name) and are the same on every run."""
+    buffer = io.BytesIO()
+    torch.save(obj, buffer)
+    return write_checked(path, buffer.getvalue())
+
+
+def load_torch(path: str | Path, weights_only: bool = True) -> dict:
+    """What `save_torch` wrote; ArtifactError naming the file if it is truncated or corrupted."""
+    return torch.load(io.BytesIO(read_checked(path)), map_location="cpu", weights_only=weights_only)
+
+
 def save_model(model: GraphVAE, path: str | Path) -> Path:
-    with atomic_path(path) as tmp:
-        torch.save({"config": dataclasses.asdict(model.config), "state": model.state_dict()}, tmp)
-    return Path(path)
+    return save_torch({"config": dataclasses.asdict(model.config), "state": model.state_dict()}, path)
 
 
 def load_model(path: str | Path) -> GraphVAE:
+    """The VAE saved by `save_model` at `path`; any other file is an InputError naming it.
+
+    Loaded with `weights_only=True`: tensors and plain containers only, never arbitrary pickled objects.
+    """
     path = Path(path)
-    if not path.exists():
-        raise FileNotFoundError(f"{path}: no such model file (train one with `dvc repro train_vae`)")
-    saved = torch.load(path, map_location="cpu", weights_only=True)
-    model = GraphVAE(VAEConfig(**saved["config"]))
-    model.load_state_dict(saved["state"])
+    expected = "expected a VAE saved by train_vae, e.g. models/vae_full.pt"
+    if not path.is_file():
+        raise InputError(f"{path}: no such model file ({expected}; train one with `dvc repro train_vae`)")
+    try:
+        saved = load_torch(path)  # the checksum first: a cut or flipped file never reaches torch.load
+    except ArtifactError as err:
+        raise InputError(f"{err} ({expected})") from None
+    except pickle.UnpicklingError:
+        raise InputError(f"{path}: holds Python objects other than tensors and plain values, which are not loaded "
+                         f"(models load with weights_only=True; {expected})") from None
+    except Exception as err:  # an intact checksum over a payload that is no torch archive: torch raises many types
+        raise InputError(f"{path}: damaged torch archive ({type(err).__name__}; {expected})") from None
+    if not isinstance(saved, dict) or not {"config", "state"} <= set(saved):
+        raise InputError(f"{path}: not a robocompose model ({expected}, a dict with 'config' and 'state')")
+    try:
+        model = GraphVAE(VAEConfig(**saved["config"]))
+        model.load_state_dict(saved["state"])
+    except (TypeError, ValueError, RuntimeError) as err:  # other fields, other shapes: another model's file
+        raise InputError(f"{path}: model does not match this code's VAE ({expected}): "
+                         f"{' '.join(str(err).split())[:240]}") from None
     return model.eval()
 
 
-LOG_FIELDS = ("step", "loss", "label_loss", "stop_loss", "kl", "pred_loss", "label_acc", "stop_acc", "beta", "lr",
-              "heldout_reconstruction")
+# The training curves as dvclive logs them: log field -> metric name (plots/metrics/<name>.tsv).
+CURVES = {"loss": "train/loss", "label_loss": "train/label_loss", "stop_loss": "train/stop_loss", "kl": "train/kl",
+          "pred_loss": "train/pred_loss", "label_acc": "train/label_acc", "stop_acc": "train/stop_acc",
+          "beta": "train/beta", "lr": "train/lr", "heldout_reconstruction": "heldout/reconstruction"}
+LOG_FIELDS = ("step", *CURVES)
 
 
-def write_logs(rows: list[dict], csv_path: Path, mcap_path: Path) -> None:
-    """The training curve as a CSV (DVC plots) and an MCAP log (one `/vae/train` message per row)."""
-    frame = pd.DataFrame(rows, columns=list(LOG_FIELDS))
-    atomic_write_text(csv_path, frame.to_csv(index=False, float_format="%.6g"))
+def training_log(directory: str | Path) -> Live:
+    """dvclive, DVC's own logger, writing the curves under `directory` (plots/metrics/**.tsv and the summary
+    metrics.json) for `dvc plots show/diff` and `dvc exp show`.
+
+    Offline and passive: it saves no DVC experiment, leaves dvc.yaml and git alone (the stage's dvc.yaml entry
+    declares its files) and posts nothing to Studio. It starts empty, so a resumed run logs its checkpoint's
+    rows again and its files match those of an uninterrupted run.
+    """
+    os.environ.setdefault("DVC_STUDIO_OFFLINE", "true")
+    os.environ.setdefault("DVCLIVE_LOGLEVEL", "WARNING")  # read when dvclive is imported
+    from dvclive import Live
+
+    return Live(str(directory), save_dvc_exp=False, dvcyaml=None, report=None, monitor_system=False)
+
+
+def log_row(live: Live, row: dict) -> None:
+    live.step = row["step"]
+    for field, name in CURVES.items():
+        if row[field] is not None and math.isfinite(row[field]):  # held-out reconstruction: every eval_every
+            live.log_metric(name, float(row[field]))  # no timestamp, so the files are byte-reproducible
+
+
+def log_evaluation(live: Live, metrics: dict, prefix: str = "evaluation") -> None:
+    """Final metrics of the trained model, into the same summary (metrics.json, under `evaluation`; a nested
+    group such as the unconstrained decoder's numbers under `evaluation/<group>`)."""
+    for key, value in metrics.items():
+        if isinstance(value, dict):
+            log_evaluation(live, value, f"{prefix}/{key}")
+        elif isinstance(value, int | float):
+            live.log_metric(f"{prefix}/{key}", value, plot=False)
+
+
+def read_curves(directory: str | Path) -> pd.DataFrame:
+    """The curves of a `training_log` directory as one table: LOG_FIELDS columns, a row per logged step."""
+    frame = pd.DataFrame({"step": pd.Series(dtype="int64")})
+    for field, name in CURVES.items():
+        path = Path(directory) / "plots" / "metrics" / f"{name}.tsv"
+        if path.exists():
+            curve = pd.read_csv(path, sep="\t").rename(columns={name.rpartition("/")[2]: field})
+            frame = frame.merge(curve, on="step", how="outer")
+    return frame.reindex(columns=list(LOG_FIELDS)).sort_values("step", ignore_index=True)
+
+
+def write_logs(rows: list[dict], live: Live, mcap_path: Path) -> None:
+    """At a checkpoint: dvclive's summary of the rows logged so far, and an MCAP log (one `/vae/train` message
+    per row) for Foxglove."""
+    live.make_summary()
     with McapWriter(mcap_path) as log:
         for row in rows:
             log.scalars("/vae/train", float(row["step"]),
                         {k: v for k, v in row.items() if k != "step" and v is not None and not math.isnan(v)})
 
 
-def train(model_config: VAEConfig, config: TrainConfig, designs: Designs, checkpoint: Path, csv_path: Path,
+def train(model_config: VAEConfig, config: TrainConfig, designs: Designs, checkpoint: Path, live: Live,
           mcap_path: Path, extra: Designs | None = None, progress: bool = False) -> tuple[GraphVAE, Designs, Designs]:
-    """Train (resuming from `checkpoint` when it holds a run of the same settings); returns the model and
-    the (train, held-out) designs. `extra` designs join the training split (any that are held out are dropped)."""
+    """Train (resuming from `checkpoint` when it holds a run of the same settings), logging to `live` (a fresh
+    `training_log`); returns the model and the (train, held-out) designs. `extra` designs join the training
+    split (any that are held out are dropped)."""
     torch.set_num_threads(config.threads)
     train_idx, test_idx = split(len(designs.ids), config.holdout, config.seed)
     train_set, test_set = designs.subset(train_idx), designs.subset(test_idx)
@@ -203,13 +292,20 @@ def train(model_config: VAEConfig, config: TrainConfig, designs: Designs, checkp
     optimizer = torch.optim.Adam(model.parameters(), lr=config.lr, fused=True)  # one kernel, not one loop per tensor
     key = run_key(model_config, config, designs, train_set)
     start, rows = 0, []
+    saved = None
     if checkpoint.exists():
-        saved = torch.load(checkpoint, map_location="cpu", weights_only=False)
+        try:
+            saved = load_torch(checkpoint, weights_only=True)
+        except ArtifactError as err:  # a checkpoint only saves time: keep the file, start afresh
+            set_aside(checkpoint, str(err).removeprefix(f"{checkpoint}: "))
+    if saved is not None:
         if saved["key"] == key and saved["step"] <= config.steps:
             model.load_state_dict(saved["model"])
             optimizer.load_state_dict(saved["optimizer"])
             start, rows = saved["step"], saved["rows"]
             print(f"resuming from {checkpoint} at step {start}", flush=True)
+            for row in rows:
+                log_row(live, row)
         else:
             print(f"{checkpoint} holds a run with other settings: starting afresh", flush=True)
 
@@ -242,16 +338,15 @@ def train(model_config: VAEConfig, config: TrainConfig, designs: Designs, checkp
                 model.eval()
                 row["heldout_reconstruction"] = reconstruction_accuracy(model, eval_set)
             rows.append(row)
+            log_row(live, row)
             running = {}
             bar.set_postfix(loss=f"{row['loss']:.2f}", rec=f"{row['heldout_reconstruction']:.2f}")
         if done % config.checkpoint_every == 0 or done == config.steps:
-            checkpoint.parent.mkdir(parents=True, exist_ok=True)
-            with atomic_path(checkpoint) as tmp:
-                torch.save({"key": key, "step": done, "model": model.state_dict(),
-                            "optimizer": optimizer.state_dict(), "rows": rows}, tmp)
-            write_logs(rows, csv_path, mcap_path)
+            save_torch({"key": key, "step": done, "model": model.state_dict(),
+                        "optimizer": optimizer.state_dict(), "rows": rows}, checkpoint)
+            write_logs(rows, live, mcap_path)
         bar.update(1)
     bar.close()
     if start >= config.steps:  # already finished: make sure the logs exist
-        write_logs(rows, csv_path, mcap_path)
+        write_logs(rows, live, mcap_path)
     return model.eval(), train_set, test_set

@@ -16,6 +16,8 @@ import json
 import time
 from pathlib import Path
 
+from robocompose.io.errors import InputError
+
 SHIPPED_MODEL = Path(__file__).resolve().parent / "pretrained" / "eggan.pt"
 MODULE_NAMES = {"none": "n", "leg": "l", "wheel": "w", "legwheel": "b", "leg-wheel": "b", "leg_wheel": "b"}
 MAX_DRAWS = 16  # batches of `--samples` draws tried before answering with fewer than k designs
@@ -50,7 +52,7 @@ def parse_caps(text: str) -> dict[str, int]:
     for part in filter(None, (p.strip() for p in text.split(","))):
         name, _, value = part.partition("=")
         if name.strip().lower() not in MODULE_NAMES or not value.strip().isdigit():
-            raise ValueError(f"--max {text!r}: expected NAME=COUNT pairs with NAME in "
+            raise InputError(f"--max {text!r}: expected NAME=COUNT pairs with NAME in "
                              f"{sorted(set(MODULE_NAMES) - {'leg-wheel', 'leg_wheel'})} and COUNT >= 0")
         caps[MODULE_NAMES[name.strip().lower()]] = int(value)
     return caps
@@ -67,11 +69,11 @@ def read_heightmap(path: Path):
     try:
         heights = np.load(path, allow_pickle=False)
     except Exception as err:  # not a .npy array: name the file
-        raise ValueError(f"--heightmap {path}: not a .npy array ({err})") from None
+        raise InputError(f"--heightmap {path}: not a .npy array ({err})") from None
     if heights.shape != (GRID_X, GRID_Y):
-        raise ValueError(f"--heightmap {path}: expected shape ({GRID_X}, {GRID_Y}) (x by y), found {heights.shape}")
+        raise InputError(f"--heightmap {path}: expected shape ({GRID_X}, {GRID_Y}) (x by y), found {heights.shape}")
     if not np.issubdtype(heights.dtype, np.number) or not np.isfinite(heights).all():
-        raise ValueError(f"--heightmap {path}: expected finite numbers (metres)")
+        raise InputError(f"--heightmap {path}: expected finite numbers (metres)")
     return heights.astype(np.float32)
 
 
@@ -97,7 +99,7 @@ def _compose(args: argparse.Namespace) -> None:
     from robocompose.modular.eggan_problem import FitnessConfig, ModularEgganProblem
 
     if args.k < 1 or args.samples < 1:
-        raise ValueError("--k and --samples: expected positive integers")
+        raise InputError("--k and --samples: expected positive integers")
     caps = parse_caps(args.max)
     params = _params(args.params)
     problem = ModularEgganProblem(params, FitnessConfig())
@@ -121,7 +123,7 @@ def _compose(args: argparse.Namespace) -> None:
     designs = [{"design": r.design, "score": round(r.score, 6)} for r in ranked]
     if args.simulate:
         if task is None:
-            raise ValueError("--simulate needs --terrain-seed (a height map alone does not define the blocks)")
+            raise InputError("--simulate needs --terrain-seed (a height map alone does not define the blocks)")
         from robocompose.modular.evaluate import evaluate_designs
 
         for entry, result in zip(designs, evaluate_designs([d["design"] for d in designs], task, params.eval,

@@ -1,8 +1,8 @@
 """Rollout logs of modular designs: MCAP with Foxglove schemas (plays in Foxglove's 3D panel) and animated GIFs.
 
-MCAP layout: `/scene` at t = 0 with the terrain blocks (world frame) and every link's primitives (frame-locked to
-`link<i>`, the chassis is `link-1`); `/tf` every control step with world -> link<i> transforms; `/robot`
-scalars (chassis x, y, z and up-axis z) every control step.
+MCAP layout: `/scene` (logged right after the first `/tf`, at t = 0) with the terrain blocks (world frame) and
+every link's primitives (frame-locked to `link<i>`, the chassis is `link-1`); `/tf` every control step with
+world -> link<i> transforms; `/robot` scalars (chassis x, y, z and up-axis z) every control step.
 """
 
 from __future__ import annotations
@@ -70,13 +70,13 @@ def record_rollout(design: str, terrain_seed: int, settings: EvalSettings, mcap:
 
     def on_step(t: float, robot: ModularRobot) -> None:
         if log is not None:
-            if t == 0.0:
+            poses = link_poses(robot)
+            log.frame_transforms(t, [frame_transform("world", f"link{i}", p, q) for i, p, q in poses])
+            if steps[0] == 0:  # the scene after the first /tf, so the link frames it is locked to exist
                 entities = [terrain_entity(terrain)]
                 entities += [scene_entity(f"link{i}", f"link{i}", **_primitives(shapes))
                              for i, shapes in enumerate(robot.link_shapes, start=-1)]
-                log.scene_update(0.0, entities)
-            poses = link_poses(robot)
-            log.frame_transforms(t, [frame_transform("world", f"link{i}", p, q) for i, p, q in poses])
+                log.scene_update(t, entities)
             position, orientation = poses[0][1], poses[0][2]
             log.scalars("/robot", t, {"x": position[0], "y": position[1], "z": position[2],
                                       "up_z": up_z(orientation)})

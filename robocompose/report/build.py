@@ -17,7 +17,7 @@ class ReportConfig:
 
 
 def build_report(config: ReportConfig, reports_dir: Path = Path("reports"), data_dir: Path = Path("data")) -> Path:
-    from robocompose.report import dataset, eggan, evaluation, latent, metadata, modular, teams
+    from robocompose.report import dataset, eggan, evaluation, fidelity, glso, latent, metadata, modular, teams
 
     sections = [
         "# robocompose report",
@@ -25,7 +25,9 @@ def build_report(config: ReportConfig, reports_dir: Path = Path("reports"), data
         "evaluator named in its section.",
         dataset.section(reports_dir, data_dir, config.gallery, config.gallery_seed),
         evaluation.section(reports_dir, data_dir),
+        fidelity.section(reports_dir),
         latent.section(reports_dir, data_dir),
+        glso.section(reports_dir, data_dir),
         modular.section(reports_dir, data_dir),
         eggan.section(reports_dir, data_dir),
         teams.section(reports_dir, data_dir),

@@ -5,10 +5,11 @@ Both draw B robots at random from the bank (N robots of each species, without re
   plan in their regions exactly as for any allocation (ergodic.ChipCoverage).
 - no decomposition: the robots start anywhere on the chip (on terrain they can move on) and plan
   jointly, as one team, for uniform coverage of the whole chip.
-Both are scored by the same cost as every allocation: the sum over the Voronoi regions of the ergodic
-metric of the observations attributed to the region. For the decomposed plans an observation counts
-for its robot's team; the joint plan has no teams, so each observation counts for the region it lies
-in (a region nobody visits costs >= 1, as an empty team does).
+Both are scored by the same cost as every allocation (ergodic.py): the area-weighted sum over the
+regions of the ergodic metric of the observations attributed to the region, in units of one random
+glance. For the decomposed plans an observation counts for its robot's team; the joint plan has no
+teams, so each observation counts for the region it lies in (a region nobody visits costs what an
+empty team does).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from robocompose.teams.ergodic import ChipCoverage, ergodic_cost
+from robocompose.teams.ergodic import ChipCoverage, Robots, ergodic_cost
 from robocompose.teams.species import coverage_weights
 
 
@@ -38,11 +39,22 @@ def random_allocation(rng: np.random.Generator, budget: int, n_regions: int, n_s
     return counts
 
 
-def no_decomposition_costs(decomposed: ChipCoverage, species_counts: np.ndarray, seed: int) -> np.ndarray:
-    """(B,) coverage costs of (B, O) teams planning jointly over the whole chip, scored per region."""
+def joint_plan(decomposed: ChipCoverage, species_counts: np.ndarray, seed: int) -> tuple[Robots, torch.Tensor]:
+    """Robots of (B, O) teams started anywhere on the chip and planned jointly for the whole chip
+    (team b = allocation b), and their (N, T, 2) observations."""
+    whole_chip = ChipCoverage(decomposed.terrain.numpy(), np.zeros_like(decomposed.regions), 1, decomposed.config)
+    _, robots, observations = whole_chip.evaluate(species_counts[:, None, :], seed)
+    return robots, observations
+
+
+def no_decomposition_costs(decomposed: ChipCoverage, species_counts: np.ndarray, seed: int
+                           ) -> tuple[np.ndarray, np.ndarray]:
+    """Teams of (B, O) robots planning jointly over the whole chip, scored per region.
+
+    Returns ((B,) coverage costs, (B,) number of regions none of the team's observations fall in).
+    """
     regions = decomposed.regions
-    whole_chip = ChipCoverage(decomposed.terrain.numpy(), np.zeros_like(regions), 1, decomposed.config)
-    _, robots, observations = whole_chip.evaluate(species_counts[:, None, :], seed)  # (N, T, 2)
+    robots, observations = joint_plan(decomposed, species_counts, seed)  # (N, T, 2)
     height, width = regions.shape
     points = observations.reshape(-1, 2).double()  # (N*T, 2)
     col = (points[:, 0] * width).long().clamp(0, width - 1)
@@ -52,6 +64,8 @@ def no_decomposition_costs(decomposed: ChipCoverage, species_counts: np.ndarray,
     weights = torch.as_tensor(coverage_weights())[robots.species].repeat_interleave(observations.shape[1])
     n_regions = decomposed.n_regions
     team_of_point = allocation_of_point * n_regions + region_of_point  # (N*T,)
-    costs = ergodic_cost(points[:, None, :], weights[:, None], team_of_point,
-                         decomposed.phi.repeat(len(species_counts), 1, 1))  # (B*K,)
-    return costs.reshape(len(species_counts), n_regions).sum(1).numpy()
+    metrics = ergodic_cost(points[:, None, :], weights[:, None], team_of_point,
+                           decomposed.phi.repeat(len(species_counts), 1, 1))  # (B*K,)
+    visited = torch.zeros(len(species_counts) * n_regions, dtype=torch.bool)
+    visited[team_of_point] = True
+    return decomposed.coverage_cost(metrics), (~visited).reshape(-1, n_regions).sum(1).numpy()

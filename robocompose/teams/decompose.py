@@ -1,11 +1,26 @@
-"""Voronoi decomposition of a terrain chip into K regions and its K x 4 terrain-feature matrix.
+"""Decomposition of a terrain chip into K regions that follow its terrain, and the K x 4 feature matrix.
 
-Seeds: K points drawn uniformly in the unit square, then `lloyd_iterations` Lloyd steps (each seed
-moves to the centroid of its cell) so regions have similar areas. A pixel belongs to the region of
-its nearest seed (pixel centres at ((col + 0.5) / W, (row + 0.5) / H)), which is the Voronoi diagram
-clipped to the square and rasterised; ties go to the lower region index. Everything about a chip's
-regions is fixed by its seed points, so the regions table stores those and `region_raster`
-recomputes the raster exactly.
+Thesis 5.2: the sub-regions come from "voronoi partitioning of target regions based on terrain
+features". We partition in a joint space of position and terrain class: pixel p (centre x_p in the
+unit square, terrain t_p) is described by (x_p, w * onehot(t_p)), a region centre by (x_c, w * s_c)
+with s_c a distribution over the 4 terrains, and a pixel belongs to the centre nearest in that space,
+
+    d(p, c)^2 = |x_p - x_c|^2 + w^2 |onehot(t_p) - s_c|^2,
+
+i.e. the Voronoi diagram of the centres in the joint space (ties go to the lower region index).
+w = `terrain_weight` is in chip sides: a pixel whose terrain differs from a centre's (pure) class is
+as far from it as a pixel sqrt(2) w away in the plane, so regions bend along terrain boundaries; w = 0
+is the plain Voronoi diagram of the positions. Centres start at K uniform random points (terrain
+part: the class of the pixel under them) and take `lloyd_iterations` Lloyd steps in the joint space
+(each centre moves to the mean of its pixels: their mean position and their terrain shares), which is
+k-means on the pixel features (SLIC superpixels with a categorical colour). A centre left without
+pixels restarts at the worst-served pixel (farthest from its own centre), which it then owns, so
+every region keeps pixels. The steps run on a 100 x 100 grid of the chip's pixels. With w = 0 this
+is the random-seed Voronoi with Lloyd relaxation of round 1.
+
+A chip's regions are fixed by its centres and w, so the regions table stores those and
+`Decomposition.raster` recomputes the raster exactly. Region purity (the share of a region's pixels
+in its most common terrain) measures how well regions follow the terrain.
 """
 
 from __future__ import annotations
@@ -16,17 +31,32 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from robocompose.io.errors import InputError, check_field
 from robocompose.teams.chips import Chip
 
 N_TERRAINS = 4
+# Regions per chip at most: the full-size raster keeps (H*W, K) distance arrays, ~0.7 MB per region each for a
+# 300 x 300 chip, and every region should keep pixels of the 100 x 100 Lloyd grid (>= 150 on average).
+MAX_REGIONS = 64
+TERRAIN_COLUMNS = ("water", "mountain", "plain", "city")
+CENTRE_COLUMNS = ("seed_x", "seed_y", "seed_water", "seed_mountain", "seed_plain", "seed_city")
 
 
 @dataclass(frozen=True)
 class DecomposeConfig:
-    n_regions: int = 8  # K, Voronoi cells per chip
-    lloyd_iterations: int = 10  # Lloyd relaxation steps of the seeds (0: plain random Voronoi)
-    test_fraction: float = 0.25  # share of chips put in the test split
-    seed: int = 0  # seeds the Voronoi seed points and the split
+    n_regions: int = 8  # K regions per chip (1..MAX_REGIONS)
+    terrain_weight: float = 0.3  # w, chip sides a terrain mismatch counts for (0 = plain Voronoi)
+    lloyd_iterations: int = 10  # Lloyd (k-means) steps of the centres in the joint space
+    test_fraction: float = 0.25  # share of chips put in the test split, strictly between 0 and 1
+    seed: int = 0  # seeds the initial centres and the split
+
+    def __post_init__(self) -> None:
+        check_field(1 <= self.n_regions <= MAX_REGIONS, "n_regions", f"an integer in 1..{MAX_REGIONS}", self.n_regions)
+        check_field(self.terrain_weight >= 0, "terrain_weight", "a number >= 0", self.terrain_weight)
+        check_field(self.lloyd_iterations >= 0, "lloyd_iterations", "an integer >= 0", self.lloyd_iterations)
+        check_field(0 < self.test_fraction < 1, "test_fraction", "a share strictly between 0 and 1 (test chips / "
+                    "all chips)", self.test_fraction)
+        check_field(self.seed >= 0, "seed", "an integer >= 0", self.seed)
 
 
 def pixel_centres(height: int, width: int) -> np.ndarray:
@@ -36,31 +66,79 @@ def pixel_centres(height: int, width: int) -> np.ndarray:
     return np.stack([cols, rows], axis=-1)
 
 
-def region_raster(seeds: np.ndarray, height: int, width: int) -> np.ndarray:
-    """(H, W) int64 region index of every pixel: its nearest seed of (K, 2) `seeds`."""
-    centres = pixel_centres(height, width)  # (H, W, 2)
-    distances = ((centres[:, :, None, :] - seeds[None, None]) ** 2).sum(-1)  # (H, W, K)
-    return distances.argmin(-1)
+def _squared_distances(centres: np.ndarray, terrain: np.ndarray, terrain_weight: float) -> np.ndarray:
+    """(H*W, K) joint-space squared distance of every pixel of an (H, W) terrain map to (K, 6) centres."""
+    points = pixel_centres(*terrain.shape).reshape(-1, 2)  # (P, 2)
+    planar = ((points[:, None, :] - centres[None, :, :2]) ** 2).sum(-1)  # (P, K)
+    shares = centres[:, 2:]  # (K, 4)
+    # |onehot(t) - s|^2 = 1 - 2 s_t + |s|^2
+    mismatch = 1.0 - 2.0 * shares.T[terrain.ravel()] + (shares**2).sum(1)[None, :]  # (P, K)
+    return planar + terrain_weight**2 * mismatch
 
 
-def voronoi_seeds(rng: np.random.Generator, n_regions: int, lloyd_iterations: int,
-                  resolution: int = 100) -> np.ndarray:
-    """(K, 2) seed points: uniform draws relaxed by Lloyd steps on a resolution^2 pixel grid."""
-    seeds = rng.random((n_regions, 2))
-    centres = pixel_centres(resolution, resolution).reshape(-1, 2)  # (P, 2)
-    for _ in range(lloyd_iterations):
-        labels = region_raster(seeds, resolution, resolution).ravel()
+@dataclass(frozen=True)
+class Decomposition:
+    """A chip's regions: (K, 6) centres [x, y, water, mountain, plain, city shares] and the weight w."""
+
+    centres: np.ndarray
+    terrain_weight: float
+
+    @property
+    def n_regions(self) -> int:
+        return len(self.centres)
+
+    def raster(self, terrain: np.ndarray) -> np.ndarray:
+        """(H, W) int64 region index of every pixel of an (H, W) terrain map."""
+        return _squared_distances(self.centres, terrain, self.terrain_weight).argmin(1).reshape(terrain.shape)
+
+
+def decompose(terrain: np.ndarray, rng: np.random.Generator, n_regions: int, terrain_weight: float,
+              lloyd_iterations: int, resolution: int = 100) -> Decomposition:
+    """Regions of an (H, W) terrain map: random centres relaxed by Lloyd steps in the joint space.
+
+    The steps run on the pixels nearest to a resolution x resolution grid of centres (for a 300 px chip
+    every third pixel, whose centres are exactly the grid's), the raster is then full size.
+    """
+    rows = ((np.arange(min(resolution, terrain.shape[0])) + 0.5) * terrain.shape[0]
+            / min(resolution, terrain.shape[0])).astype(int)
+    cols = ((np.arange(min(resolution, terrain.shape[1])) + 0.5) * terrain.shape[1]
+            / min(resolution, terrain.shape[1])).astype(int)
+    terrain = terrain[np.ix_(rows, cols)]  # (h, w) the grid's pixels
+    height, width = terrain.shape
+    flat_terrain = terrain.ravel().astype(np.int64)
+    onehot = np.eye(N_TERRAINS)[flat_terrain]  # (P, 4)
+    features = np.concatenate([pixel_centres(height, width).reshape(-1, 2), onehot], axis=1)  # (P, 6)
+    start = rng.random((n_regions, 2))  # (K, 2)
+    start_pixel = (np.minimum((start[:, 1] * height).astype(int), height - 1) * width
+                   + np.minimum((start[:, 0] * width).astype(int), width - 1))
+    centres = np.concatenate([start, onehot[start_pixel]], axis=1)  # (K, 6)
+    if n_regions > len(features):
+        raise InputError(f"n_regions: {n_regions} regions cannot split a {height} x {width} chip")
+    steps, restarts = 0, 0
+    while True:
+        distances = _squared_distances(centres, terrain, terrain_weight)  # (P, K)
+        labels = distances.argmin(1)
         counts = np.bincount(labels, minlength=n_regions)
-        sums = np.stack([np.bincount(labels, centres[:, d], minlength=n_regions) for d in range(2)], -1)
-        seeds = np.where(counts[:, None] > 0, sums / np.maximum(counts, 1)[:, None], seeds)
-    return seeds
+        empty = np.flatnonzero(counts == 0)
+        if len(empty) and restarts < n_regions:  # restart at the worst-served pixels, which they then own
+            restarts += 1
+            served = distances[np.arange(len(labels)), labels]  # (P,)
+            for region, pixel in zip(empty, np.argsort(-served, kind="stable"), strict=False):
+                centres[region] = features[pixel]
+            continue
+        if steps == lloyd_iterations:
+            break
+        sums = np.stack([np.bincount(labels, features[:, d], minlength=n_regions) for d in range(6)], -1)
+        centres = np.where(counts[:, None] > 0, sums / np.maximum(counts, 1)[:, None], centres)
+        steps += 1
+    return Decomposition(centres, terrain_weight)
 
 
-def chip_seeds(chip_id: str, config: DecomposeConfig) -> np.ndarray:
-    """(K, 2) Voronoi seeds of a chip, drawn from Generator((config.seed, hash of the chip id))."""
-    chip_hash = int(hashlib.sha1(chip_id.encode()).hexdigest()[:12], 16)
-    return voronoi_seeds(np.random.default_rng([config.seed, chip_hash]), config.n_regions,
-                         config.lloyd_iterations)
+def decompose_chip(chip: Chip, config: DecomposeConfig) -> Decomposition:
+    """A chip's regions, its centres drawn from Generator((config.seed, hash of the chip id))."""
+    chip_hash = int(hashlib.sha1(chip.chip_id.encode()).hexdigest()[:12], 16)
+    return decompose(chip.terrain, np.random.default_rng([config.seed, chip_hash]), config.n_regions,
+                     config.terrain_weight, config.lloyd_iterations)
 
 
 def terrain_features(terrain: np.ndarray, regions: np.ndarray, n_regions: int) -> np.ndarray:
@@ -68,8 +146,14 @@ def terrain_features(terrain: np.ndarray, regions: np.ndarray, n_regions: int) -
     joint = np.bincount(regions.ravel() * N_TERRAINS + terrain.ravel(), minlength=n_regions * N_TERRAINS)
     counts = joint.reshape(n_regions, N_TERRAINS).astype(np.float64)
     if (counts.sum(1) == 0).any():
-        raise ValueError(f"a Voronoi region holds no pixel (pixels per region {counts.sum(1)})")
+        raise InputError(f"n_regions {n_regions}: a region holds no pixel of the chip (pixels per region "
+                         f"{counts.sum(1).astype(int).tolist()}); expected fewer regions")
     return counts / counts.sum(1, keepdims=True)
+
+
+def mean_purity(terrain: np.ndarray, regions: np.ndarray, n_regions: int) -> float:
+    """Mean over regions of the share of the region's pixels in its most common terrain."""
+    return float(terrain_features(terrain, regions, n_regions).max(1).mean())
 
 
 def split_chips(chip_ids: list[str], test_fraction: float, seed: int) -> dict[str, str]:
@@ -80,17 +164,38 @@ def split_chips(chip_ids: list[str], test_fraction: float, seed: int) -> dict[st
 
 
 def regions_table(chips: list[Chip], config: DecomposeConfig) -> pd.DataFrame:
-    """The "regions" table: one row per (chip, region) with split, seed point, size and terrain shares."""
+    """The "regions" table: one row per (chip, region) with split, centre, size and terrain shares."""
     split = split_chips([chip.chip_id for chip in chips], config.test_fraction, config.seed)
     rows = []
     for chip in chips:
-        seeds = chip_seeds(chip.chip_id, config)
-        regions = region_raster(seeds, *chip.classes.shape)
+        decomposition = decompose_chip(chip, config)
+        regions = decomposition.raster(chip.terrain)
         features = terrain_features(chip.terrain, regions, config.n_regions)
         sizes = np.bincount(regions.ravel(), minlength=config.n_regions)
         for region in range(config.n_regions):
-            rows.append((chip.chip_id, chip.source, split[chip.chip_id], region, *seeds[region],
-                         sizes[region], *features[region]))
-    columns = ["chip_id", "source", "split", "region", "seed_x", "seed_y", "n_pixels",
-               "water", "mountain", "plain", "city"]
+            rows.append((chip.chip_id, chip.source, split[chip.chip_id], region,
+                         *decomposition.centres[region], config.terrain_weight, sizes[region],
+                         *features[region]))
+    columns = ["chip_id", "source", "split", "region", *CENTRE_COLUMNS, "terrain_weight", "n_pixels",
+               *TERRAIN_COLUMNS]
     return pd.DataFrame(rows, columns=columns)
+
+
+def chip_decomposition(rows: pd.DataFrame) -> Decomposition:
+    """The Decomposition of one chip from its rows of the regions table."""
+    rows = rows.sort_values("region")
+    return Decomposition(rows[list(CENTRE_COLUMNS)].to_numpy(dtype=np.float64),
+                         float(rows.terrain_weight.iloc[0]))
+
+
+def purity_table(chips: list[Chip], config: DecomposeConfig) -> pd.DataFrame:
+    """Mean region purity of every chip under `config` and under the plain Voronoi (w = 0), same seeds:
+    the "regions_purity" table (chip_id, method, purity)."""
+    rows = []
+    for method, weight in [("terrain", config.terrain_weight), ("voronoi", 0.0)]:
+        for chip in chips:
+            decomposition = decompose_chip(chip, DecomposeConfig(config.n_regions, weight,
+                                                                 config.lloyd_iterations, seed=config.seed))
+            rows.append((chip.chip_id, method, mean_purity(chip.terrain, decomposition.raster(chip.terrain),
+                                                           config.n_regions)))
+    return pd.DataFrame(rows, columns=["chip_id", "method", "purity"])

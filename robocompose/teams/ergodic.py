@@ -6,9 +6,25 @@ Spectral ergodic metric (Mathew and Mezic) on the unit square, uniform informati
     phi_k    = mean of F_k over the pixels of the region (the target: uniform over the region)
     c_k      = sum over the team's observations of w_o F_k(x_o) / sum of w_o (w_o = coverage weight of
                the observing robot's species, Table 5.3)
-    cost     = sum_k Lambda_k (c_k - phi_k)^2,   Lambda_k = (1 + |k|^2)^-1.5
-A team without robots has c_k = 0 for every k, so it costs sum_k Lambda_k phi_k^2 >= Lambda_0 phi_0^2 = 1.
-The coverage cost of an allocation is the sum of its teams' costs, one team per region.
+    E        = sum_k Lambda_k (c_k - phi_k)^2,   Lambda_k = (1 + |k|^2)^-1.5
+A team without robots has no observation, so c_k = 0 for every k and E = sum_k Lambda_k phi_k^2
+(>= Lambda_0 phi_0^2 = 1): the metric's own value, no constant is chosen for it.
+
+Coverage cost (the objective everywhere; E is the raw metric). E's scale depends on the region (a
+small region has large phi_k and small admissible errors), and a covered region costs ~1e-3 while an
+empty one costs >= 1, so summing raw E over regions mostly counts empty regions. We measure each
+team in the metric's own unit, the expected metric of one observation at a random point of its region:
+    G_i = E_{x ~ U(region i)} [ sum_k Lambda_k (F_k(x) - phi_k)^2 ] = sum_k Lambda_k Var_{x~U(i)} F_k(x)
+(the k = 0 term is 0: F_0 = 1). For N independent uniform observations c_k - phi_k is a mean of N
+zero-mean terms of variance Var F_k, so E[E] = G_i / N exactly: e_i = E_i / G_i = 1/N means "as good
+as N random glances at the region". The allocation's coverage cost is the area-weighted sum over its
+K teams (the thesis sums the teams' costs; weighting by a_i, the region's share of the chip's pixels,
+keeps the scale independent of K and of how the chip is cut):
+    coverage cost = sum_i a_i E_i / G_i.
+So covering every region as well as N random glances costs 1/N; a region left empty adds
+a_i sum_k Lambda_k phi_k^2 / G_i (about 4 for K = 8 on our chips), which puts any allocation that
+leaves a region empty outside the hypervolume box (reference 0.25 = 4 glances per region), while
+one moving robot per region with 20 optimised observations lands well inside it (~0.05).
 
 Trajectories: every robot takes `n_observations` observations x_0 .. x_{T-1}; x_0 is its deployment
 point, drawn uniformly in its region on terrain it can move on. Step t moves the robot by
@@ -18,9 +34,9 @@ and then looks at `substeps` evenly spaced points along d_t: the step is cut sho
 point on terrain where the species has speed 0, and scaled down by the slowest terrain it passes.
 So a robot can never enter such terrain, and cannot jump across a band of it wider than
 max step length / substeps (0.15 / 8 = 0.019 of the chip side, 6 pixels at 300 px, by default).
-The controls u (one 2-vector per step) are optimised by Adam on the summed team costs, all robots of
-all teams of all candidate allocations at once (the public code also uses gradient descent; the thesis
-says MPC). Teams do not interact, so batching does not change any team's result.
+The controls u (one 2-vector per step) are optimised by Adam on the summed raw team metrics E, all
+robots of all teams of all candidate allocations at once (the public code also uses gradient
+descent; the thesis says MPC). Teams do not interact, so batching does not change any team's result.
 """
 
 from __future__ import annotations
@@ -31,6 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
+from robocompose.io.errors import check_field
 from robocompose.teams.decompose import pixel_centres
 from robocompose.teams.species import coverage_weights, step_lengths
 
@@ -45,6 +62,15 @@ class CoverageConfig:
     initial_control_std: float = 1.0  # controls start as N(0, std^2): robots start moving apart
     robots_per_species: int = 20  # N_j, robots of each species in the bank
 
+    def __post_init__(self) -> None:
+        for name in ("n_coefficients", "substeps", "robots_per_species"):
+            check_field(getattr(self, name) >= 1, name, "an integer >= 1", getattr(self, name))
+        check_field(self.n_observations >= 2, "n_observations", "an integer >= 2 (the start and a step)",
+                    self.n_observations)
+        check_field(self.iterations >= 0, "iterations", "an integer >= 0", self.iterations)
+        check_field(self.learning_rate > 0, "learning_rate", "a number > 0", self.learning_rate)
+        check_field(self.initial_control_std >= 0, "initial_control_std", "a number >= 0", self.initial_control_std)
+
     def settings_hash(self) -> str:
         """Short hash of every setting that changes a coverage cost (the cache key part)."""
         return hashlib.sha1(repr(self).encode()).hexdigest()[:16]
@@ -58,15 +84,22 @@ def frequencies(n: int) -> tuple[torch.Tensor, torch.Tensor]:
     return h_1d[:, None] * h_1d[None, :], (1.0 + k_squared[:, None] + k_squared[None, :]) ** -1.5
 
 
-def region_coefficients(regions: np.ndarray, n_regions: int, n: int) -> torch.Tensor:
-    """(K, n, n) float64 phi_k of the uniform distribution over each region of an (H, W) raster."""
+def region_targets(regions: np.ndarray, n_regions: int, n: int) -> tuple[torch.Tensor, torch.Tensor]:
+    """Targets and glance costs of the uniform distribution over each region of an (H, W) raster.
+
+    Returns (phi (K, n, n) float64, G (K,) float64): phi_k of each region and G, the expected metric
+    of one observation drawn uniformly over the region's pixels (sum_k Lambda_k Var F_k).
+    """
     height, width = regions.shape
-    h, _ = frequencies(n)
+    h, sobolev = frequencies(n)
     cos_x = torch.cos(torch.pi * torch.arange(n)[None, :] * (torch.arange(width)[:, None] + 0.5) / width)
     cos_y = torch.cos(torch.pi * torch.arange(n)[None, :] * (torch.arange(height)[:, None] + 0.5) / height)
+    cos_x, cos_y = cos_x.double(), cos_y.double()
     one_hot = torch.nn.functional.one_hot(torch.as_tensor(regions), n_regions).double()  # (H, W, K)
-    sums = torch.einsum("hwk,hj,wi->kij", one_hot, cos_y.double(), cos_x.double())  # i: x index, j: y
-    return sums / one_hot.sum((0, 1))[:, None, None] / h
+    pixels = one_hot.sum((0, 1))[:, None, None]  # (K, 1, 1)
+    phi = torch.einsum("hwk,hj,wi->kij", one_hot, cos_y, cos_x) / pixels / h  # i: x index, j: y
+    second_moment = torch.einsum("hwk,hj,wi->kij", one_hot, cos_y**2, cos_x**2) / pixels / h**2
+    return phi, (sobolev * (second_moment - phi**2)).sum((-2, -1))
 
 
 def ergodic_cost(observations: torch.Tensor, weights: torch.Tensor, team: torch.Tensor, phi: torch.Tensor,
@@ -134,7 +167,7 @@ def optimise_trajectories(robots: Robots, phi: torch.Tensor, terrain: torch.Tens
     """Optimise every robot's controls for its team's ergodic cost.
 
     phi: (n_teams, n, n) team targets; terrain: (H, W) int64 terrain ids.
-    Returns (team costs (n_teams,) float64 of the final trajectories, observations (N, T, 2)).
+    Returns (raw team metrics E (n_teams,) float64 of the final trajectories, observations (N, T, 2)).
     """
     species_weight = torch.as_tensor(coverage_weights(), dtype=torch.float32)[robots.species]  # (N,)
     weights = species_weight[:, None].expand(-1, config.n_observations)  # (N, T)
@@ -166,7 +199,8 @@ class ChipCoverage:
         self.n_regions = n_regions
         self.regions = regions  # (H, W) region index of every pixel
         self.terrain = torch.as_tensor(terrain.astype(np.int64))  # (H, W)
-        self.phi = region_coefficients(regions, n_regions, config.n_coefficients)  # (K, n, n)
+        self.phi, self.glance = region_targets(regions, n_regions, config.n_coefficients)  # (K, n, n), (K,)
+        self.area = torch.as_tensor(np.bincount(regions.ravel(), minlength=n_regions) / regions.size)  # (K,)
         height, width = terrain.shape
         self.centres = pixel_centres(height, width).reshape(-1, 2)  # (H*W, 2)
         self.pixel_size = np.array([1.0 / width, 1.0 / height])
@@ -183,20 +217,23 @@ class ChipCoverage:
     def deploy(self, counts: np.ndarray, seed: int) -> Robots:
         """Robots of (B, K, O) allocations; allocation b's team in region i is team b * K + i.
 
-        Each allocation draws its robots' deployment points and initial controls from its own
-        Generator((seed, allocation id)), so its result does not depend on the rest of the batch.
+        The team in region i with species counts n_i draws its robots' deployment points and initial
+        controls from its own Generator((seed, i, *n_i)), so a team's plan and cost depend only on its
+        region and its counts: an allocation's cost is a sum of team costs, and neither depends on the
+        rest of the batch.
         """
         species, team, start, controls = [], [], [], []
         for b, allocation in enumerate(counts):
-            rng = np.random.default_rng([seed, int(allocation_id(allocation), 16)])
-            for i, j in np.argwhere(allocation > 0):
-                n = int(allocation[i, j])
-                pixels = self.deploy_pixels[i][j][rng.integers(len(self.deploy_pixels[i][j]), size=n)]
-                start.append(self.centres[pixels] + (rng.random((n, 2)) - 0.5) * self.pixel_size)
-                controls.append(rng.standard_normal((n, self.config.n_observations - 1, 2))
-                                * self.config.initial_control_std)
-                species.append(np.full(n, j))
-                team.append(np.full(n, b * self.n_regions + i))
+            for i in np.flatnonzero(allocation.sum(1)):
+                rng = np.random.default_rng([seed, int(i), *(int(n) for n in allocation[i])])
+                for j in np.flatnonzero(allocation[i]):
+                    n = int(allocation[i, j])
+                    pixels = self.deploy_pixels[i][j][rng.integers(len(self.deploy_pixels[i][j]), size=n)]
+                    start.append(self.centres[pixels] + (rng.random((n, 2)) - 0.5) * self.pixel_size)
+                    controls.append(rng.standard_normal((n, self.config.n_observations - 1, 2))
+                                    * self.config.initial_control_std)
+                    species.append(np.full(n, j))
+                    team.append(np.full(n, b * self.n_regions + i))
         if not species:
             empty = torch.zeros(0, dtype=torch.int64)
             return Robots(empty, empty, torch.zeros(0, 2), torch.zeros(0, self.config.n_observations - 1, 2))
@@ -209,9 +246,26 @@ class ChipCoverage:
 
         Returns (coverage costs (B,) float64, the robots, their observations (N, T, 2)).
         """
+        costs, robots, observations = self.evaluate_teams(counts, seed)
+        return costs.sum(1), robots, observations
+
+    def evaluate_teams(self, counts: np.ndarray, seed: int) -> tuple[np.ndarray, Robots, torch.Tensor]:
+        """As `evaluate`, with the (B, K) team costs a_i E_i / G_i (their row sums are the coverage costs)."""
         counts = np.asarray(counts)
-        n_batch = len(counts)
         robots = self.deploy(counts, seed)
-        phi = self.phi.repeat(n_batch, 1, 1)  # (B*K, n, n)
-        costs, observations = optimise_trajectories(robots, phi, self.terrain, self.config)
-        return costs.reshape(n_batch, self.n_regions).sum(1).numpy(), robots, observations
+        phi = self.phi.repeat(len(counts), 1, 1)  # (B*K, n, n)
+        metrics, observations = optimise_trajectories(robots, phi, self.terrain, self.config)
+        return self.team_costs(metrics), robots, observations
+
+    def team_costs(self, metrics: torch.Tensor) -> np.ndarray:
+        """(B, K) team costs a_i E_i / G_i of (B*K,) raw team metrics (team b*K + i in region i)."""
+        return (metrics.reshape(-1, self.n_regions) / self.glance * self.area).numpy()
+
+    def empty_team_costs(self) -> np.ndarray:
+        """(K,) the team cost of each region without robots: a_i sum_k Lambda_k phi_k^2 / G_i."""
+        _, sobolev = frequencies(self.config.n_coefficients)
+        return (self.area * (sobolev * self.phi**2).sum((-2, -1)) / self.glance).numpy()
+
+    def coverage_cost(self, metrics: torch.Tensor) -> np.ndarray:
+        """(B,) coverage costs sum_i a_i E_i / G_i of (B*K,) raw team metrics."""
+        return self.team_costs(metrics).sum(1)

@@ -16,7 +16,7 @@ import numpy as np
 
 from robocompose.evaluation.cache import CacheKey, EvaluationCache
 from robocompose.teams.chips import Chip
-from robocompose.teams.decompose import region_raster
+from robocompose.teams.decompose import Decomposition
 from robocompose.teams.ergodic import ChipCoverage, CoverageConfig, allocation_id
 from robocompose.teams.species import deployment_cost
 
@@ -28,10 +28,9 @@ def teams_cache(path: str | Path | None = None) -> EvaluationCache:
     return EvaluationCache(path, table="teams_eval_cache", key_columns=CACHE_KEY_COLUMNS)
 
 
-def chip_coverage(chip: Chip, seeds: np.ndarray, coverage: CoverageConfig) -> ChipCoverage:
-    """The coverage problem of a chip decomposed into the Voronoi regions of (K, 2) `seeds`."""
-    regions = region_raster(seeds, *chip.classes.shape)
-    return ChipCoverage(chip.terrain, regions, len(seeds), coverage)
+def chip_coverage(chip: Chip, decomposition: Decomposition, coverage: CoverageConfig) -> ChipCoverage:
+    """The coverage problem of a chip split into the regions of `decomposition`."""
+    return ChipCoverage(chip.terrain, decomposition.raster(chip.terrain), decomposition.n_regions, coverage)
 
 
 class AllocationEvaluator:

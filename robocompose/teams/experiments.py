@@ -1,10 +1,13 @@
 """The experiments of thesis Tables 5.4 and 5.5 on the decomposed test chips.
 
-Table 5.4: NSGA-II with each population size, for each of the first `nsga2_chips` test chips and each
-seed; the runtime is the wall time of the run measured inside it, with an empty evaluation cache (as
-the thesis times a run from scratch); every evaluation is then merged into the stage's cache for later
-stages. Table 5.5: the baselines of baselines.py at each deployment budget, for the first
-`baseline_chips` test chips and each seed.
+Every row of a table runs on the same chips and seeds: Table 5.4 on the first `table_5_4_chips`
+test chips, Table 5.5 on the first `table_5_5_chips`, each on every one of `seeds` (EG-GAN's rows
+come from generative.py on the same chips). Table 5.4: NSGA-II with each population size per chip
+and seed; the runtime is the wall time of the run measured inside it, with an empty evaluation
+cache (as the thesis times a run from scratch); every evaluation is then merged into the stage's
+cache for later stages. Runtimes are returned apart from the runs table, which DVC hashes (wall
+time is not reproducible). Table 5.5: the baselines of baselines.py at each deployment budget, per
+chip and seed.
 
 The runs (chip x seed x population) and the per-chip baselines are independent tasks, fanned out
 through the project's Executor (local processes or a Dask cluster; None = in this process). Each task
@@ -24,6 +27,7 @@ from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.executor import Executor
 from robocompose.teams.baselines import no_decomposition_costs, random_allocation, random_species_counts
 from robocompose.teams.chips import Chip, read_chip
+from robocompose.teams.decompose import Decomposition, chip_decomposition
 from robocompose.teams.ergodic import CoverageConfig
 from robocompose.teams.evaluator import AllocationEvaluator, chip_coverage
 from robocompose.teams.nsga2 import NSGA2Config, NSGA2Result, run_nsga2
@@ -31,82 +35,96 @@ from robocompose.teams.params import ExperimentsConfig
 from robocompose.teams.species import SPECIES, deployment_cost
 
 
-def decomposed_chips(regions: pd.DataFrame, split: str) -> list[tuple[Chip, np.ndarray]]:
-    """(chip, (K, 2) Voronoi seeds) of every chip of `split` in the regions table, sorted by chip id."""
-    chips = []
-    for chip_id, rows in regions[regions.split == split].groupby("chip_id", sort=True):
-        rows = rows.sort_values("region")
-        chips.append((read_chip(chip_id, rows.source.iloc[0]), rows[["seed_x", "seed_y"]].to_numpy()))
-    return chips
+def decomposed_chips(regions: pd.DataFrame, split: str) -> list[tuple[Chip, Decomposition]]:
+    """(chip, its regions) of every chip of `split` in the regions table, sorted by chip id."""
+    return [(read_chip(chip_id, rows.source.iloc[0]), chip_decomposition(rows))
+            for chip_id, rows in regions[regions.split == split].groupby("chip_id", sort=True)]
 
 
-def _nsga2_run(task: tuple[Chip, np.ndarray, CoverageConfig, NSGA2Config, int]
+def _nsga2_run(task: tuple[Chip, Decomposition, CoverageConfig, NSGA2Config, int]
                ) -> tuple[NSGA2Result, EvaluationCache]:
     """One NSGA-II run on one chip (an executor task): its result and the cache of its evaluations."""
-    chip, seeds, coverage, nsga2, threads = task
+    chip, decomposition, coverage, nsga2, threads = task
     torch.set_num_threads(threads)
-    evaluate = AllocationEvaluator(chip_coverage(chip, seeds, coverage), chip.chip_id, nsga2.seed)
-    result = run_nsga2(evaluate, len(seeds), len(SPECIES), coverage.robots_per_species, nsga2)
+    evaluate = AllocationEvaluator(chip_coverage(chip, decomposition, coverage), chip.chip_id, nsga2.seed)
+    result = run_nsga2(evaluate, decomposition.n_regions, len(SPECIES), coverage.robots_per_species, nsga2)
     return result, evaluate.cache
 
 
-def nsga2_runs(chips: list[tuple[Chip, np.ndarray]], coverage: CoverageConfig, config: ExperimentsConfig,
-               cache: EvaluationCache, executor: Executor | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Run NSGA-II per chip x seed x population; return the "teams_nsga2" and "teams_fronts" tables."""
-    tasks = [(chip, seeds, coverage,
+def nsga2_runs(chips: list[tuple[Chip, Decomposition]], coverage: CoverageConfig, config: ExperimentsConfig,
+               cache: EvaluationCache, executor: Executor | None = None
+               ) -> tuple[pd.DataFrame, pd.DataFrame, list[dict]]:
+    """Run NSGA-II per chip x seed x population.
+
+    Returns the "teams_nsga2" and "teams_fronts" tables and the runs' wall times (one dict per run:
+    chip_id, population, seed, seconds) for the untracked timings file.
+    """
+    tasks = [(chip, decomposition, coverage,
               NSGA2Config(population=population, generations=config.generations,
                           crossover_probability=config.crossover_probability,
                           mutation_rate=config.mutation_rate, seed=seed),
               torch.get_num_threads())
-             for chip, seeds in chips[:config.nsga2_chips]
-             for seed in config.nsga2_seeds
+             for chip, decomposition in chips[:config.table_5_4_chips]
+             for seed in config.seeds
              for population in config.populations]
     results = (executor or Executor(workers=1)).map(_nsga2_run, tasks)
-    runs, fronts = [], []
+    runs, fronts, seconds = [], [], []
     for (chip, _, _, nsga2, _), (result, evaluations) in zip(tasks, results, strict=True):
         cache.merge(evaluations)  # in task order: a key evaluated by two runs keeps the later run's value
         runs.append((chip.chip_id, nsga2.population, nsga2.seed, nsga2.generations, result.hypervolume,
-                     result.seconds, result.evaluations))
+                     result.evaluations))
+        seconds.append({"chip_id": chip.chip_id, "population": nsga2.population, "seed": nsga2.seed,
+                        "seconds": round(result.seconds, 2)})
         fronts += [(chip.chip_id, nsga2.population, nsga2.seed, cost, int(deploy), counts.ravel().tolist())
                    for (cost, deploy), counts in zip(result.front, result.counts, strict=True)]
     return (pd.DataFrame(runs, columns=["chip_id", "population", "seed", "generations", "hypervolume",
-                                        "seconds", "evaluations"]),
+                                        "evaluations"]),
             pd.DataFrame(fronts, columns=["chip_id", "population", "seed", "coverage_cost",
-                                          "deployment_cost", "counts"]))
+                                          "deployment_cost", "counts"]),
+            seconds)
 
 
-def _chip_baselines(task: tuple[Chip, np.ndarray, CoverageConfig, ExperimentsConfig, int]) -> list[tuple]:
+def baseline_draws(chip_id: str, seed: int, budgets: list[int], n_regions: int, robots_per_species: int
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """The random draws of Table 5.5 on one chip and seed, from Generator((seed, hash of the chip id)):
+    ((n_budgets, K, O) random allocations, (n_budgets, O) species counts of the joint teams)."""
+    rng = np.random.default_rng([seed, int(hashlib.sha1(chip_id.encode()).hexdigest()[:12], 16)])
+    n_species = len(SPECIES)
+    allocations = np.stack([random_allocation(rng, b, n_regions, n_species, robots_per_species) for b in budgets])
+    teams = np.stack([random_species_counts(rng, b, n_species, robots_per_species) for b in budgets])
+    return allocations, teams
+
+
+def _chip_baselines(task: tuple[Chip, Decomposition, CoverageConfig, ExperimentsConfig, int]) -> list[tuple]:
     """The Table 5.5 rows of one chip (an executor task), every seed x budget."""
-    chip, seeds, coverage, config, threads = task
+    chip, decomposition, coverage, config, threads = task
     torch.set_num_threads(threads)
-    problem = chip_coverage(chip, seeds, coverage)
-    n_species, bank = len(SPECIES), coverage.robots_per_species
-    chip_hash = int(hashlib.sha1(chip.chip_id.encode()).hexdigest()[:12], 16)
+    problem = chip_coverage(chip, decomposition, coverage)
+    n_regions = decomposition.n_regions
     rows = []
-    for seed in config.baseline_seeds:
-        rng = np.random.default_rng([seed, chip_hash])
-        allocations = np.stack([random_allocation(rng, b, len(seeds), n_species, bank)
-                                for b in config.budgets])  # (n_budgets, K, O)
-        teams = np.stack([random_species_counts(rng, b, n_species, bank) for b in config.budgets])
+    for seed in config.seeds:
+        allocations, teams = baseline_draws(chip.chip_id, seed, config.budgets, n_regions,
+                                            coverage.robots_per_species)
         random_costs, _, _ = problem.evaluate(allocations, seed)
-        joint_costs = no_decomposition_costs(problem, teams, seed)
-        for budget, random_cost, joint_cost, allocation, team in zip(
-                config.budgets, random_costs, joint_costs, allocations, teams, strict=True):
+        joint_costs, joint_unvisited = no_decomposition_costs(problem, teams, seed)
+        for budget, random_cost, joint_cost, unvisited, allocation, team in zip(
+                config.budgets, random_costs, joint_costs, joint_unvisited, allocations, teams, strict=True):
             rows.append(("dec_random_allocation", chip.chip_id, budget, seed, random_cost,
-                         int(deployment_cost(allocation))))
-            rows.append(("no_decomposition", chip.chip_id, budget, seed, joint_cost, int(team.sum())))
+                         int(deployment_cost(allocation)), int((allocation.sum(1) == 0).sum())))
+            rows.append(("no_decomposition", chip.chip_id, budget, seed, joint_cost, int(team.sum()),
+                         int(unvisited)))
     return rows
 
 
-def coverage_baselines(chips: list[tuple[Chip, np.ndarray]], coverage: CoverageConfig,
+def coverage_baselines(chips: list[tuple[Chip, Decomposition]], coverage: CoverageConfig,
                        config: ExperimentsConfig, executor: Executor | None = None) -> pd.DataFrame:
     """Table 5.5 baselines per chip x seed x budget: the "teams_coverage" table."""
-    tasks = [(chip, seeds, coverage, config, torch.get_num_threads())
-             for chip, seeds in chips[:config.baseline_chips]]
+    tasks = [(chip, decomposition, coverage, config, torch.get_num_threads())
+             for chip, decomposition in chips[:config.table_5_5_chips]]
     per_chip = (executor or Executor(workers=1)).map(_chip_baselines, tasks)
     rows = [row for chip_rows in per_chip for row in chip_rows]
     return pd.DataFrame(rows, columns=["method", "chip_id", "budget", "seed", "coverage_cost",
-                                       "deployment_cost"])
+                                       "deployment_cost", "empty_regions"])
 
 
 def example_allocation(fronts: pd.DataFrame, chip_id: str, n_regions: int,
@@ -122,10 +140,10 @@ def example_allocation(fronts: pd.DataFrame, chip_id: str, n_regions: int,
     return np.asarray(example.counts, dtype=np.int64).reshape(n_regions, -1), int(example.seed)
 
 
-def example_trajectories(chip: Chip, seeds: np.ndarray, coverage: CoverageConfig, counts: np.ndarray,
-                         seed: int) -> pd.DataFrame:
+def example_trajectories(chip: Chip, decomposition: Decomposition, coverage: CoverageConfig,
+                         counts: np.ndarray, seed: int) -> pd.DataFrame:
     """Observations of every robot of one (K, O) allocation: the "teams_trajectories" table."""
-    problem = chip_coverage(chip, seeds, coverage)
+    problem = chip_coverage(chip, decomposition, coverage)
     _, robots, observations = problem.evaluate(counts[None], seed)  # (N, T, 2)
     n_robots, n_steps, _ = observations.shape
     points = observations.double().numpy()
@@ -133,7 +151,7 @@ def example_trajectories(chip: Chip, seeds: np.ndarray, coverage: CoverageConfig
         "chip_id": chip.chip_id,
         "robot": np.repeat(np.arange(n_robots), n_steps),
         "species": np.repeat(robots.species.numpy(), n_steps),
-        "region": np.repeat(robots.team.numpy() % len(seeds), n_steps),
+        "region": np.repeat(robots.team.numpy() % decomposition.n_regions, n_steps),
         "step": np.tile(np.arange(n_steps), n_robots),
         "x": points[..., 0].ravel(),
         "y": points[..., 1].ravel(),

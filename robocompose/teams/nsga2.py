@@ -2,21 +2,27 @@
 
 Genome: the K x O allocation fractions, flattened, each in [0, 1]; species.allocation_to_counts turns
 them into robots (a species asked for more than all its robots is scaled down to all of them).
-Objectives, both minimised: coverage cost (sum over regions of the ergodic metric, ergodic.py) and
+Objectives, both minimised: coverage cost (area-weighted ergodic metric per region, ergodic.py) and
 deployment cost (robots deployed).
 Operators as in the thesis: single-point arithmetic crossover applied with probability 0.5 (a cut
 point c is drawn; genes from c on become the blends a p1 + (1 - a) p2 and (1 - a) p1 + a p2 with
 a ~ U(0, 1), genes before c are copied) and uniform mutation (each gene is redrawn uniformly in [0, 1]
-with probability 0.1); pymoo's NSGA-II survival and binary tournament selection. The initial
+with probability 0.1); pymoo's NSGA-II survival (non-dominated sorting, crowding distance, elitist
+truncation of parents + children) and, as in the thesis's Algorithm 3, roulette-wheel selection of
+the parents: the population is ordered by NSGA-II's crowded comparison (Pareto rank, then larger
+crowding distance first) and the individual at position j of n gets a slice of the wheel
+proportional to n - j (linear rank weights, as the group's public GA; a multi-objective population
+has no scalar fitness to make slices of, rank is what Algorithm 3 assigns). The initial
 population (not given by the thesis) deploys a uniform share s ~ U(0, 1) of each species, split over
 the regions by a flat Dirichlet draw, so it spans every deployment cost from 0 to 60 (uniform
 genes would deploy nearly the whole bank).
 
-Hypervolume: reference point (0.25, 60) on (coverage cost, deployment cost), the thesis's. Coverage
-cost is used as is (no rescaling): a team without robots costs >= 1 (ergodic.py), so the reference
-0.25 keeps exactly the allocations that put robots in every region and cover them reasonably, and 60
-is the whole bank (3 species x 20). The box has area 15; the thesis reports 9.4 (NSGA-II:20) and
-11.9 (NSGA-II:50).
+Hypervolume: reference point (0.25, 60) on (coverage cost, deployment cost), the thesis's. The
+coverage cost is ergodic.py's: the area-weighted ergodic metric in units of one random glance per
+region, so 0.25 admits the allocations that cover every region better than 4 random glances each;
+one that leaves a region empty costs > 1 and stays outside, and inside the box the hypervolume
+grows with coverage at a fixed robot count, not only with fewer robots. 60 is the whole bank
+(3 species x 20). The box has area 15; the thesis reports 9.4 (NSGA-II:20) and 11.9 (NSGA-II:50).
 """
 
 from __future__ import annotations
@@ -29,12 +35,16 @@ import numpy as np
 from pymoo.algorithms.moo.nsga2 import NSGA2
 from pymoo.core.crossover import Crossover
 from pymoo.core.mutation import Mutation
+from pymoo.core.population import Population
 from pymoo.core.problem import Problem
 from pymoo.core.sampling import Sampling
+from pymoo.core.selection import Selection
 from pymoo.indicators.hv import HV
+from pymoo.operators.survival.rank_and_crowding import RankAndCrowding
 from pymoo.optimize import minimize
 from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting
 
+from robocompose.io.errors import check_field
 from robocompose.teams.species import allocation_to_counts
 
 REFERENCE_POINT = (0.25, 60.0)
@@ -48,6 +58,13 @@ class NSGA2Config:
     mutation_rate: float = 0.1  # per-gene probability of a uniform redraw
     seed: int = 0  # seeds pymoo's Generator
 
+    def __post_init__(self) -> None:
+        check_field(self.population >= 2, "population", "an integer >= 2", self.population)
+        check_field(self.generations >= 1, "generations", "an integer >= 1", self.generations)
+        for name in ("crossover_probability", "mutation_rate"):
+            check_field(0 <= getattr(self, name) <= 1, name, "a probability in [0, 1]", getattr(self, name))
+        check_field(self.seed >= 0, "seed", "an integer >= 0", self.seed)
+
 
 class DeploymentShareSampling(Sampling):
     def _do(self, problem, n_samples, *args, random_state=None, **kwargs):
@@ -55,6 +72,18 @@ class DeploymentShareSampling(Sampling):
         share = random_state.random((n_samples, 1, n_species))  # (B, 1, O) deployed share per species
         split = random_state.dirichlet(np.ones(n_regions), size=(n_samples, n_species))  # (B, O, K)
         return (share * split.transpose(0, 2, 1)).reshape(n_samples, -1)
+
+
+class RankRouletteSelection(Selection):
+    """Roulette wheel over the crowded-comparison order (Algorithm 3): slice of position j of n = n - j."""
+
+    def _do(self, problem, pop, n_select, n_parents, *args, random_state=None, **kwargs):
+        rank, crowding = pop.get("rank"), pop.get("crowding")  # set by the rank-and-crowding survival
+        order = np.lexsort((-crowding, rank))  # best first
+        slices = np.empty(len(pop))
+        slices[order] = np.arange(len(pop), 0, -1, dtype=np.float64)  # (n,) n for the best .. 1
+        picks = random_state.choice(len(pop), size=n_select * n_parents, p=slices / slices.sum())
+        return picks.reshape(n_select, n_parents)
 
 
 class SinglePointArithmeticCrossover(Crossover):
@@ -128,6 +157,7 @@ def run_nsga2(evaluate: Callable[[np.ndarray], np.ndarray], n_regions: int, n_sp
     """Run NSGA-II; `evaluate` maps (B, K, O) counts to (B, 2) objectives."""
     problem = AllocationProblem(n_regions, n_species, robots_per_species, evaluate)
     algorithm = NSGA2(pop_size=config.population, sampling=DeploymentShareSampling(),
+                      selection=RankRouletteSelection(),
                       crossover=SinglePointArithmeticCrossover(config.crossover_probability),
                       mutation=UniformMutation(config.mutation_rate), eliminate_duplicates=True)
     started = time.perf_counter()
@@ -139,3 +169,29 @@ def run_nsga2(evaluate: Callable[[np.ndarray], np.ndarray], n_regions: int, n_sp
     keep = keep[np.argsort(objectives[keep, 1], kind="stable")]
     return NSGA2Result(objectives[keep], counts[keep], hypervolume(objectives[keep]), seconds,
                        int(result.algorithm.evaluator.n_eval))
+
+
+def nsga2_generation(genomes: np.ndarray, objectives: np.ndarray, problem: AllocationProblem,
+                     crossover_probability: float, mutation_rate: float, rng: np.random.Generator
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """One NSGA-II generation on a given population (Algorithm 3's loop body, EG-GAN's data creation).
+
+    (B, n_var) genomes with (B, 2) objectives: rank and crowding distance, roulette-wheel selection of
+    B/2 parent pairs, single-point arithmetic crossover with probability `crossover_probability` (else
+    the parents are copied), uniform mutation, evaluation of the B children by `problem`, and the
+    elitist survival of B of the 2B parents and children. Returns the survivors' genomes and objectives.
+    """
+    survival = RankAndCrowding()
+    population = survival.do(problem, Population.new(X=genomes, F=objectives), n_survive=len(genomes),
+                             random_state=rng)  # sets rank and crowding
+    parents = RankRouletteSelection()._do(problem, population, len(genomes) // 2, 2, random_state=rng)
+    pairs = population.get("X")[parents.T]  # (2, B/2, n_var)
+    crossed = SinglePointArithmeticCrossover(crossover_probability)._do(problem, pairs, random_state=rng)
+    keep = rng.random(pairs.shape[1]) >= crossover_probability  # (B/2,) matings that copy their parents
+    children = np.where(keep[None, :, None], pairs, crossed).reshape(-1, pairs.shape[-1])  # (B, n_var)
+    children = UniformMutation(mutation_rate)._do(problem, children, random_state=rng)
+    child_objectives = problem.evaluate_counts(problem.counts(children))
+    merged = Population.new(X=np.concatenate([population.get("X"), children]),
+                            F=np.concatenate([population.get("F"), child_objectives]))
+    survivors = survival.do(problem, merged, n_survive=len(genomes), random_state=rng)
+    return survivors.get("X"), survivors.get("F")

@@ -77,3 +77,23 @@ def test_run_reward_equals_the_per_step_reward_with_velocities(tree):
                 pb.stepSimulation(physicsClientId=world.client)
                 slow += world.reward_now()
     assert fast == pytest.approx(slow, rel=1e-9, abs=1e-9) and abs(fast / 96 - 4.0) > 1e-3
+
+
+# Scores of a small MPPI episode, pinned to the last bit: a speed-up of the world or the controller must
+# leave them unchanged (changes that move scores are a fidelity question, see the README). The floor's
+# size alone moves them in the 13th digit (flat's floor is 40 m long, ridged's 20 m; the ridges are not
+# reached in 6 control steps).
+PINNED_SCORES = {("robogrammar_flat", "flat"): 4.086111602347066, ("robogrammar_flat", "ridged"): 4.086111602347207,
+                 ("robogrammar_ridged", "flat"): 4.090167214063137,
+                 ("robogrammar_ridged", "ridged"): 4.090167214063395}
+
+
+@pytest.mark.parametrize(("design", "task"), list(PINNED_SCORES))
+def test_scores_stay_bit_identical(design, task):
+    from robocompose.control.mppi import MPPIConfig
+    from robocompose.evaluation.evaluate import EvaluationConfig, evaluate
+    from robocompose.evaluation.references import REFERENCE_DESIGNS
+
+    config = EvaluationConfig(mppi=MPPIConfig(samples=4, first_samples=8, horizon=4, episode=6))
+    row = evaluate(derive(parse_rules(REFERENCE_DESIGNS[design])).tree, task, config, seed=0)
+    assert row["reward"] == PINNED_SCORES[design, task] and row["sim_steps"] == 2144

@@ -27,9 +27,12 @@ def test_recording_does_not_change_the_result(recorded):
     assert np.mean(recorder.rewards) == pytest.approx(row["reward"])
 
 
-def test_mcap_holds_scene_transforms_and_rewards(tmp_path, recorded):
+def test_mcap_holds_scene_transforms_and_rewards(tmp_path, recorded, valid_foxglove_log):
     tree, recorder, _ = recorded
     messages = read_mcap(recorder.write_mcap(tmp_path / "a.mcap"))
+    assert valid_foxglove_log(tmp_path / "a.mcap") == len(messages)
+    assert [m.topic for m in messages[:2]] == ["/tf", "/scene"]  # no scene before the frames it is locked to
+    assert messages[0].log_time_ns == messages[1].log_time_ns
     scene = [m for m in messages if m.topic == "/scene"]
     tf = [m for m in messages if m.topic == "/tf"]
     assert len(scene) == 1 and len(scene[0].data["entities"]) == tree.n_links + 1  # terrain + links

@@ -1,11 +1,17 @@
-"""The Prefect pipeline flow on real, tiny DVC projects, against a temporary Prefect server."""
+"""The Prefect pipeline flow on real, tiny DVC projects: against a temporary Prefect server, and served on a
+cron schedule against a real `prefect server` on loopback (the run triggered through its API)."""
 
 from __future__ import annotations
 
+import asyncio
 import importlib.util
 import json
+import os
+import socket
 import subprocess
 import sys
+import time
+import urllib.request
 from collections.abc import Iterator
 from pathlib import Path
 from types import ModuleType
@@ -156,32 +162,12 @@ def test_failing_stage_fails_the_flow_after_one_retry(
 TINY_PARAMS = {"enumerate": {"n": 6, "seed": 0, "workers": 2, "chunk": 8}, "nogram": {"n": 4, "seed": 1}}
 
 
-def copy_project(root: Path, params: dict) -> Path:
-    """The project's tracked files (as in the working tree) in a new git repo, with tiny params."""
-    import shutil
-
-    import yaml
-
-    source = PIPELINE_FILE.parents[1]
-    files = subprocess.run(["git", "ls-files"], cwd=source, check=True, capture_output=True, text=True).stdout.split()
-    for name in files:
-        if (source / name).is_file():
-            (root / name).parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(source / name, root / name)
-    document = yaml.safe_load((root / "profiles" / "default.yaml").read_text())
-    for section, values in params.items():
-        document[section].update(values)
-    (root / "params.yaml").write_text(yaml.safe_dump(document))
-    subprocess.run(["git", "init", "-q"], cwd=root, check=True)
-    return root
-
-
 def dvc(project: Path, *args: str) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "dvc", *args], cwd=project, capture_output=True, text=True)
 
 
 def test_flow_runs_the_real_enumerate_stage_reproducibly(
-    flows_pipeline: ModuleType, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    flows_pipeline: ModuleType, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, copy_project
 ) -> None:
     import os
 
@@ -223,3 +209,121 @@ def yaml_dump(document: dict) -> str:
     import yaml
 
     return yaml.safe_dump(document)
+
+
+def test_unknown_stage_is_rejected_before_any_prefect_server_starts(tmp_path: Path) -> None:
+    project = make_dvc_project(tmp_path / "project")
+    home = tmp_path / "prefect_home"
+    env = {**os.environ, "PREFECT_HOME": str(home), "PREFECT_API_URL": "", "DVC_NO_ANALYTICS": "1",
+           "DVC_SITE_CACHE_DIR": str(tmp_path / "dvc_site_cache")}
+    result = subprocess.run([sys.executable, str(PIPELINE_FILE), "--stage", "nosuch", "--project-dir", str(project)],
+                            capture_output=True, text=True, env=env)
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    assert "error: unknown DVC stage(s) ['nosuch']; dvc.yaml defines" in result.stderr.splitlines()[-1]
+    assert not list(home.rglob("*.db"))  # the ephemeral server's database: never created
+# --- served on a real Prefect server ---
+
+# `b` fails on its first attempt (it leaves a marker), succeeds on the second: the task's retry.
+FLAKY_STAGE = """\
+import os, sys
+if not os.path.exists("tried"):
+    open("tried", "w").close()
+    sys.exit(3)
+open("b.txt", "w").write(open("a.txt").read() + "b")
+"""
+FLAKY_DVC_YAML = """\
+stages:
+  a:
+    cmd: python -c "open('a.txt', 'w').write('7'); print('stage a wrote 7')"
+    outs: [a.txt]
+  b:
+    cmd: python flaky.py
+    deps: [a.txt]
+    outs: [b.txt]
+"""
+
+
+def _free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+def _wait_healthy(url: str, server: subprocess.Popen, seconds: float = 180) -> None:
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        assert server.poll() is None, "prefect server exited during start-up"
+        try:
+            with urllib.request.urlopen(f"{url}/health", timeout=2) as response:
+                if response.status == 200:
+                    return
+        except OSError:
+            time.sleep(1)
+    raise AssertionError(f"prefect server at {url} not healthy after {seconds} s")
+
+
+@pytest.fixture()
+def prefect_server(tmp_path: Path):
+    """A real Prefect server on 127.0.0.1 with its own home; yields the env that points clients at it."""
+    port = _free_port()
+    env = {**os.environ, "PREFECT_HOME": str(tmp_path / "prefect"), "PREFECT_SERVER_ANALYTICS_ENABLED": "false",
+           "DO_NOT_TRACK": "1", "DVC_NO_ANALYTICS": "1", "PREFECT_RUNNER_POLL_FREQUENCY": "1",
+           "PREFECT_API_URL": f"http://127.0.0.1:{port}/api",
+           "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}"}
+    server = subprocess.Popen([sys.executable, "-m", "prefect", "server", "start", "--host", "127.0.0.1",
+                               "--port", str(port)], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        _wait_healthy(env["PREFECT_API_URL"], server)
+        yield env
+    finally:
+        server.terminate()
+        server.wait(timeout=30)
+
+
+@pytest.mark.slow
+def test_served_flow_runs_on_a_real_server_and_retries_a_failed_stage(prefect_server: dict, tmp_path: Path,
+                                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    project = make_dvc_project(tmp_path / "project", FLAKY_DVC_YAML)
+    (project / "flaky.py").write_text(FLAKY_STAGE)
+    serve = subprocess.Popen([sys.executable, str(PIPELINE_FILE), "--serve", "--cron", "0 3 * * *", "--name",
+                              "nightly", "--project-dir", str(project)], env=prefect_server,
+                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    for key, value in prefect_server.items():
+        monkeypatch.setenv(key, value)
+    try:
+        state, logs, schedules = asyncio.run(_trigger_and_wait(serve))
+    finally:
+        serve.terminate()
+        output = serve.communicate(timeout=30)[0]
+    assert state.is_completed(), f"{state.name}: {state.message}\n{output[-3000:]}"
+    assert [s for s in schedules if "0 3 * * *" in s], schedules
+    assert (project / "b.txt").read_text() == "7b" and (project / "tried").exists()
+    assert any("stage a wrote 7" in line for line in logs)
+    assert any("DVC stage 'b' failed" in line and "Retry 1/1" in line for line in logs), logs  # failed once
+
+
+async def _trigger_and_wait(serve: subprocess.Popen, seconds: float = 240):
+    from prefect.client.orchestration import get_client
+
+    deadline = time.monotonic() + seconds
+    async with get_client() as client:
+        deployment = None
+        while deployment is None:
+            assert serve.poll() is None, serve.stdout.read()
+            assert time.monotonic() < deadline, "the served deployment never appeared"
+            try:
+                deployment = await client.read_deployment_by_name("robocompose-pipeline/nightly")
+            except Exception:  # not registered yet (ObjectNotFound): the serve process is starting
+                await asyncio.sleep(1)
+        schedules = [str(s.schedule) for s in deployment.schedules]
+        run = await client.create_flow_run_from_deployment(deployment.id)
+        while True:
+            run = await client.read_flow_run(run.id)
+            if run.state is not None and run.state.is_final():
+                break
+            assert time.monotonic() < deadline, f"flow run still {run.state.name if run.state else None}"
+            await asyncio.sleep(1)
+        from prefect.client.schemas.filters import LogFilter, LogFilterFlowRunId
+
+        logs = await client.read_logs(LogFilter(flow_run_id=LogFilterFlowRunId(any_=[run.id])))
+        return run.state, [log.message for log in logs], schedules

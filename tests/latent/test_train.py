@@ -1,6 +1,7 @@
 """Training: schedules, a tiny model that learns, checkpoints, and resuming after a kill."""
 
 import json
+import math
 import os
 import signal
 import subprocess
@@ -16,16 +17,21 @@ import torch
 from robocompose.io import read_mcap, write_table
 from robocompose.latent.model import VAEConfig
 from robocompose.latent.train import (
+    LOG_FIELDS,
     TrainConfig,
     batch_indices,
     beta_at,
     load_designs,
     load_model,
+    log_evaluation,
     lr_at,
+    read_curves,
     reconstruction_accuracy,
     save_model,
     split,
     train,
+    training_log,
+    write_logs,
 )
 
 TINY = VAEConfig(hidden=16, latent=4, predictor_hidden=8, max_nodes=30)
@@ -69,14 +75,38 @@ def test_tiny_model_learns_its_designs_and_saves(tmp_path, write_designs):
     designs = load_designs(write_designs(tmp_path / "d.parquet", 12), "grammar", TINY.max_nodes)
     config = TrainConfig(steps=300, batch_size=8, lr=1e-2, beta_start=10**6, holdout=0.25, log_every=50,
                          eval_every=300, checkpoint_every=300, threads=1)
-    model, train_set, _ = train(TINY, config, designs, tmp_path / "ck.pt", tmp_path / "log.csv", tmp_path / "log.mcap")
+    with training_log(tmp_path / "live") as live:
+        model, train_set, _ = train(TINY, config, designs, tmp_path / "ck.pt", live, tmp_path / "log.mcap")
+        log_evaluation(live, {"reconstruction_accuracy": 0.5, "property_mse": None})
     assert reconstruction_accuracy(model, train_set) >= 0.5  # memorises most of what it saw
-    log = pd.read_csv(tmp_path / "log.csv")
+    log = read_curves(tmp_path / "live")
     assert list(log["step"]) == [50, 100, 150, 200, 250, 300]
     assert log["loss"].iloc[-1] < log["loss"].iloc[0]
+    assert log["heldout_reconstruction"].notna().tolist() == [False] * 5 + [True]  # every eval_every steps
     assert len([m for m in read_mcap(tmp_path / "log.mcap") if m.topic == "/vae/train"]) == 6
     again = load_model(save_model(model, tmp_path / "m.pt"))
     assert reconstruction_accuracy(again, train_set) == reconstruction_accuracy(model, train_set)
+
+
+def test_training_log_is_dvclive_offline_for_dvc_plots_and_exp_show(tmp_path, write_designs):
+    """dvclive writes one TSV per curve (step, value; no timestamp) and a summary with the final metrics, and
+    nothing else: no dvc.yaml of its own, no report, no experiment."""
+    designs = load_designs(write_designs(tmp_path / "d.parquet", 12, seed=5), "grammar", TINY.max_nodes)
+    config = TrainConfig(steps=20, batch_size=8, holdout=0.25, log_every=10, eval_every=20, checkpoint_every=20,
+                         threads=1)
+    dvc_yaml = (Path.cwd() / "dvc.yaml").read_bytes()
+    with training_log(tmp_path / "live") as live:
+        train(TINY, config, designs, tmp_path / "ck.pt", live, tmp_path / "log.mcap")
+        log_evaluation(live, {"reconstruction_accuracy": 0.25, "property_mse": None})
+    files = {p.relative_to(tmp_path / "live").as_posix() for p in (tmp_path / "live").rglob("*") if p.is_file()}
+    assert files == {"metrics.json", "plots/metrics/heldout/reconstruction.tsv",
+                     *(f"plots/metrics/train/{k}.tsv" for k in ("loss", "label_loss", "stop_loss", "kl", "pred_loss",
+                                                                "label_acc", "stop_acc", "beta", "lr"))}
+    assert (tmp_path / "live/plots/metrics/train/loss.tsv").read_text().splitlines()[0] == "step\tloss"
+    summary = json.loads((tmp_path / "live" / "metrics.json").read_text())
+    assert summary["step"] == 20 and summary["evaluation"] == {"reconstruction_accuracy": 0.25}
+    assert 0 <= summary["heldout"]["reconstruction"] <= 1
+    assert (Path.cwd() / "dvc.yaml").read_bytes() == dvc_yaml
 
 
 RUN = """
@@ -89,7 +119,9 @@ model_config = VAEConfig(hidden=16, latent=4, predictor_hidden=8, max_nodes=30)
 designs = load_designs(sys.argv[2], "grammar", 30)
 config = TrainConfig(steps=200, batch_size=8, beta_start=50, beta_every=20, lr_decay_every=50, holdout=0.25,
                      log_every=20, eval_every=100, checkpoint_every=40, threads=1)
-model, tr, te = train(model_config, config, designs, out / "ck.pt", out / "log.csv", out / "log.mcap")
+from robocompose.latent.train import training_log
+with training_log(out / "live") as live:
+    model, tr, te = train(model_config, config, designs, out / "ck.pt", live, out / "log.mcap")
 state = {k: v.sum().item() for k, v in model.state_dict().items()}
 (out / "result.json").write_text(json.dumps({"train": reconstruction_accuracy(model, tr), "state": state}))
 """
@@ -124,8 +156,10 @@ def test_killed_run_resumes_to_the_same_model(tmp_path, write_designs):
     whole = _run(tmp_path / "whole", data, kill_after_checkpoint=False)
     resumed = _run(tmp_path / "killed", data, kill_after_checkpoint=True)
     assert resumed == whole  # same weights to the last bit, same accuracy
-    log_whole = pd.read_csv(tmp_path / "whole" / "log.csv")
-    pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "killed" / "log.csv"), log_whole)
+    curves = sorted(p.relative_to(tmp_path / "whole") for p in (tmp_path / "whole" / "live").rglob("*.*"))
+    assert curves == sorted(p.relative_to(tmp_path / "killed") for p in (tmp_path / "killed" / "live").rglob("*.*"))
+    for path in curves:  # the dvclive files of the resumed run are those of the uninterrupted one, byte for byte
+        assert (tmp_path / "killed" / path).read_bytes() == (tmp_path / "whole" / path).read_bytes(), path
 
 
 def test_extra_designs_train_without_contacts_and_never_leak_held_out(tmp_path, write_designs):
@@ -134,11 +168,12 @@ def test_extra_designs_train_without_contacts_and_never_leak_held_out(tmp_path, 
     extra = type(extra)(extra.ids, extra.trees, extra.replays, np.full_like(extra.contacts, np.nan))
     config = TrainConfig(steps=20, batch_size=8, holdout=0.25, log_every=10, eval_every=20, checkpoint_every=20,
                          threads=1)
-    _, train_set, test_set = train(TINY, config, designs, tmp_path / "ck.pt", tmp_path / "log.csv",
-                                   tmp_path / "log.mcap", extra=extra)
+    with training_log(tmp_path / "live") as live:
+        _, train_set, test_set = train(TINY, config, designs, tmp_path / "ck.pt", live, tmp_path / "log.mcap",
+                                       extra=extra)
     assert not set(test_set.ids) & set(train_set.ids)
     assert len(train_set.ids) == 2 * 9  # 9 training designs, and their 9 copies without contacts
-    assert np.isfinite(pd.read_csv(tmp_path / "log.csv")["pred_loss"]).all()
+    assert np.isfinite(read_curves(tmp_path / "live")["pred_loss"]).all()
 
 
 def test_raising_steps_extends_a_finished_run(tmp_path, write_designs):
@@ -148,8 +183,9 @@ def test_raising_steps_extends_a_finished_run(tmp_path, write_designs):
     long = TrainConfig(**{**short.__dict__, "steps": 60, "eval_every": 20})  # bookkeeping may change too
 
     def run(folder: str, config: TrainConfig):
-        model, _, _ = train(TINY, config, designs, tmp_path / folder / "ck.pt", tmp_path / folder / "log.csv",
-                            tmp_path / folder / "log.mcap")
+        with training_log(tmp_path / folder / "live") as live:
+            model, _, _ = train(TINY, config, designs, tmp_path / folder / "ck.pt", live,
+                                tmp_path / folder / "log.mcap")
         return {k: v.clone() for k, v in model.state_dict().items()}
 
     run("extended", short)
@@ -167,7 +203,8 @@ def test_same_ids_with_changed_contacts_or_changed_code_retrain(tmp_path, write_
                          threads=1)
 
     def run(data):
-        model, _, _ = train(TINY, config, data, tmp_path / "ck.pt", tmp_path / "log.csv", tmp_path / "log.mcap")
+        with training_log(tmp_path / "live") as live:
+            model, _, _ = train(TINY, config, data, tmp_path / "ck.pt", live, tmp_path / "log.mcap")
         return {k: v.clone() for k, v in model.state_dict().items()}
 
     first = run(designs)
@@ -178,3 +215,11 @@ def test_same_ids_with_changed_contacts_or_changed_code_retrain(tmp_path, write_
     key = train_module.run_key(TINY, config, designs, designs)
     monkeypatch.setattr(train_module, "code_digest", lambda *modules: "changed-source")
     assert train_module.run_key(TINY, config, designs, designs) != key
+
+
+def test_training_log_validates_against_its_schema(tmp_path, valid_foxglove_log):
+    rows = [{field: 0.5 for field in LOG_FIELDS} | {"step": step, "heldout_reconstruction": math.nan}
+            for step in (50, 100)]
+    with training_log(tmp_path / "live") as live:
+        write_logs(rows, live, tmp_path / "log.mcap")
+    assert valid_foxglove_log(tmp_path / "log.mcap") == 2

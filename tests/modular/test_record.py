@@ -8,11 +8,13 @@ from robocompose.modular.terrain import generate_terrain
 TINY = EvalSettings(control_steps=10)
 
 
-def test_mcap_and_gif_record_the_same_rollout(tmp_path):
+def test_mcap_and_gif_record_the_same_rollout(tmp_path, valid_foxglove_log):
     result = record_rollout("lwbnlw", 2, TINY, mcap=tmp_path / "r.mcap", gif=tmp_path / "r.gif")
     plain = rollout("lwbnlw", generate_terrain(2, TINY.terrain), TINY)
     assert (result.distance, result.status) == (plain.distance, plain.status)
     messages = read_mcap(tmp_path / "r.mcap")
+    assert valid_foxglove_log(tmp_path / "r.mcap") == len(messages)
+    assert [m.topic for m in messages[:2]] == ["/tf", "/scene"]  # no scene before the frames it is locked to
     schemas = {m.topic: m.schema_name for m in messages}
     assert schemas == {"/scene": SCENE_UPDATE, "/tf": FRAME_TRANSFORMS, "/robot": SCALARS}
     tf = [m for m in messages if m.topic == "/tf"]

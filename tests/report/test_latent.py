@@ -1,10 +1,9 @@
-import json
-
 import numpy as np
 import pandas as pd
+import pytest
 
-from robocompose.io import write_table
-from robocompose.latent.train import LOG_FIELDS
+from robocompose.io import ArtifactError, write_table
+from robocompose.latent.train import LOG_FIELDS, log_evaluation, log_row, training_log
 from robocompose.report.latent import section
 
 PARAMS = """train_vae:
@@ -13,26 +12,37 @@ PARAMS = """train_vae:
           holdout: 0.1}
 """
 METRIC = {"reconstruction_accuracy": 0.75, "prior_validity": 1.0, "prior_grammar_valid": 1.0,
-          "prior_rest_valid": 0.8, "uniqueness": 0.9, "novelty": 0.5, "property_mse": 0.25, "prior_samples": 100}
+          "prior_rest_valid": 0.8, "uniqueness": 0.9, "novelty": 0.5, "property_mse": 0.25, "prior_samples": 100,
+          "unconstrained": {"reconstruction_accuracy": 0.125, "prior_validity": 0.5, "prior_grammar_valid": 0.0,
+                            "prior_rest_valid": 0.0, "uniqueness": 1.0, "novelty": 1.0}}
 
 
 def test_section_reports_pending_without_metrics(tmp_path):
     assert "Not run yet" in section(tmp_path, tmp_path, tmp_path / "params.yaml")
 
 
+def test_a_corrupt_summary_is_named(tmp_path):
+    (tmp_path / "training" / "vae_full").mkdir(parents=True)
+    (tmp_path / "training" / "vae_full" / "metrics.json").write_text("{not json")
+    with pytest.raises(ArtifactError, match="vae_full/metrics.json: not valid JSON"):
+        section(tmp_path, tmp_path, tmp_path / "params.yaml")
+    (tmp_path / "training" / "vae_full" / "metrics.json").write_text('{"loss": 1.0}')
+    with pytest.raises(ArtifactError, match="vae_full/metrics.json: expected dvclive's summary"):
+        section(tmp_path, tmp_path, tmp_path / "params.yaml")
+
+
 def test_section_shows_metrics_curves_and_landscape(tmp_path):
     (tmp_path / "params.yaml").write_text(PARAMS)
-    (tmp_path / "metrics").mkdir()
-    variants = {"full": METRIC, "nopred": {**METRIC, "property_mse": None}}
-    (tmp_path / "metrics" / "vae.json").write_text(json.dumps(variants))
-    (tmp_path / "plots").mkdir()
-    log = pd.DataFrame({k: np.linspace(1, 2, 4) for k in LOG_FIELDS})
-    log["step"] = [50, 100, 150, 200]
-    log.loc[:2, "heldout_reconstruction"] = np.nan
-    log.to_csv(tmp_path / "plots" / "vae_full.csv", index=False)
+    for name, metric in {"full": METRIC, "nopred": {**METRIC, "property_mse": None}}.items():
+        with training_log(tmp_path / "training" / f"vae_{name}") as live:  # as the train_vae stage logs
+            for step in (50, 100, 150, 200):
+                log_row(live, {**{k: step / 100 for k in LOG_FIELDS}, "step": step,
+                               "heldout_reconstruction": 0.5 if step == 200 else np.nan})
+            log_evaluation(live, metric)
     text = section(tmp_path, tmp_path, tmp_path / "params.yaml")
     assert "| GLSO (with property predictor) | 0.750 | 1.000" in text and "| GLSO_nopred |" in text
     assert "n/a" in text  # nopred has no property predictor
+    assert "| GLSO (with property predictor) | 0.125 | 0.500 | 0.000" in text  # decoded as the original
     assert (tmp_path / "figures" / "vae_training.png").exists()
     assert "Latent landscape (Fig. 7.1): pending" in text
 

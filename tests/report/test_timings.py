@@ -1,7 +1,11 @@
+import ast
+import fnmatch
 import json
+from pathlib import Path
 
 import pytest
 
+from robocompose.io.provenance import ROOT
 from robocompose.report.timings import read_timings, timed
 
 
@@ -20,3 +24,26 @@ def test_a_failed_stage_records_nothing(tmp_path):
     with pytest.raises(RuntimeError), timed("stage", path):
         raise RuntimeError("boom")
     assert not path.exists()
+
+
+def _timed_names(script: Path) -> set[str]:
+    """The stage names a script passes to `timed` (f-strings as glob patterns)."""
+    names = set()
+    for node in ast.walk(ast.parse(script.read_text())):
+        if isinstance(node, ast.Call) and getattr(node.func, "id", None) == "timed" and node.args:
+            arg = node.args[0]
+            if isinstance(arg, ast.Constant):
+                names.add(arg.value)
+            elif isinstance(arg, ast.JoinedStr):
+                names.add("".join(v.value if isinstance(v, ast.Constant) else "*" for v in arg.values))
+    return names
+
+
+def test_every_dvc_stage_records_its_wall_time_under_its_name():
+    from dvc.repo import Repo
+
+    with Repo(str(ROOT)) as repo:
+        stages = {s.addressing: next(w for w in s.cmd.split() if w.endswith(".py")) for s in repo.index.stages}
+    for name, script in stages.items():
+        patterns = _timed_names(ROOT / script)
+        assert any(fnmatch.fnmatchcase(name, p) for p in patterns), f"{script} does not time stage {name}"

@@ -2,7 +2,7 @@ import numpy as np
 import torch
 
 from robocompose.teams.baselines import no_decomposition_costs, random_allocation, random_species_counts
-from robocompose.teams.ergodic import ChipCoverage, CoverageConfig, ergodic_cost
+from robocompose.teams.ergodic import ChipCoverage, CoverageConfig, ergodic_cost, frequencies
 
 TINY = CoverageConfig(iterations=4, n_observations=6)
 HALVES = np.repeat(np.arange(2), 15)[None, :].repeat(30, 0)  # (30, 30): left region 0, right region 1
@@ -20,21 +20,23 @@ def test_no_decomposition_scores_observations_in_the_region_they_lie_in():
     terrain = np.full((30, 30), 2)
     coverage = ChipCoverage(terrain, HALVES, 2, TINY)
     species_counts = np.array([[2, 1, 0], [0, 3, 0]])
-    costs = no_decomposition_costs(coverage, species_counts, seed=0)
-    assert costs.shape == (2,) and (costs > 0).all()
+    costs, unvisited = no_decomposition_costs(coverage, species_counts, seed=0)
+    assert costs.shape == (2,) and (costs > 0).all() and unvisited.shape == (2,)
     # recompute the first allocation by hand from the same joint plan
     whole = ChipCoverage(terrain, np.zeros_like(HALVES), 1, TINY)
     _, robots, observations = whole.evaluate(species_counts[:1, None, :], seed=0)
     points = observations.reshape(-1, 2).double()
     region = (points[:, 0] >= 0.5).long()
     weights = torch.tensor([20.0, 10.0, 0.0], dtype=torch.float64)[robots.species].repeat_interleave(6)
-    by_hand = ergodic_cost(points[:, None], weights[:, None], region, coverage.phi).sum().item()
-    assert np.isclose(costs[0], by_hand)
+    metrics = ergodic_cost(points[:, None], weights[:, None], region, coverage.phi)  # (2,) raw, per region
+    assert np.isclose(costs[0], (0.5 * metrics / coverage.glance).sum().item())  # halves: a_i = 0.5
 
 
 def test_no_decomposition_with_all_robots_in_one_half_leaves_the_other_costly():
     terrain = np.full((30, 30), 2)
     terrain[:, 15:] = 0  # right half water: ground robots cannot start or go there
     coverage = ChipCoverage(terrain, HALVES, 2, TINY)
-    costs = no_decomposition_costs(coverage, np.array([[3, 0, 0]]), seed=0)
-    assert costs[0] > 1.0  # region 1 is never visited: it costs >= 1
+    costs, unvisited = no_decomposition_costs(coverage, np.array([[3, 0, 0]]), seed=0)
+    never_visited = 0.5 * (coverage.phi[1] ** 2 * frequencies(10)[1]).sum() / coverage.glance[1]
+    assert costs[0] > never_visited.item() > 1.0  # region 1 costs what an empty team does
+    assert unvisited.tolist() == [1]

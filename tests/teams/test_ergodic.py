@@ -2,20 +2,25 @@ import numpy as np
 import pytest
 import torch
 
+from robocompose.teams.chips import synthetic_chip
+from robocompose.teams.decompose import DecomposeConfig, decompose_chip
 from robocompose.teams.ergodic import (
     ChipCoverage,
     CoverageConfig,
     Robots,
     allocation_id,
     ergodic_cost,
+    frequencies,
     optimise_trajectories,
-    region_coefficients,
+    region_targets,
     rollout,
 )
+from robocompose.teams.evaluator import chip_coverage
+from robocompose.teams.nsga2 import REFERENCE_POINT, hypervolume
 from robocompose.teams.species import SPEED_SCALE
 
 SMALL = CoverageConfig(iterations=15, n_observations=10)
-WHOLE_SQUARE = region_coefficients(np.zeros((20, 20), dtype=np.int64), 1, 10)  # (1, 10, 10)
+WHOLE_SQUARE = region_targets(np.zeros((20, 20), dtype=np.int64), 1, 10)[0]  # (1, 10, 10)
 
 
 def cost_of(points: np.ndarray) -> float:
@@ -93,7 +98,59 @@ def test_batched_evaluation_equals_one_allocation_at_a_time():
     batched, _, _ = coverage.evaluate(counts, seed=5)
     single = [coverage.evaluate(c[None], seed=5)[0][0] for c in counts]
     np.testing.assert_allclose(batched, single, rtol=1e-5)
-    assert batched[1] > 1.0  # the right region got no robot: its team costs >= 1
+    empty_right = 0.5 * (coverage.phi[1] ** 2 * frequencies(10)[1]).sum() / coverage.glance[1]
+    assert batched[1] > empty_right.item() > 1.0  # the right region got no robot: a_1 E_empty / G_1
+
+
+def test_an_allocation_costs_the_sum_of_its_teams_costs():
+    terrain = np.random.default_rng(1).integers(0, 4, (40, 40))
+    regions = np.repeat(np.arange(2), 20)[None, :].repeat(40, 0)
+    coverage = ChipCoverage(terrain, regions, 2, SMALL)
+    both, first, second, none = np.array([[[1, 2, 0], [0, 1, 1]], [[1, 2, 0], [0, 0, 0]],
+                                          [[0, 0, 0], [0, 1, 1]], [[0, 0, 0], [0, 0, 0]]])
+    costs, _, _ = coverage.evaluate(np.stack([both, first, second, none]), seed=2)
+    assert costs[0] == pytest.approx(costs[1] + costs[2] - costs[3], rel=1e-9)
+
+
+def test_glance_cost_is_the_expected_metric_of_random_observations():
+    """G = E[metric of one uniform observation]; N independent ones cost G / N on average, so the
+    normalised cost of N random glances per region is 1 / N."""
+    regions = np.zeros((40, 40), dtype=np.int64)
+    regions[:, 25:] = 1  # two regions: 25 and 15 columns wide
+    phi, glance = region_targets(regions, 2, 10)
+    rng = np.random.default_rng(0)
+    pixels = np.argwhere(regions == 1)  # (P, 2) rows, cols
+    for n_points in (1, 5):
+        costs = []
+        for _ in range(3000):
+            row, col = pixels[rng.integers(len(pixels), size=n_points)].T
+            points = np.stack([(col + 0.5) / 40, (row + 0.5) / 40], -1)  # pixel centres, as phi is
+            observations = torch.as_tensor(points)[None]  # (1, N, 2)
+            costs.append(ergodic_cost(observations, torch.ones(1, n_points, dtype=torch.float64),
+                                      torch.zeros(1, dtype=torch.int64), phi[1:]).item())
+        assert np.mean(costs) / glance[1].item() == pytest.approx(1 / n_points, rel=0.06)
+
+
+def test_reference_point_bounds_covering_allocations_and_hypervolume_rises_with_coverage():
+    """Allocations with a robot in every region lie inside the (0.25, 60) box, one that leaves a region
+    empty lies outside, and at the same robot counts better trajectories give a larger hypervolume."""
+    chip = synthetic_chip(0, 1, size=60)
+    decomposition = decompose_chip(chip, DecomposeConfig(n_regions=4))
+    aerial = np.zeros((4, 4, 3), dtype=np.int64)  # 1..4 aerial robots (they move on every terrain) per region
+    aerial[:, :, 1] = np.arange(1, 5)[:, None]
+    fronts = {}
+    for iterations in (0, 25):
+        config = CoverageConfig(iterations=iterations, n_observations=20)
+        costs, _, _ = chip_coverage(chip, decomposition, config).evaluate(aerial, seed=0)
+        fronts[iterations] = np.stack([costs, aerial.sum((1, 2))], -1)
+    assert (fronts[25][:, 0] < fronts[0][:, 0]).all()  # the optimiser improves coverage ...
+    assert (fronts[25][:, 0] < REFERENCE_POINT[0]).all()  # ... inside the box
+    gain = hypervolume(fronts[25]) - hypervolume(fronts[0])
+    assert gain > 0.01 * hypervolume(fronts[25])  # coverage, not only the robot count, moves HV
+    one_empty = aerial[3:].copy()
+    one_empty[0, 0] = 0
+    cost, _, _ = chip_coverage(chip, decomposition, CoverageConfig(iterations=25)).evaluate(one_empty, seed=0)
+    assert cost[0] > 1.0 > REFERENCE_POINT[0]
 
 
 def test_allocation_id_depends_on_counts_and_shape_only():

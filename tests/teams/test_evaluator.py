@@ -1,7 +1,8 @@
 import numpy as np
+import pytest
 
 from robocompose.teams.chips import synthetic_chip
-from robocompose.teams.decompose import DecomposeConfig, chip_seeds
+from robocompose.teams.decompose import DecomposeConfig, decompose_chip
 from robocompose.teams.ergodic import ChipCoverage, CoverageConfig
 from robocompose.teams.evaluator import AllocationEvaluator, chip_coverage, teams_cache
 
@@ -55,6 +56,7 @@ def test_other_settings_or_seed_miss_the_cache():
 
 def test_chip_coverage_decomposes_the_chip_into_its_regions():
     chip = synthetic_chip(0, size=40)
-    coverage = chip_coverage(chip, chip_seeds(chip.chip_id, DecomposeConfig(n_regions=5)), TINY)
-    assert coverage.phi.shape == (5, 10, 10)
+    coverage = chip_coverage(chip, decompose_chip(chip, DecomposeConfig(n_regions=5)), TINY)
+    assert coverage.phi.shape == (5, 10, 10) and coverage.glance.shape == (5,)
     assert coverage.phi[:, 0, 0].tolist() == [1.0] * 5
+    assert coverage.area.sum().item() == pytest.approx(1.0) and (coverage.glance > 0).all()

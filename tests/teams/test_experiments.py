@@ -19,8 +19,8 @@ from robocompose.teams.experiments import (
 from robocompose.teams.params import ExperimentsConfig
 
 TINY = CoverageConfig(iterations=3, n_observations=5)
-EXPERIMENTS = ExperimentsConfig(populations=[4, 6], generations=2, nsga2_chips=1, nsga2_seeds=[0],
-                                budgets=[3, 6], baseline_chips=1, baseline_seeds=[0, 1])
+EXPERIMENTS = ExperimentsConfig(populations=[4, 6], generations=2, table_5_4_chips=1,
+                                table_5_5_chips=1, seeds=[0, 1], budgets=[3, 6])
 
 
 @pytest.fixture(scope="module")
@@ -30,26 +30,29 @@ def test_chips(tmp_path_factory):
     return decomposed_chips(regions, "test")
 
 
-def test_decomposed_test_chips_carry_their_seeds(test_chips):
+def test_decomposed_test_chips_carry_their_regions(test_chips):
     assert len(test_chips) == 2
-    chip, seeds = test_chips[0]
-    assert seeds.shape == (3, 2) and chip.classes.shape == (300, 300)
+    chip, decomposition = test_chips[0]
+    assert decomposition.centres.shape == (3, 6) and chip.classes.shape == (300, 300)
+    assert set(np.unique(decomposition.raster(chip.terrain))) == {0, 1, 2}
 
 
 def test_nsga2_runs_record_every_population_and_a_front_per_run(test_chips):
     cache = teams_cache()
-    runs, fronts = nsga2_runs(test_chips, TINY, EXPERIMENTS, cache)
-    assert runs.population.tolist() == [4, 6] and (runs.evaluations == [8, 12]).all()
-    assert len(cache) > 0 and (runs.seconds > 0).all()
-    for _, front in fronts.groupby("population"):
+    runs, fronts, seconds = nsga2_runs(test_chips, TINY, EXPERIMENTS, cache)
+    assert runs.population.tolist() == [4, 6, 4, 6] and (runs.evaluations == [8, 12, 8, 12]).all()
+    assert runs.seed.tolist() == [0, 0, 1, 1] and "seconds" not in runs  # wall time: not in the table
+    assert [(run["population"], run["seed"]) for run in seconds] == [(4, 0), (6, 0), (4, 1), (6, 1)]
+    assert len(cache) > 0 and all(run["seconds"] > 0 for run in seconds)
+    for _, front in fronts.groupby(["population", "seed"]):
         points = front[["coverage_cost", "deployment_cost"]].to_numpy()
         assert not any((p <= q).all() and (p < q).any() for p in points for q in points)
     for counts, deployed in zip(fronts.counts, fronts.deployment_cost, strict=True):
         assert len(counts) == 9 and sum(counts) == deployed
     counts, seed = example_allocation(fronts, test_chips[0][0].chip_id, 3)
-    assert counts.shape == (3, 3) and seed == 0
-    chip, seeds = test_chips[0]
-    trajectories = example_trajectories(chip, seeds, TINY, counts, seed)
+    assert counts.shape == (3, 3) and seed in (0, 1)
+    chip, decomposition = test_chips[0]
+    trajectories = example_trajectories(chip, decomposition, TINY, counts, seed)
     assert len(trajectories) == counts.sum() * TINY.n_observations
     assert trajectories[["x", "y"]].to_numpy().min() >= 0 and trajectories[["x", "y"]].to_numpy().max() < 1
 
@@ -61,17 +64,27 @@ def test_coverage_baselines_deploy_exactly_the_budget(test_chips):
     assert np.isfinite(table.coverage_cost).all() and (table.coverage_cost > 0).all()
 
 
+def test_every_row_of_a_table_runs_on_the_same_chips_and_seeds(test_chips):
+    config = dataclasses.replace(EXPERIMENTS, table_5_4_chips=1, table_5_5_chips=2, seeds=[3], populations=[4, 6])
+    runs, _, _ = nsga2_runs(test_chips, TINY, config, teams_cache())
+    for _, rows in runs.groupby("population"):
+        assert list(zip(rows.chip_id, rows.seed, strict=True)) == [(test_chips[0][0].chip_id, 3)]
+    coverage = coverage_baselines(test_chips, TINY, config)
+    pairs = {(chip.chip_id, 3) for chip, _ in test_chips[:2]}
+    for _, rows in coverage.groupby(["method", "budget"]):
+        assert set(zip(rows.chip_id, rows.seed, strict=True)) == pairs
+
+
 def test_tables_and_cache_are_the_same_on_two_worker_processes_as_in_process(test_chips):
-    config = dataclasses.replace(EXPERIMENTS, baseline_chips=2)
+    config = dataclasses.replace(EXPERIMENTS, table_5_4_chips=2, table_5_5_chips=2, seeds=[0])
     serial_cache, parallel_cache = teams_cache(), teams_cache()
-    serial = [*nsga2_runs(test_chips, TINY, config, serial_cache), coverage_baselines(test_chips, TINY, config)]
+    serial = [*nsga2_runs(test_chips, TINY, config, serial_cache)[:2], coverage_baselines(test_chips, TINY, config)]
     with Executor(workers=2) as executor:
         assert executor.backend == "processes"
-        parallel = [*nsga2_runs(test_chips, TINY, config, parallel_cache, executor),
+        parallel = [*nsga2_runs(test_chips, TINY, config, parallel_cache, executor)[:2],
                     coverage_baselines(test_chips, TINY, config, executor)]
     runs, fronts, coverage = serial
-    assert len(runs) == 2 and coverage.chip_id.nunique() == 2 and (parallel[0].seconds > 0).all()
-    serial[0], parallel[0] = runs.drop(columns="seconds"), parallel[0].drop(columns="seconds")  # wall times differ
+    assert len(runs) == 4 and coverage.chip_id.nunique() == 2
     for expected, got in zip(serial, parallel, strict=True):
         pd.testing.assert_frame_equal(got, expected, check_exact=True)
     pd.testing.assert_frame_equal(parallel_cache.frame(), serial_cache.frame(), check_exact=True)

@@ -1,11 +1,13 @@
 import numpy as np
 import pytest
+from pymoo.core.population import Population
 from pymoo.core.problem import Problem
 
 from robocompose.teams.nsga2 import (
     AllocationProblem,
     DeploymentShareSampling,
     NSGA2Config,
+    RankRouletteSelection,
     SinglePointArithmeticCrossover,
     UniformMutation,
     hypervolume,
@@ -79,3 +81,14 @@ def test_initial_population_spans_deployment_costs():
     genomes = DeploymentShareSampling()._do(problem, 400, random_state=np.random.default_rng(0))
     deployed = deployment_cost(problem.counts(genomes))
     assert deployed.min() < 12 and deployed.max() > 48
+
+
+def test_roulette_wheel_gives_each_individual_a_slice_by_its_crowded_comparison_order():
+    population = Population.new("X", np.zeros((4, 2)))
+    population.set("rank", np.array([1, 0, 0, 2]))
+    population.set("crowding", np.array([5.0, 0.5, np.inf, 9.0]))
+    # order best first: index 2 (rank 0, infinite crowding), 1, 0, 3 -> slices 4, 3, 2, 1 of 10
+    picks = RankRouletteSelection()._do(None, population, 20000, 2, random_state=np.random.default_rng(0))
+    assert picks.shape == (20000, 2)
+    shares = np.bincount(picks.ravel(), minlength=4) / picks.size
+    np.testing.assert_allclose(shares, [0.2, 0.3, 0.4, 0.1], atol=0.01)

@@ -1,0 +1,304 @@
+"""The evaluator fidelity ladder: how well a cheap MPPI setting ranks designs like the thesis's setting.
+
+One fixed design set (`reports/fidelity/designs.csv`) is scored under a ladder of MPPI settings (`LADDER`),
+from cheaper than the default profile up to the thesis's (512 first / 64 samples, horizon 16, 128 control
+steps). Every (task, rung, design) score is one line of a CSV piece `reports/fidelity/scores/<task>__<rung>.csv`,
+appended as soon as it is measured, so a measurement of many CPU hours resumes where it stopped.
+`summarise` turns the pieces into one row per (task, rung): physics steps and seconds per evaluation,
+Spearman rank correlation with the thesis rung's scores, and whether the thesis rung's best design is in
+the rung's top 3. `choose_default` picks the cheapest rung that ranks like the thesis on every task.
+
+    robocompose evaluator-fidelity build-set    # once: the design set (committed)
+    robocompose evaluator-fidelity measure      # hours: resumable, skips rows already in the pieces
+    robocompose evaluator-fidelity summarise    # the table
+
+The design set spans the score range: the two RoboGrammar reference designs, `n_random` dataset designs
+(candidates of the enumeration's random stream that pass its filters), and the best `n_screened` of
+`n_screen` further dataset designs scored at the cheap `SCREEN` setting (a quick random search). Scores
+use the optimisers' objective (`objective`: an invalid result gets its penalty score) with controller
+seed 0, the settings of the default profile.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from tqdm import tqdm
+
+from robocompose.control.mppi import MPPIConfig
+from robocompose.evaluation.evaluate import OK, EvaluationConfig, evaluate, objective, simulation_digest
+from robocompose.evaluation.references import REFERENCE_DESIGNS
+from robocompose.grammar.derivation import derive, parse_rules
+from robocompose.grammar.tree import DesignTree
+from robocompose.io import atomic_write_text
+from robocompose.io.errors import InputError
+from robocompose.tasks.terrains import get_task
+
+THESIS = "thesis"
+# The ladder, by name: (samples, first_samples, horizon, episode); interval 16 and every other field as
+# the thesis. Each rung changes one or two knobs of a neighbour so the table shows which knob matters.
+LADDER: dict[str, tuple[int, int, int, int]] = {
+    THESIS: (64, 512, 16, 128),  # RoboGrammar / the thesis: 2.23 M sim steps (flat)
+    "s8_h8_e48": (8, 64, 8, 48),  # half the default's samples
+    "s16_h8_e48": (16, 64, 8, 48),  # the default profile before this ladder
+    "s16_h16_e48": (16, 64, 16, 48),  # default, thesis horizon
+    "s32_h8_e48": (32, 128, 8, 48),  # default, twice the samples
+    "s16_h8_e128": (16, 64, 8, 128),  # default, thesis episode length
+    "s32_h16_e64": (32, 128, 16, 64),  # the issue's intermediate measurement
+    "s32_h16_e128": (32, 256, 16, 128),  # half the thesis's samples
+}
+SCREEN = MPPIConfig(samples=8, first_samples=32, horizon=8, episode=24)  # the quick search's cheap setting
+DESIGN_COLUMNS = ("name", "kind", "design_id", "rules", "screen_reward")
+SCORE_COLUMNS = ("task", "rung", "name", "design_id", "reward", "status", "objective", "sim_steps", "seconds",
+                 "evaluator")  # evaluator: `simulation_digest(task)` of the code that measured the row
+MEASURE_ORDER = ("reference", "screened", "random")  # kinds of design, in `measure_order`
+DESIGNS_FILE, SUMMARY_FILE = "designs.csv", "summary.csv"
+SCORES_DIR = "scores"
+
+
+def rung_config(name: str) -> MPPIConfig:
+    """The MPPI config of ladder rung `name`."""
+    if name not in LADDER:
+        raise InputError(f"unknown fidelity rung {name!r}; known rungs: {list(LADDER)}")
+    samples, first_samples, horizon, episode = LADDER[name]
+    return MPPIConfig(samples=samples, first_samples=first_samples, horizon=horizon, episode=episode)
+
+
+@dataclass(frozen=True)
+class FidelityConfig:
+    """The `evaluator_fidelity:` section of params.yaml."""
+
+    directory: str = "reports/fidelity"  # the design set and the score pieces (committed)
+    tasks: list[str] = field(default_factory=lambda: ["flat", "ridged"])  # measured in this order
+    rungs: list[str] = field(default_factory=lambda: list(LADDER))  # measured in this order (thesis first)
+    measure: bool = False  # False: summarise the committed pieces only; True: score what is missing first
+    seed: int = 0  # controller seed of every evaluation
+    n_random: int = 16  # dataset designs in the set
+    n_screen: int = 100  # further dataset designs scored at SCREEN ...
+    n_screened: int = 8  # ... of which the best join the set
+    dataset_seed: int = 0  # the enumeration seed whose candidates are drawn
+    min_spearman: float = 0.8  # what a rung must reach on every task to be chosen as the default
+    top: int = 3  # the thesis-best design must be among this many of the rung's best
+
+    def __post_init__(self) -> None:
+        for task in self.tasks:
+            get_task(task)
+        for rung in self.rungs:
+            rung_config(rung)
+        for name in ("n_screen", "n_screened", "top"):
+            if getattr(self, name) < 1:
+                raise InputError(f"evaluator_fidelity.{name} must be >= 1, got {getattr(self, name)}")
+
+
+def dataset_candidates(seed: int):
+    """(rules, tree) of the enumeration's valid candidates of `seed`, in candidate order, each design once."""
+    from robocompose.dataset.enumerate import MIN_LINKS, candidate
+
+    seen, k = set(), 0
+    while True:
+        reason, row, _ = candidate(seed, k, MIN_LINKS, 40)
+        k += 1
+        if reason or row["design_id"] in seen:
+            continue
+        seen.add(row["design_id"])
+        yield tuple(row["rules"]), DesignTree(tuple(row["parents"]), tuple(row["tokens"]))
+
+
+def build_design_set(config: FidelityConfig) -> pd.DataFrame:
+    """The fixed design set: references, `n_random` dataset designs, the best screened dataset designs."""
+    rows = [{"name": name, "kind": "reference", "rules": parse_rules(text), "screen_reward": np.nan}
+            for name, text in REFERENCE_DESIGNS.items()]
+    stream = dataset_candidates(config.dataset_seed)
+    for i in range(config.n_random):
+        rules, _ = next(stream)
+        rows.append({"name": f"random_{i}", "kind": "random", "rules": rules, "screen_reward": np.nan})
+    screened = []
+    screen = EvaluationConfig(mppi=SCREEN)
+    for _ in tqdm(range(config.n_screen), desc="screen", unit="design"):
+        rules, tree = next(stream)
+        row = evaluate(tree, "flat", screen, config.seed)
+        if row["status"] == OK:  # an invalid design scores its penalty under every setting: nothing to rank
+            screened.append({"kind": "screened", "rules": rules, "screen_reward": row["reward"]})
+    screened.sort(key=lambda r: -r["screen_reward"])
+    rows += [{"name": f"screened_{i}", **r} for i, r in enumerate(screened[:config.n_screened])]
+    table = pd.DataFrame(rows)
+    table["design_id"] = [derive(rules).tree.design_id for rules in table["rules"]]
+    table["rules"] = [",".join(map(str, rules)) for rules in table["rules"]]
+    return table[list(DESIGN_COLUMNS)]
+
+
+def write_design_set(table: pd.DataFrame, directory: str | Path) -> Path:
+    return atomic_write_text(Path(directory) / DESIGNS_FILE, table.to_csv(index=False, float_format="%.6f"))
+
+
+def write_summary(summary: pd.DataFrame, directory: str | Path) -> Path:
+    return atomic_write_text(Path(directory) / SUMMARY_FILE, summary.to_csv(index=False, float_format="%.6g"))
+
+
+def read_design_set(directory: str | Path) -> pd.DataFrame:
+    path = Path(directory) / DESIGNS_FILE
+    if not path.exists():
+        raise InputError(f"{path}: fidelity design set not found (run `robocompose evaluator-fidelity "
+                                "build-set`)")
+    table = pd.read_csv(path, dtype={"rules": str})
+    missing = [c for c in DESIGN_COLUMNS if c not in table.columns]
+    if missing:
+        raise InputError(f"{path}: missing column {missing[0]!r}; expected {list(DESIGN_COLUMNS)}")
+    return table
+
+
+def piece_path(directory: str | Path, task: str, rung: str) -> Path:
+    return Path(directory) / SCORES_DIR / f"{task}__{rung}.csv"
+
+
+def read_piece(path: Path) -> pd.DataFrame:
+    """The complete rows of a score piece (a line cut off by a crash mid-write is ignored).
+
+    The pieces are a measurement record, not a cache: each row keeps the simulation digest of the code that
+    measured it, and rows of an older digest stay (hours of CPU); that the current code gives the same
+    scores is checked by re-measuring a sample (see the README's fidelity section).
+    """
+    if not path.exists():
+        return pd.DataFrame(columns=list(SCORE_COLUMNS))
+    text = path.read_text(encoding="utf-8")
+    lines = text.splitlines(keepends=True)
+    complete = [line for line in lines[1:] if line.endswith("\n") and line.count(",") == len(SCORE_COLUMNS) - 1]
+    if not lines or lines[0].strip() != ",".join(SCORE_COLUMNS):
+        raise InputError(f"{path}: expected the header {','.join(SCORE_COLUMNS)}")
+    rows = list(csv.reader(complete))
+    table = pd.DataFrame(rows, columns=list(SCORE_COLUMNS))
+    for column in ("reward", "objective", "seconds"):  # an empty reward is a result without one (not ok)
+        table[column] = pd.to_numeric(table[column].replace("", np.nan))
+    table["sim_steps"] = table["sim_steps"].astype(int)
+    return table.reset_index(drop=True)
+
+
+def _append(path: Path, row: dict) -> None:
+    """Append one row as one write() on an O_APPEND file, then fsync: a crash leaves whole lines only."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if not path.exists():
+        with open(path, "x", encoding="utf-8") as f:
+            f.write(",".join(SCORE_COLUMNS) + "\n")
+    values = ["" if row[c] is None else (repr(row[c]) if isinstance(row[c], float) else str(row[c]))
+              for c in SCORE_COLUMNS]
+    with open(path, "rb") as f:  # a line cut off by a crash: end it, so it stays one bad line, ignored
+        f.seek(-1, os.SEEK_END)
+        cut = f.read(1) != b"\n"
+    fd = os.open(path, os.O_WRONLY | os.O_APPEND)
+    try:
+        os.write(fd, (("\n" if cut else "") + ",".join(values) + "\n").encode())
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def measure_order(designs: pd.DataFrame) -> pd.DataFrame:
+    """The reference designs first, then the other kinds taken in turn (screened_0, random_0, screened_1, ...),
+    so that the designs measured first span the score range, strong designs included."""
+    turn = designs.groupby("kind", sort=False).cumcount() + (designs["kind"] != "reference") * len(designs)
+    kind = designs["kind"].map(MEASURE_ORDER.index)
+    return designs.assign(_turn=turn, _kind=kind).sort_values(["_turn", "_kind"], kind="stable").drop(
+        columns=["_turn", "_kind"])
+
+
+def measure(config: FidelityConfig, designs: pd.DataFrame) -> int:
+    """Score every (task, rung, design) not yet in the pieces; the number scored now.
+
+    Order: task, then design (`measure_order`), then rung (config order). Design-major order makes a partial
+    run useful: every design measured so far has a score at every rung, so a Spearman over them exists.
+    """
+    trees = {row.design_id: derive(parse_rules(row.rules)).tree for row in designs.itertuples()}
+    designs = measure_order(designs)
+    done = {(task, rung): set(read_piece(piece_path(config.directory, task, rung))["design_id"])
+            for task in config.tasks for rung in config.rungs}
+    jobs = [(task, rung, row.name, row.design_id) for task in config.tasks for row in designs.itertuples()
+            for rung in config.rungs if row.design_id not in done[task, rung]]
+    for task, rung, name, design_id in tqdm(jobs, desc="fidelity", unit="eval"):
+        evaluation = EvaluationConfig(mppi=rung_config(rung), seed=config.seed)
+        row = evaluate(trees[design_id], task, evaluation, config.seed)
+        _append(piece_path(config.directory, task, rung),
+                {"task": task, "rung": rung, "name": name, "design_id": design_id, **row,
+                 "objective": objective(row), "evaluator": simulation_digest(task)})
+    return len(jobs)
+
+
+def read_scores(directory: str | Path) -> pd.DataFrame:
+    """Every measured row of every piece."""
+    pieces = sorted((Path(directory) / SCORES_DIR).glob("*__*.csv"))
+    tables = [read_piece(p) for p in pieces]
+    tables = [t for t in tables if len(t)]
+    return pd.concat(tables, ignore_index=True) if tables else pd.DataFrame(columns=list(SCORE_COLUMNS))
+
+
+def spearman(a: pd.Series, b: pd.Series) -> float:
+    """Spearman rank correlation (average ranks for ties); NaN for fewer than 3 pairs or a constant side."""
+    if len(a) < 3:
+        return float("nan")
+    ra, rb = a.rank().to_numpy(), b.rank().to_numpy()
+    if ra.std() == 0 or rb.std() == 0:
+        return float("nan")
+    return float(np.corrcoef(ra, rb)[0, 1])
+
+
+def summarise(scores: pd.DataFrame, designs: pd.DataFrame, top: int = 3) -> pd.DataFrame:
+    """One row per (task, rung) measured: cost, Spearman and top-k agreement with the thesis rung.
+
+    Rank statistics use the designs measured both at the rung and at the thesis rung (`n_common`);
+    `complete` says whether that is the whole design set.
+    """
+    kinds = dict(zip(designs["design_id"], designs["kind"], strict=True))
+    rows = []
+    for (task, rung), group in scores.groupby(["task", "rung"], sort=False):
+        thesis = scores[(scores["task"] == task) & (scores["rung"] == THESIS)].set_index("design_id")["objective"]
+        mine = group.set_index("design_id")["objective"]
+        common = mine.index.intersection(thesis.index)
+        thesis_best = thesis[common].idxmax() if len(common) else None
+        ranked = mine[common].sort_values(ascending=False, kind="stable")
+        random = group[group["design_id"].map(kinds) == "random"]["objective"]
+        samples, first_samples, horizon, episode = LADDER[rung]
+        rows.append({
+            "task": task, "rung": rung, "samples": samples, "first_samples": first_samples, "horizon": horizon,
+            "episode": episode, "n_designs": len(designs), "n_scored": len(group), "n_common": len(common),
+            "complete": len(common) == len(designs),
+            "sim_steps_per_eval": float(group["sim_steps"].mean()),
+            "seconds_per_eval": float(group["seconds"].mean()),
+            "spearman": spearman(mine[common], thesis[common]),
+            "thesis_best": (designs.set_index("design_id").loc[thesis_best, "name"] if thesis_best else ""),
+            "thesis_best_in_top": bool(thesis_best is not None and thesis_best in set(ranked.index[:top])),
+            "best": designs.set_index("design_id").loc[ranked.index[0], "name"] if len(ranked) else "",
+            "best_score": float(ranked.iloc[0]) if len(ranked) else float("nan"),
+            "random_min": float(random.min()) if len(random) else float("nan"),
+            "random_max": float(random.max()) if len(random) else float("nan"),
+        })
+    table = pd.DataFrame(rows)
+    if len(table):
+        table = table.sort_values(["task", "sim_steps_per_eval"], kind="stable").reset_index(drop=True)
+    return table
+
+
+def choose_default(summary: pd.DataFrame, tasks: list[str], min_spearman: float = 0.8) -> dict:
+    """The cheapest rung (by physics steps on the first task) that, on every task in `tasks`, was measured on
+    the whole design set, reaches `min_spearman` and has the thesis-best design in its top k.
+
+    Returns {"rung": name or "", "passing": [rungs that qualify], "reason": text}."""
+    passing = []
+    for rung, group in summary.groupby("rung", sort=False):
+        by_task = group.set_index("task")
+        if rung == THESIS or not all(t in by_task.index for t in tasks):
+            continue
+        ok = all(bool(by_task.loc[t, "complete"]) and by_task.loc[t, "spearman"] >= min_spearman
+                 and bool(by_task.loc[t, "thesis_best_in_top"]) for t in tasks)
+        if ok:
+            passing.append((float(by_task.loc[tasks[0], "sim_steps_per_eval"]), rung))
+    passing.sort()
+    if passing:
+        return {"rung": passing[0][1], "passing": [r for _, r in passing],
+                "reason": f"cheapest rung with Spearman >= {min_spearman} and the thesis-best design in its top "
+                          f"k on {', '.join(tasks)}"}
+    return {"rung": "", "passing": [], "reason": f"no rung cheaper than the thesis's reaches Spearman >= "
+                                                 f"{min_spearman} with the thesis-best in its top k on every task"}

@@ -1,0 +1,55 @@
+import numpy as np
+import pandas as pd
+import pytest
+
+from robocompose.dataset.enumerate import EnumerateConfig, enumerate_designs
+from robocompose.grammar.tree import DesignTree
+from robocompose.io import read_table, write_table
+from robocompose.sim.contacts import PAD_X, REASONS, SCALE, rejection
+
+
+@pytest.fixture(scope="module")
+def small_runs():
+    one, stats_one = enumerate_designs(EnumerateConfig(n=12, seed=3, workers=1, chunk=16), progress=None)
+    two, stats_two = enumerate_designs(EnumerateConfig(n=12, seed=3, workers=2, chunk=16), progress=None)
+    return one, stats_one, two, stats_two
+
+
+def test_worker_count_does_not_change_the_table(small_runs, tmp_path):
+    one, stats_one, two, stats_two = small_runs
+    pd.testing.assert_frame_equal(one, two)
+    assert stats_one.as_dict() == stats_two.as_dict()
+    a, b = write_table(one, tmp_path / "a.parquet", "designs"), write_table(two, tmp_path / "b.parquet", "designs")
+    assert a.read_bytes() == b.read_bytes()
+
+
+def test_designs_are_distinct_valid_and_large_enough(small_runs):
+    designs, stats = small_runs[0], small_runs[1]
+    assert len(designs) == 12 and designs["design_id"].is_unique
+    assert (designs["n_links"] >= 11).all()
+    assert stats.candidates == 12 + stats.duplicates + sum(stats.rejected.values())
+    assert set(stats.rejected) <= {"depth_limit", "too_few_links", *REASONS}
+    for row in designs.itertuples():
+        tree = DesignTree(tuple(row.parents), tuple(row.tokens))
+        assert tree.design_id == row.design_id and tree.n_links == row.n_links
+        points = np.asarray(row.contacts).reshape(8, 2)
+        real = points[points[:, 0] != PAD_X]
+        assert rejection(real / SCALE) == "" and (real[:, 0] <= 0).all()  # kept designs pass GLSO's rule
+
+
+def test_round_trip_through_parquet(small_runs, tmp_path):
+    designs = small_runs[0]
+    back = read_table(write_table(designs, tmp_path / "d.parquet", "designs"), "designs")
+    assert back["design_id"].tolist() == designs["design_id"].tolist()
+    assert [list(r) for r in back["rules"]] == [list(r) for r in designs["rules"]]
+
+
+def test_another_seed_gives_other_designs(small_runs):
+    other, _ = enumerate_designs(EnumerateConfig(n=3, seed=4, workers=1, chunk=8), progress=None)
+    assert set(other["design_id"]).isdisjoint(set(small_runs[0]["design_id"][:3])) or len(other) == 3
+
+
+@pytest.mark.parametrize(("field", "value"), [("n", -5), ("n", 0), ("chunk", 0), ("workers", -1)])
+def test_bad_config_names_the_field(field, value):
+    with pytest.raises(ValueError, match=field):
+        EnumerateConfig(**{"n": 10, field: value})

@@ -1,0 +1,98 @@
+import numpy as np
+import pandas as pd
+import pytest
+from scipy.stats import spearmanr
+
+from robocompose.control.mppi import MPPIConfig
+from robocompose.evaluation import fidelity
+from robocompose.evaluation.evaluate import EvaluationConfig, evaluate
+from robocompose.evaluation.fidelity import (
+    SCORE_COLUMNS,
+    THESIS,
+    FidelityConfig,
+    choose_default,
+    read_piece,
+    rung_config,
+    spearman,
+    summarise,
+)
+from robocompose.evaluation.references import REFERENCE_DESIGNS
+from robocompose.grammar.derivation import derive, parse_rules
+
+
+def test_thesis_rung_is_robogrammars_controller():
+    assert rung_config(THESIS) == MPPIConfig()
+    assert rung_config(THESIS).sim_steps() == (512 + 128 * 64) * 16 * 16 + 128 * 16  # 2.23 M, the thesis's cost
+    assert rung_config("s16_h8_e48").sim_steps() == 107264  # the default profile before the ladder
+    with pytest.raises(ValueError, match="unknown fidelity rung 'fast'"):
+        rung_config("fast")
+    with pytest.raises(ValueError, match="unknown task"):
+        FidelityConfig(tasks=["moon"])
+
+
+def test_spearman_matches_scipy_with_ties():
+    rng = np.random.default_rng(0)
+    a, b = pd.Series(rng.integers(0, 5, 30).astype(float)), pd.Series(rng.normal(size=30))
+    assert spearman(a, b) == pytest.approx(spearmanr(a, b).statistic)
+    assert np.isnan(spearman(pd.Series([1.0, 1.0, 1.0]), pd.Series([1.0, 2.0, 3.0])))
+
+
+def _designs(n: int) -> pd.DataFrame:
+    return pd.DataFrame({"name": [f"d{i}" for i in range(n)], "kind": ["random"] * n,
+                         "design_id": [f"id{i}" for i in range(n)], "rules": [""] * n, "screen_reward": np.nan})
+
+
+def _scores(rung: str, values, steps: int, task: str = "flat") -> pd.DataFrame:
+    n = len(values)
+    return pd.DataFrame({"task": task, "rung": rung, "name": [f"d{i}" for i in range(n)],
+                         "design_id": [f"id{i}" for i in range(n)], "reward": values, "status": "ok",
+                         "objective": values, "sim_steps": steps, "seconds": steps / 1e4})
+
+
+def test_summary_and_choice():
+    thesis = [4.0, 4.1, 5.5, 4.3, 4.2, 4.6]  # d2 is the thesis-best
+    designs = _designs(6)
+    scores = pd.concat([
+        _scores(THESIS, thesis, 2_000_000),
+        _scores("s8_h8_e48", [4.0, 4.1, 4.2, 4.3, 4.4, 4.5], 50_000),  # cheap, ranks d2 third from the bottom
+        _scores("s16_h8_e48", [4.0, 4.05, 5.0, 4.2, 4.1, 4.3], 100_000),  # same order as the thesis
+        _scores("s32_h8_e48", [4.0, 4.05, 5.0, 4.2, 4.1, 4.3], 200_000),  # as good, dearer
+        _scores("s16_h16_e48", [4.0, 4.1, 5.0], 150_000),  # incomplete
+    ], ignore_index=True)
+    summary = summarise(scores, designs).set_index("rung")
+    assert summary.loc[THESIS, "spearman"] == pytest.approx(1.0)
+    assert summary.loc["s16_h8_e48", "spearman"] == pytest.approx(1.0)
+    assert summary.loc["s16_h8_e48", "thesis_best_in_top"]
+    assert not summary.loc["s8_h8_e48", "thesis_best_in_top"]
+    assert summary.loc["s8_h8_e48", "thesis_best"] == "d2"
+    assert not summary.loc["s16_h16_e48", "complete"] and summary.loc["s16_h16_e48", "n_common"] == 3
+    assert summary.loc["s16_h8_e48", "random_max"] - summary.loc["s16_h8_e48", "random_min"] == pytest.approx(1.0)
+    choice = choose_default(summary.reset_index(), ["flat"])
+    assert choice["rung"] == "s16_h8_e48" and choice["passing"] == ["s16_h8_e48", "s32_h8_e48"]
+    assert choose_default(summary.reset_index(), ["flat", "ridged"])["rung"] == ""  # ridged not measured
+
+
+def test_measure_order_takes_references_then_the_other_kinds_in_turn():
+    designs = pd.DataFrame({"name": ["r0", "r1", "x0", "x1", "x2", "s0", "s1"],
+                            "kind": ["reference", "reference", "random", "random", "random", "screened", "screened"]})
+    assert list(fidelity.measure_order(designs)["name"]) == ["r0", "r1", "s0", "x0", "s1", "x1", "x2"]
+
+
+def test_measure_appends_rows_and_resumes(tmp_path, monkeypatch):
+    monkeypatch.setitem(fidelity.LADDER, "tiny", (2, 2, 2, 3))
+    rules = REFERENCE_DESIGNS["robogrammar_ridged"]
+    design_id = derive(parse_rules(rules)).tree.design_id
+    designs = pd.DataFrame([{"name": "ridged_ref", "kind": "reference", "design_id": design_id, "rules": rules,
+                             "screen_reward": np.nan}])
+    config = FidelityConfig(directory=str(tmp_path), tasks=["flat"], rungs=["tiny"])
+    assert fidelity.measure(config, designs) == 1
+    assert fidelity.measure(config, designs) == 0  # resumed: nothing left
+    piece = tmp_path / "scores" / "flat__tiny.csv"
+    with open(piece, "a") as f:
+        f.write("flat,tiny,cut")  # a line cut off by a crash mid-write
+    row = read_piece(piece).iloc[0]
+    assert list(read_piece(piece).columns) == list(SCORE_COLUMNS) and len(read_piece(piece)) == 1
+    fidelity._append(piece, row.to_dict())  # the next row after a cut line is whole
+    assert len(read_piece(piece)) == 2
+    again = evaluate(derive(parse_rules(rules)).tree, "flat", EvaluationConfig(mppi=rung_config("tiny")), 0)
+    assert row["reward"] == again["reward"] and row["sim_steps"] == again["sim_steps"]  # the exact float survives

@@ -1,0 +1,245 @@
+"""dvc.yaml cannot drift from the code: each stage lists every project module it imports and every file it reads.
+
+A stage's code deps are derived from its script with `import_closure` (transitive, function-level imports
+included) and must be listed exactly: a missing module fails naming the stage and the module, and a listed
+file or folder that the stage does not import fails too (a folder dep stands for every `.py` file in it).
+The files a stage reads are derived from the path strings of its script and of the modules it imports,
+matched against the pipeline's artifacts, plus a hand-kept table of reads that go through params.
+"""
+
+from __future__ import annotations
+
+import ast
+import fnmatch
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from robocompose.io import provenance
+from robocompose.io.provenance import import_closure
+
+ROOT = provenance.ROOT
+PACKAGE = provenance.PACKAGE
+
+# Reads the path strings of the code do not show (paths built from params or from folder names).
+KNOWN_READS = {
+    "teams_baselines": {"data/regions.parquet", "data/teams/chips"},  # the regions table names the chip PNGs
+    "evaluate_references": {"data/designs.parquet"},
+    "modular_baselines": {"data/modular/exhaustive.parquet"},
+    "vae_designs": {"data/designs.parquet", "data/designs_nogram.parquet"},
+    **{f"train_vae@{variant}": {"data/designs.parquet", "data/designs_nogram.parquet",  # train_vae.variants
+                                "data/vae_extra_designs.parquet", "data/vae_extra_nogram.parquet"}
+       for variant in ("full", "nopred", "nogram")},
+    "vae_landscape": {"models/vae_full.pt", "models/vae_nopred.pt", "data/designs.parquet"},
+    "glso": {"models/vae_full.pt", "models/vae_nopred.pt", "models/vae_nogram.pt"},  # glso.models
+    "report": {"data/teams/chips", "data/rollouts", "reports/benchmarks.json", "reports/training"},
+}
+# Files stages read that are deliberately not DVC deps, and why.
+NOT_DEPS = {
+    "reports/timings.json": "wall times of the last run, kept out of DVC so that outputs stay byte-reproducible",
+    "data/cache/eval_cache.parquet": "the evaluation cache only saves time: its keys cover every input "
+                                     "(issue 10, item 3)",
+}
+
+
+def dvc_stages(root: Path = ROOT) -> dict:
+    """name -> DVC's own parse of each stage of root/dvc.yaml (matrix stages expanded: `train_vae@full`)."""
+    from dvc.repo import Repo
+
+    with Repo(str(root)) as repo:
+        return {stage.addressing: stage for stage in repo.index.stages}
+
+
+def stage_script(stage) -> str:
+    scripts = [word for word in stage.cmd.split() if word.endswith(".py")]
+    assert len(scripts) == 1, f"stage {stage.addressing}: cmd {stage.cmd!r} should run one python script"
+    return scripts[0]
+
+
+def dep_paths(stage) -> list[str]:
+    return [Path(dep.def_path).as_posix().rstrip("/") for dep in stage.deps if not hasattr(dep, "params")]
+
+
+def covered(path: str, deps: list[str]) -> bool:
+    return any(path == dep or path.startswith(dep + "/") for dep in deps)
+
+
+def project_sources(folder: Path, root: Path) -> set[str]:
+    return {p.relative_to(root).as_posix() for p in folder.rglob("*.py") if "__pycache__" not in p.parts}
+
+
+def exact_cover(files: set[str], root: Path, folder: str = PACKAGE) -> list[str]:
+    """The shortest list of folders and files under `folder` that covers exactly `files` (of its .py files)."""
+    if project_sources(root / folder, root) <= files:
+        return [folder]
+    cover = []
+    for child in sorted((root / folder).iterdir()):
+        rel = child.relative_to(root).as_posix()
+        if child.is_dir() and child.name != "__pycache__" and project_sources(child, root) & files:
+            cover += exact_cover(files, root, rel)
+        elif child.suffix == ".py" and rel in files:
+            cover.append(rel)
+    return cover
+
+
+def code_dep_problems(name: str, script: str, deps: list[str], root: Path = ROOT) -> list[str]:
+    """What is wrong with a stage's code deps: modules it imports but does not list, deps it does not import."""
+    closure = {p.relative_to(root).as_posix() for p in import_closure(root / script)}
+    problems = [f"stage {name}: does not list {script} (its own script)"] if not covered(script, deps) else []
+    problems += [f"stage {name}: imports {path} ({path[:-3].replace('/', '.').removesuffix('.__init__')}) "
+                 f"but dvc.yaml does not list it" for path in sorted(closure) if not covered(path, deps)]
+    for dep in deps:
+        if dep == PACKAGE or dep.startswith(PACKAGE + "/"):
+            listed = project_sources(root / dep, root) if (root / dep).is_dir() else {dep}
+            problems += [f"stage {name}: lists {dep} but does not import {path}" for path in sorted(listed - closure)]
+    if problems:
+        problems.append(f"stage {name}: the exact code deps are {exact_cover(closure, root)}")
+    return problems
+
+
+def _path_strings(path: Path) -> set[str]:
+    """The string constants of a file, f-strings as glob patterns (`f"vae_{name}.pt"` -> `vae_*.pt`)."""
+    strings = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.JoinedStr):
+            strings.add("".join(v.value if isinstance(v, ast.Constant) else "*" for v in node.values))
+        elif isinstance(node, ast.Constant) and isinstance(node.value, str):
+            strings.add(node.value)
+    return {s for s in strings if "." in Path(s).name and " " not in s and "\n" not in s and not s.startswith("*")}
+
+
+def artifacts(stages: dict, root: Path = ROOT) -> set[str]:
+    """Every file the pipeline passes between stages: DVC outs, and tracked reports that no stage writes."""
+    outs = {Path(out.def_path).as_posix() for stage in stages.values() for out in stage.outs}
+    tracked = subprocess.run(["git", "ls-files", "reports"], cwd=root, capture_output=True, text=True).stdout.split()
+    return outs | {f for f in tracked if not covered(f, sorted(outs))} | set(NOT_DEPS)
+
+
+def named_reads(script: str, stages: dict, root: Path = ROOT) -> list[tuple[str, set[str]]]:
+    """(path string, artifacts it names) for each path string in the script and the modules it imports."""
+    sources = [root / script, *import_closure(root / script)]
+    strings = set().union(*(_path_strings(p) for p in sources))
+    found = []
+    for text in sorted(strings):
+        names = {a for a in artifacts(stages, root)
+                 if fnmatch.fnmatchcase(a, text) or fnmatch.fnmatchcase(a, "*/" + text)}
+        if names:
+            found.append((text, names))
+    return found
+
+
+def read_problems(name: str, script: str, deps: list[str], outs: list[str], stages: dict,
+                  root: Path = ROOT) -> list[str]:
+    """Files a stage reads that it does not list: known reads, and artifacts its code names."""
+    problems = [f"stage {name}: reads {path} but dvc.yaml does not list it"
+                for path in sorted(KNOWN_READS.get(name, ())) if not covered(path, deps)]
+    for text, names in named_reads(script, stages, root):
+        if any(covered(a, deps + outs) or a in NOT_DEPS for a in names):
+            continue  # a pattern (f-string) is satisfied by any one of the artifacts it matches
+        problems.append(f"stage {name}: its code names {text!r} ({', '.join(sorted(names))}) but dvc.yaml "
+                        f"lists none of them")
+    return problems
+
+
+def out_paths(stage) -> list[str]:
+    return [Path(out.def_path).as_posix() for out in stage.outs]
+
+
+STAGES = dvc_stages()
+
+
+def test_the_known_reads_name_real_stages_and_artifacts():
+    assert set(KNOWN_READS) <= set(STAGES)
+    everything = artifacts(STAGES)
+    for name, paths in KNOWN_READS.items():
+        assert all(any(covered(a, [p]) for a in everything) for p in paths), (name, paths)
+
+
+@pytest.mark.parametrize("name", sorted(STAGES))
+def test_stage_lists_every_module_it_imports_and_nothing_else(name):
+    stage = STAGES[name]
+    problems = code_dep_problems(name, stage_script(stage), dep_paths(stage))
+    assert not problems, "\n".join(problems)
+
+
+@pytest.mark.parametrize("name", sorted(STAGES))
+def test_stage_lists_every_file_it_reads(name):
+    stage = STAGES[name]
+    problems = read_problems(name, stage_script(stage), dep_paths(stage), out_paths(stage), STAGES)
+    assert not problems, "\n".join(problems)
+
+
+@pytest.fixture
+def project_copy(tmp_path, monkeypatch):
+    """A copy of the package's source that `import_closure` reads instead of the real one."""
+    shutil.copytree(ROOT / PACKAGE, tmp_path / PACKAGE, ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copytree(ROOT / "stages", tmp_path / "stages", ignore=shutil.ignore_patterns("__pycache__"))
+    monkeypatch.setattr(provenance, "ROOT", tmp_path)
+    import_closure.cache_clear()
+    yield tmp_path
+    import_closure.cache_clear()
+
+
+def test_an_import_added_to_library_code_without_a_dep_fails(project_copy):
+    stage = STAGES["train_vae@full"]
+    script, deps = stage_script(stage), dep_paths(stage)
+    assert code_dep_problems("train_vae@full", script, deps, project_copy) == []
+    model = project_copy / "robocompose" / "latent" / "model.py"
+    model.write_text(model.read_text() + "\n\ndef _uses_gait():\n    from robocompose.modular import controller\n")
+    import_closure.cache_clear()
+    problems = code_dep_problems("train_vae@full", script, deps, project_copy)
+    assert "stage train_vae@full: imports robocompose/modular/controller.py (robocompose.modular.controller) " \
+           "but dvc.yaml does not list it" in problems
+
+
+def test_a_dep_the_stage_does_not_import_fails(project_copy):
+    problems = code_dep_problems("report", "stages/report.py", ["stages/report.py", "robocompose"], project_copy)
+    assert "stage report: lists robocompose but does not import robocompose/cli.py" in problems
+
+
+def test_a_read_without_a_dep_fails():
+    stage = STAGES["report"]
+    deps = [d for d in dep_paths(stage) if d != "reports/benchmarks.json"]
+    problems = read_problems("report", stage_script(stage), deps, out_paths(stage), STAGES)
+    assert "stage report: reads reports/benchmarks.json but dvc.yaml does not list it" in problems
+    assert any(p.startswith("stage report: its code names 'benchmarks.json' (reports/benchmarks.json)")
+               for p in problems)
+
+
+def test_touching_an_imported_module_or_the_benchmarks_makes_dvc_status_list_the_stage(tmp_path, monkeypatch):
+    """Through DVC itself, on a copy of the project: record every stage's deps, touch every project module
+    and reports/benchmarks.json, then each stage reports as changed a dep covering each module it imports."""
+    from dvc.repo import Repo
+
+    for part in (PACKAGE, "stages"):
+        shutil.copytree(ROOT / part, tmp_path / part, ignore=shutil.ignore_patterns("__pycache__"))
+    for part in ("dvc.yaml", "params.yaml", "reports/benchmarks.json"):
+        (tmp_path / part).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(ROOT / part, tmp_path / part)
+    monkeypatch.chdir(tmp_path)  # status names stages relative to the working directory
+    Repo.init(str(tmp_path), no_scm=True).close()
+    with Repo(str(tmp_path)) as repo, repo.lock:
+        for stage in repo.index.stages:
+            stage.save(allow_missing=True, run_cache=False)  # as after a run (outputs absent here)
+            stage.dump(update_pipeline=False)  # dvc.lock only
+
+    def changed_code() -> dict[str, list[str]]:
+        with Repo(str(tmp_path)) as repo:
+            status = repo.status()
+        return {name: sorted(Path(path).as_posix() for entry in entries if isinstance(entry, dict)
+                             for path, state in entry.get("changed deps", {}).items() if state == "modified")
+                for name, entries in status.items()}
+
+    assert not any(changed_code().values())  # recorded: only the absent data shows
+    for path in (tmp_path / PACKAGE).rglob("*.py"):
+        path.write_text(path.read_text() + "\n# touched\n")
+    bench = tmp_path / "reports" / "benchmarks.json"
+    bench.write_text(bench.read_text() + "\n")
+    changed = changed_code()
+    for name, stage in STAGES.items():
+        for module in import_closure(ROOT / stage_script(stage)):
+            path = module.relative_to(ROOT).as_posix()
+            assert covered(path, changed.get(name, [])), f"dvc status does not list {name} after touching {path}"
+    assert "reports/benchmarks.json" in changed["report"]
