@@ -162,7 +162,7 @@ def _table_5_2(table: pd.DataFrame, data_dir: Path) -> list[str]:
         for method, name in (("ga20", "GA-20"), ("ga50", "GA-50"), ("crowding", "GA-crowding")):
             group = runs[runs.method == method]
             if len(group):
-                lines.append(f"| {name} | {_ms(group.best_fitness)} | {_ms(group.distinct, 1)} | "
+                lines.append(f"| {name} | {_ms(group.best_distance)} | {_ms(group.distinct, 1)} | "
                              f"{int(group.evaluations.mean())} rollouts (see the modular section's runtimes) | "
                              f"{', '.join(map(str, sorted(group.terrain_seed.unique())))} |")
     if len(crowding):
