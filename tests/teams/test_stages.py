@@ -11,6 +11,7 @@ teams:
   coverage: {iterations: 2, n_observations: 4}
   experiments: {populations: [4, 6], generations: 2, table_5_4_chips: 1, table_5_5_chips: 1, seeds: [0],
                 budgets: [3, 6], workers: 1}  # processes: test_experiments.py
+  eggan: {iterations: 2, batch: 8, tasks: 2, samples: 16, checkpoint_every: 1, latent: 4}
 """
 
 
@@ -38,8 +39,7 @@ def test_stages_write_their_tables_deterministically(tmp_path, monkeypatch):
 
 def test_eggan_stage_trains_queries_and_resumes(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    (tmp_path / "params.yaml").write_text(TINY_PARAMS + "  eggan: {iterations: 2, batch: 8, tasks: 2, samples: 16, "
-                                          "checkpoint_every: 1, latent: 4}\n")
+    (tmp_path / "params.yaml").write_text(TINY_PARAMS)
     run_stage("decompose")
     run_stage("teams_eggan")
     queries = pd.read_parquet("data/teams/eggan_queries.parquet")
