@@ -12,7 +12,7 @@ from __future__ import annotations
 import os
 import time
 
-from robocompose.grammar.enumerate import EnumerateConfig, enumerate_designs
+from robocompose.dataset.enumerate import EnumerateConfig, enumerate_designs
 
 N = 1500
 

@@ -119,6 +119,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--cron", default="0 3 * * *", help="schedule for --serve (default: %(default)s)")
     parser.add_argument("--name", default="scheduled", help="deployment name for --serve")
     args = parser.parse_args(argv)
+    try:  # check the stage names against dvc.yaml before any Prefect server starts
+        select_stages(dvc_stages(args.project_dir), args.stages)
+    except (ValueError, RuntimeError) as err:
+        parser.error(str(err))
     parameters = {"stages": args.stages, "project_dir": args.project_dir}
     if args.serve:
         if not PREFECT_API_URL.value():

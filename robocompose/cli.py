@@ -7,8 +7,11 @@ import importlib
 import json
 import sys
 
-COMMAND_MODULES = ("robocompose.grammar.cli", "robocompose.teams.cli", "robocompose.evaluation.cli",
-                   "robocompose.modular.cli", "robocompose.latent.cli")
+COMMAND_MODULES = ("robocompose.grammar.cli", "robocompose.sim.cli", "robocompose.dataset.cli",
+                   "robocompose.teams.cli", "robocompose.evaluation.cli", "robocompose.modular.cli",
+                   "robocompose.latent.cli", "robocompose.glso.cli")
+# `robocompose compose PROBLEM ...`: real-time composition with a trained EG-GAN generator, one module per problem
+COMPOSE_MODULES = ("robocompose.modular.compose", "robocompose.teams.compose")
 
 
 def _profile(args: argparse.Namespace) -> int:
@@ -26,16 +29,23 @@ def parser() -> argparse.ArgumentParser:
     profile.set_defaults(handler=_profile)
     for module in COMMAND_MODULES:
         importlib.import_module(module).register(commands)
+    compose = commands.add_parser("compose", help="designs for a task in milliseconds from a trained EG-GAN generator")
+    problems = compose.add_subparsers(dest="compose_problem", required=True)
+    for module in COMPOSE_MODULES:
+        importlib.import_module(module).register(problems)
     return top
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run one command. Bad input (the project's InputError) prints one line and returns 2, as argparse does."""
+    from robocompose.io.errors import INPUT_ERROR_EXIT, InputError, error_line
+
     args = parser().parse_args(argv)
     try:
         return int(args.handler(args) or 0)
-    except (ValueError, FileNotFoundError, KeyError) as err:  # bad input: a clear message, no traceback
-        print(f"robocompose {args.command}: error: {err}", file=sys.stderr)
-        return 2
+    except InputError as err:
+        print(error_line("robocompose", err), file=sys.stderr)
+        return INPUT_ERROR_EXIT
 
 
 if __name__ == "__main__":

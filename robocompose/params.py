@@ -14,6 +14,8 @@ from typing import Any, TypeVar
 
 import yaml
 
+from robocompose.io.errors import InputError
+
 T = TypeVar("T")
 PARAMS_FILE = "params.yaml"
 PROFILES_DIR = "profiles"
@@ -21,44 +23,63 @@ PROFILES_DIR = "profiles"
 
 def read_params(path: str | Path = PARAMS_FILE) -> dict:
     path = Path(path)
-    if not path.exists():
-        raise FileNotFoundError(f"{path}: params file not found (run `robocompose profile default` to write it)")
+    if not path.is_file():
+        found = "is a directory" if path.is_dir() else "not found"
+        raise InputError(f"{path}: params file {found} (in the repository's root, `robocompose profile default` "
+                         f"writes params.yaml)")
     try:
         document = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
-    except yaml.YAMLError as err:
-        raise ValueError(f"{path}: not valid YAML: {err}") from None
+    except (yaml.YAMLError, UnicodeDecodeError) as err:
+        raise InputError(f"{path}: not valid YAML: {err}") from None
     if not isinstance(document, dict):
-        raise ValueError(f"{path}: expected a mapping of sections at the top level, found {type(document).__name__}")
+        raise InputError(f"{path}: expected a mapping of sections at the top level, found {type(document).__name__}")
     return document
 
 
+_TYPES = {"int": int, "float": float, "str": str, "bool": bool, "list": list, "dict": dict}
+
+
+def _matches(value: Any, expected: type) -> bool:
+    """YAML value vs a declared scalar type: an int is a float, a bool is not a number."""
+    if expected in (int, float) and isinstance(value, bool):
+        return False
+    return isinstance(value, expected) or (expected is float and isinstance(value, int))
+
+
 def build_config(cls: type[T], values: Any, where: str) -> T:
-    """Make dataclass `cls` from a mapping; unknown keys, wrong types and invalid values name `where.field`."""
+    """Make dataclass `cls` from a mapping; unknown keys, wrong types and invalid values name `where.field`.
+
+    Types are checked from the annotations (int, float, str, bool, list[...] item types); value ranges by the
+    dataclass's own __post_init__, whose InputError("field: ...") is reported as `where.field: ...`.
+    """
+    names = [f.name for f in dataclasses.fields(cls)]
     if not isinstance(values, dict):
-        raise ValueError(f"{where}: expected a mapping with fields {[f.name for f in dataclasses.fields(cls)]}, "
-                         f"found {values!r}")
+        raise InputError(f"{where}: expected a mapping with fields {names}, found {values!r}")
     fields = {f.name: f for f in dataclasses.fields(cls)}
-    unknown = sorted(set(values) - set(fields))
+    unknown = sorted(set(values) - set(fields), key=str)
     if unknown:
-        raise ValueError(f"{where}.{unknown[0]}: unknown field; expected one of {sorted(fields)}")
+        raise InputError(f"{where}.{unknown[0]}: unknown field; expected one of {sorted(fields)}")
     for name, value in values.items():
-        expected = fields[name].type if isinstance(fields[name].type, type) else _declared_type(fields[name])
-        if expected is None:
-            continue
-        if expected is float and isinstance(value, int) and not isinstance(value, bool):
-            continue
-        if not isinstance(value, expected) or (expected in (int, float) and isinstance(value, bool)):
-            raise ValueError(f"{where}.{name}: expected {expected.__name__}, found {value!r}")
+        expected, item = _declared_type(fields[name])
+        if expected is not None and not _matches(value, expected):
+            raise InputError(f"{where}.{name}: expected {expected.__name__}, found {value!r}")
+        if item is not None and not all(_matches(v, item) for v in value):
+            raise InputError(f"{where}.{name}: expected a list of {item.__name__}, found {value!r}")
     try:
         return cls(**values)
-    except ValueError as err:
-        raise ValueError(f"{where}: {err}") from None
+    except (ValueError, TypeError) as err:
+        message = str(err)
+        joined = "." if message.split(":")[0] in fields else ": "
+        raise InputError(f"{where}{joined}{message}") from None
 
 
-def _declared_type(f: dataclasses.Field) -> type | None:
-    """The runtime type of a field annotated as a string (from __future__ annotations)."""
-    name = str(f.type).split("[")[0].split("|")[0].strip()
-    return {"int": int, "float": float, "str": str, "bool": bool, "list": list, "dict": dict}.get(name)
+def _declared_type(f: dataclasses.Field) -> tuple[type | None, type | None]:
+    """(runtime type, list item type) of a field's annotation, e.g. "list[int]" -> (list, int); None if other."""
+    if isinstance(f.type, type):
+        return f.type, None
+    text = str(f.type).split("|")[0].strip()
+    outer, _, inner = text.partition("[")
+    return _TYPES.get(outer.strip()), (_TYPES.get(inner.rstrip("]").strip()) if outer.strip() == "list" else None)
 
 
 def load_section(cls: type[T], key: str, path: str | Path = PARAMS_FILE) -> T:
@@ -66,7 +87,7 @@ def load_section(cls: type[T], key: str, path: str | Path = PARAMS_FILE) -> T:
     node: Any = read_params(path)
     for part in key.split("."):
         if not isinstance(node, dict) or part not in node:
-            raise ValueError(f"{path}: missing section {key!r}")
+            raise InputError(f"{path}: missing section {key!r}")
         node = node[part]
     return build_config(cls, node, f"{path}: {key}")
 
@@ -83,12 +104,15 @@ def write_profile(name: str, root: str | Path = ".") -> Path:
     from robocompose.io import atomic_write_text
 
     root = Path(root)
+    if not (root / PROFILES_DIR / "default.yaml").is_file():
+        raise InputError(f"{(root / PROFILES_DIR).resolve()}: no default.yaml here; run `robocompose profile` in "
+                         f"the repository's root folder (the one holding profiles/ and dvc.yaml)")
     base = read_params(root / PROFILES_DIR / "default.yaml")
     if name != "default":
         profile = root / PROFILES_DIR / f"{name}.yaml"
         if not profile.exists():
             known = sorted(p.stem for p in (root / PROFILES_DIR).glob("*.yaml"))
-            raise FileNotFoundError(f"{profile}: no such profile; known profiles: {known}")
+            raise InputError(f"{profile}: no such profile; known profiles: {known}")
         base = merge(base, read_params(profile))
     header = (f"# Written by `robocompose profile {name}` from profiles/; edit the profile files, not this one.\n"
               f"profile: {name}\n")

@@ -1,7 +1,7 @@
 """DVC stage `enumerate`: params -> data/designs.parquet, data/designs_nogram.parquet and their statistics."""
 
-from robocompose.grammar.enumerate import EnumerateConfig, enumerate_designs
-from robocompose.grammar.nogram import NogramConfig, enumerate_nogram
+from robocompose.dataset.enumerate import EnumerateConfig, enumerate_designs
+from robocompose.dataset.nogram import NogramConfig, enumerate_nogram
 from robocompose.io import atomic_write_json, write_table
 from robocompose.params import load_section
 from robocompose.report.timings import timed
@@ -15,8 +15,7 @@ def main() -> None:
         designs, stats = enumerate_designs(config)
         timing["designs_per_s"] = round(len(designs) / timing.elapsed(), 1)
         write_table(designs, "data/designs.parquet", "designs")
-        nogram_designs, nogram_stats = enumerate_nogram(nogram, designs["n_links"].tolist(), config.workers,
-                                                        config.chunk, address=config.address)
+        nogram_designs, nogram_stats = enumerate_nogram(nogram, config.workers, config.chunk, address=config.address)
         write_table(nogram_designs, "data/designs_nogram.parquet", "designs")
         atomic_write_json("reports/metrics/enumerate.json", {"grammar": stats.as_dict(),
                                                               "nogram": nogram_stats.as_dict()})

@@ -11,13 +11,14 @@ from robocompose.evaluation.references import ReferencesConfig, best_per_task, e
 from robocompose.io import atomic_write_json, read_table, write_table
 from robocompose.params import load_section
 from robocompose.report.timings import timed
+from robocompose.stage import run_stage
 
 
 def main() -> None:
     evaluation = load_section(EvaluationConfig, "evaluation")
     config = load_section(ReferencesConfig, "evaluate_references")
     designs = read_table("data/designs.parquet", "designs")
-    with timed("evaluate_references") as timing, evaluation.executor() as executor:
+    with timed("evaluate_references") as timing, evaluation.executor("evaluate_references") as executor:
         table = evaluate_references(designs, config, evaluation, evaluation.open_cache(), executor, save_every=8)
         timing["evaluations"] = len(table)
         timing["sim_steps"] = int(table["sim_steps"].sum())
@@ -32,4 +33,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_stage(main)

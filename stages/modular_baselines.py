@@ -1,31 +1,32 @@
 """DVC stage `modular_baselines`: GA-20, GA-50, GA-crowding and random sampling on every test terrain.
 
 params (modular) + data/modular/exhaustive.parquet -> data/modular/runs.parquet, reports/metrics/modular_baselines.json.
-The test terrains are all in the evaluation cache after `modular_exhaustive`, so the runs read their fitness from it;
-each run's cost without a cache is its `sim_steps`.
+Every fitness is read from the test terrain's exhaustive table (the simulator's measured result for every design);
+each run's runtime is the measured simulation time of the evaluations it asked for (its cost without a cache).
 """
 
-from robocompose.evaluation.cache import EvaluationCache
-from robocompose.evaluation.executor import Executor
 from robocompose.io import atomic_write_json, read_table, write_table
 from robocompose.modular.experiments import baseline_runs
 from robocompose.modular.params import load_modular_params
 from robocompose.report.timings import timed
+from robocompose.stage import run_stage
 
 
 def main() -> None:
     params = load_modular_params("params.yaml")
     truth = read_table("data/modular/exhaustive.parquet", "modular_exhaustive")
-    cache = EvaluationCache(params.cache or None)
-    with timed("modular_baselines") as timing, Executor(params.workers, params.address or None) as executor:
-        runs = baseline_runs(params, truth, cache, executor)
+    with timed("modular_baselines") as timing:
+        runs = baseline_runs(params, truth)
         timing["runs"] = len(runs)
     write_table(runs, "data/modular/runs.parquet", "modular_runs")
-    runs["regret"] = runs.optimum - runs.best_fitness
-    means = runs.groupby("method")[["best_fitness", "distinct", "regret", "ec_fitness"]].mean().round(4)
+    runs["regret"] = runs.optimum - runs.best_distance
+    means = runs.groupby("method")[["best_distance", "distinct", "regret", "ec_distance", "sim_seconds"]].mean()
+    failures = runs.groupby("method")[["ec_failures"]].sum().join(
+        runs.best_distance.isna().groupby(runs.method).sum().rename("failed_runs"))
     atomic_write_json("reports/metrics/modular_baselines.json", {
-        method: row.to_dict() for method, row in means.iterrows()})
+        method: {**means.loc[method].round(4).to_dict(), **{k: int(v) for k, v in failures.loc[method].items()}}
+        for method in means.index})
 
 
 if __name__ == "__main__":
-    main()
+    run_stage(main)

@@ -27,7 +27,8 @@ def main() -> None:
     test_chips = decomposed_chips(read_table("data/regions.parquet", "regions"), "test")
     cache = teams_cache("data/teams/eval_cache.parquet")
     experiments = params.experiments
-    with timed("teams_baselines") as timing, Executor(experiments.workers, experiments.address or None) as executor:
+    with timed("teams_baselines") as timing, Executor(experiments.workers, experiments.address or None,
+                                                      progress="teams_baselines") as executor:
         runs, fronts, timing["nsga2_runs"] = nsga2_runs(test_chips, params.coverage, experiments, cache, executor)
         coverage = coverage_baselines(test_chips, params.coverage, experiments, executor)
         cache.save()

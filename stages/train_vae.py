@@ -4,6 +4,7 @@ reports/training/vae_VARIANT/: curves for `dvc plots`, metrics.json with the fin
 import sys
 from pathlib import Path
 
+from robocompose.io.errors import InputError
 from robocompose.latent.metrics import vae_metrics
 from robocompose.latent.params import VARIANTS, load_variant
 from robocompose.latent.train import load_designs, log_evaluation, save_model, train, training_log
@@ -13,7 +14,7 @@ from robocompose.stage import run_stage
 
 def main() -> None:
     if len(sys.argv) != 2:
-        raise ValueError(f"usage: train_vae.py VARIANT (one of {', '.join(VARIANTS)})")
+        raise InputError(f"usage: train_vae.py VARIANT (one of {', '.join(VARIANTS)})")
     name = sys.argv[1]
     variant, model_config, train_config, metrics_config = load_variant(name)
     designs = load_designs(variant.data, model_config.constraints, model_config.max_nodes)

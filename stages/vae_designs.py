@@ -5,8 +5,8 @@ from dataclasses import replace
 
 import pandas as pd
 
-from robocompose.grammar.enumerate import EnumerateConfig, enumerate_designs
-from robocompose.grammar.nogram import NogramConfig, enumerate_nogram
+from robocompose.dataset.enumerate import EnumerateConfig, enumerate_designs
+from robocompose.dataset.nogram import NogramConfig, enumerate_nogram
 from robocompose.io import get_schema, read_table, write_table
 from robocompose.latent.params import ExtraConfig
 from robocompose.params import load_section
@@ -24,9 +24,8 @@ def main() -> None:
         more = more_nogram = none
         if extra.n:
             more, _ = enumerate_designs(replace(enumeration, n=extra.n, seed=extra.seed), progress="vae_designs")
-            more_nogram, _ = enumerate_nogram(NogramConfig(n=extra.n, seed=extra.seed + 1),
-                                              designs["n_links"].tolist(), enumeration.workers, enumeration.chunk,
-                                              "vae_designs (nogram)", enumeration.address)
+            more_nogram, _ = enumerate_nogram(NogramConfig(n=extra.n, seed=extra.seed + 1), enumeration.workers,
+                                              enumeration.chunk, "vae_designs (nogram)", enumeration.address)
         for table, known, path in [(more, designs, "data/vae_extra_designs.parquet"),
                                    (more_nogram, nogram, "data/vae_extra_nogram.parquet")]:
             table = table[~table["design_id"].isin(set(known["design_id"]))]

@@ -15,7 +15,7 @@ def main() -> None:
     config = load_section(LandscapeConfig, "train_vae.landscape")
     models = {name: load_model(f"models/vae_{name}.pt") for name in ("full", "nopred")}
     designs = load_designs("data/designs.parquet", "grammar", models["full"].config.max_nodes)
-    with timed("vae_landscape") as timing, evaluation.executor() as executor:
+    with timed("vae_landscape") as timing, evaluation.executor("vae_landscape") as executor:
         table = landscape(models, designs, config, evaluation, evaluation.open_cache(), executor)
         timing["evaluated"] = config.evaluated
         write_table(table, "data/vae_landscape.parquet", "vae_landscape")

@@ -1,4 +1,5 @@
-"""Shared fixtures: the two reference designs of the RoboGrammar/GLSO papers; a Foxglove validator of MCAP logs."""
+"""Shared fixtures: the two reference designs of the RoboGrammar/GLSO papers; a Foxglove validator of MCAP logs;
+the bad-input check of the `robocompose` command."""
 
 import json
 from pathlib import Path
@@ -142,3 +143,81 @@ def check_in_browser(page: Path, expression: str, profile: Path) -> dict:
 def in_browser(tmp_path):
     """`in_browser(page, expression)`: what `expression` evaluates to on local `page` in headless Chromium."""
     return lambda page, expression: check_in_browser(page, expression, tmp_path / "browser-profile")
+@pytest.fixture
+def cli_error(capsys):
+    """cli_error(argv, *fragments): run `robocompose argv` in-process; assert it exits 2 with one error line (after
+    argparse's usage line, if argparse caught it) that holds every fragment, no traceback, nothing on stdout.
+    Returns the error line."""
+    from robocompose.cli import main
+
+    def run(argv: list[str], *fragments: str) -> str:
+        try:
+            code = main(argv)
+        except SystemExit as exit_:  # argparse's own errors
+            code = exit_.code
+        out, err = capsys.readouterr()
+        lines = err.strip().splitlines()
+        assert code == 2, f"exit code {code}, stderr {err!r}"
+        assert out == "" and "Traceback" not in err, err
+        assert lines and (len(lines) == 1 or lines[0].startswith("usage:")), err
+        line = lines[-1]
+        assert ": error: " in line and all(f in line for f in fragments), line
+        return line
+
+    return run
+
+
+# --- a real Dask cluster on loopback ---
+
+
+@pytest.fixture(scope="session")
+def dask_address():
+    """The scheduler address of a LocalCluster on loopback (2 worker processes, one thread each), shared by the
+    session's tests."""
+    from dask.distributed import LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
+                      silence_logs=40) as cluster:
+        yield cluster.scheduler_address
+
+
+# --- a tiny copy of the project ---
+
+
+def copy_of_project(root: Path, params: dict, commit: bool = False) -> Path:
+    """The project's tracked files (as in the working tree) in a new git repo at `root`, with params.yaml from
+    profiles/default.yaml and `params` merged into it section by section (nested dicts merged, not replaced).
+    `commit`: commit everything once (dvclive, in the train_vae stage, needs a revision)."""
+    import shutil
+    import subprocess
+
+    import yaml
+
+    source = Path(__file__).resolve().parents[1]
+    files = subprocess.run(["git", "ls-files"], cwd=source, check=True, capture_output=True, text=True).stdout.split()
+    for name in files:
+        if (source / name).is_file():
+            (root / name).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(source / name, root / name)
+    document = yaml.safe_load((root / "profiles" / "default.yaml").read_text())
+
+    def merge(into: dict, values: dict) -> None:
+        for key, value in values.items():
+            if isinstance(value, dict):
+                merge(into[key], value)
+            else:
+                into[key] = value
+
+    merge(document, params)
+    (root / "params.yaml").write_text(yaml.safe_dump(document))
+    commands = [["init", "-q"], *([["add", "-A"], ["commit", "-qm", "tiny copy"]] if commit else [])]
+    for command in commands:
+        subprocess.run(["git", "-c", "user.name=t", "-c", "user.email=t@t", *command], cwd=root, check=True,
+                       capture_output=True)
+    return root
+
+
+@pytest.fixture(scope="session")
+def copy_project():
+    """copy_project(root, params, commit=False): a tiny copy of the project (see copy_of_project)."""
+    return copy_of_project

@@ -33,6 +33,7 @@ KNOWN_READS = {
                                 "data/vae_extra_designs.parquet", "data/vae_extra_nogram.parquet"}
        for variant in ("full", "nopred", "nogram")},
     "vae_landscape": {"models/vae_full.pt", "models/vae_nopred.pt", "data/designs.parquet"},
+    "glso": {"models/vae_full.pt", "models/vae_nopred.pt", "models/vae_nogram.pt"},  # glso.models
     "report": {"data/teams/chips", "data/rollouts", "reports/benchmarks.json", "reports/training"},
 }
 # Files stages read that are deliberately not DVC deps, and why.

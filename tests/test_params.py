@@ -3,7 +3,8 @@ from dataclasses import dataclass
 import pytest
 import yaml
 
-from robocompose.grammar.enumerate import EnumerateConfig
+from robocompose.dataset.enumerate import EnumerateConfig
+from robocompose.io.errors import InputError
 from robocompose.params import build_config, load_section, merge, read_params, write_profile
 
 
@@ -32,7 +33,7 @@ def test_bad_params_name_file_and_field(tmp_path, section, message):
 
 
 def test_missing_file_and_section(tmp_path):
-    with pytest.raises(FileNotFoundError, match="params file not found"):
+    with pytest.raises(InputError, match="nope.yaml: params file not found"):
         read_params(tmp_path / "nope.yaml")
     _write(tmp_path / "p.yaml", {"other": {}})
     with pytest.raises(ValueError, match="missing section 'enumerate'"):
@@ -54,7 +55,7 @@ def test_profile_merges_overrides_onto_default(tmp_path):
     written = read_params(write_profile("paper", tmp_path))
     assert written["enumerate"] == {"n": 500000, "seed": 0} and written["report"] == {"gallery": 3}
     assert written["profile"] == "paper"
-    with pytest.raises(FileNotFoundError, match="known profiles: \\['default', 'paper'\\]"):
+    with pytest.raises(InputError, match="known profiles: \\['default', 'paper'\\]"):
         write_profile("huge", tmp_path)
 
 
@@ -74,3 +75,21 @@ def test_repository_profiles_are_consistent():
         return {prefix + k for k in d} | {x for k, v in d.items() if isinstance(v, dict) for x in keys(v, f"{k}.")}
 
     assert keys(paper) <= keys(default)  # a profile only overrides knobs the default profile has
+
+
+def test_profile_outside_the_repository_says_where_to_run_it(tmp_path):
+    with pytest.raises(InputError, match="run `robocompose profile` in the repository's root folder") as error:
+        write_profile("default", tmp_path)
+    assert "profiles" in str(error.value) and not (tmp_path / "params.yaml").exists()
+
+
+@pytest.mark.parametrize("values, message", [
+    ({"n": [1]}, "x.n: expected int, found [1]"),
+    ({"n": True}, "x.n: expected int, found True"),
+    ({"n": 0}, "x: n must be a positive integer, got 0"),  # the dataclass's own range check, field named
+    ({"n": 5, "seed": "a"}, "x.seed: expected int"),
+])
+def test_values_are_checked_by_type_and_by_the_dataclass(values, message):
+    with pytest.raises(InputError) as error:
+        build_config(EnumerateConfig, values, "x")
+    assert message in str(error.value)

@@ -34,6 +34,8 @@ from typing import Protocol
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
+from robocompose.io.errors import InputError
+
 # 5-tap FIR low-pass applied to the sampling noise along time.
 NOISE_FILTER = np.array([0.10422766377112629, 0.3239870556899027, 0.3658903830367387,
                          0.3239870556899027, 0.10422766377112629])
@@ -56,11 +58,11 @@ class MPPIConfig:
     def __post_init__(self) -> None:
         for name in ("samples", "first_samples", "episode", "interval"):
             if getattr(self, name) < 1:
-                raise ValueError(f"mppi.{name} must be a positive integer, got {getattr(self, name)}")
+                raise InputError(f"mppi.{name} must be a positive integer, got {getattr(self, name)}")
         if self.horizon < 2:
-            raise ValueError(f"mppi.horizon must be >= 2 control steps, got {self.horizon}")
+            raise InputError(f"mppi.horizon must be >= 2 control steps, got {self.horizon}")
         if not 0.0 < self.discount <= 1.0:
-            raise ValueError(f"mppi.discount must be in (0, 1], got {self.discount}")
+            raise InputError(f"mppi.discount must be in (0, 1], got {self.discount}")
 
     def as_dict(self) -> dict:
         return asdict(self)

@@ -17,6 +17,8 @@ from dataclasses import asdict, dataclass
 import torch
 from torch import nn
 
+from robocompose.io.errors import InputError
+
 
 @dataclass(frozen=True)
 class NetworkConfig:
@@ -30,7 +32,7 @@ class NetworkConfig:
     def __post_init__(self):
         for name, value in asdict(self).items():
             if not isinstance(value, int) or value < 1:
-                raise ValueError(f"network.{name}: expected a positive integer, found {value!r}")
+                raise InputError(f"network.{name}: expected a positive integer, found {value!r}")
 
 
 class TaskEncoder(nn.Module):
@@ -42,7 +44,7 @@ class TaskEncoder(nn.Module):
         if self.image:
             h, w = task_shape
             if h < 5 or w < 5:
-                raise ValueError(f"task_shape {task_shape}: a height map needs at least 5 x 5 cells")
+                raise InputError(f"task_shape {task_shape}: a height map needs at least 5 x 5 cells")
             self.convs = nn.Sequential(nn.Conv2d(1, config.filters, 3), nn.ReLU(),
                                        nn.Conv2d(config.filters, config.filters, 3), nn.ReLU(), nn.Flatten())
             self.fc = nn.Linear(config.filters * (h - 4) * (w - 4), config.latent)

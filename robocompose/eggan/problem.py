@@ -44,6 +44,7 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
+from robocompose.io.errors import InputError
 from robocompose.search.crowding import CrowdingConfig, crowding_generation
 from robocompose.search.ga import GAConfig, ga_generation
 from robocompose.search.problem import Problem as SearchProblem
@@ -169,7 +170,7 @@ def evolve_single_objective(problem: SearchProblem, designs: list[Design], fitne
                           elite=elite)
         generation = partial(ga_generation, config=config)
     else:
-        raise ValueError(f"evolution method {method!r}: expected one of {SINGLE_OBJECTIVE_METHODS}")
+        raise InputError(f"evolution method {method!r}: expected one of {SINGLE_OBJECTIVE_METHODS}")
     fitness = np.asarray(fitness, dtype=np.float64)
     for _ in range(steps):
         designs, fitness = generation(problem, designs, fitness, rng)

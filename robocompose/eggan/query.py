@@ -8,12 +8,14 @@ ranking needs no simulation.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
+from pathlib import Path
 
 import torch
 
 from robocompose.eggan.networks import Generator
 from robocompose.eggan.problem import Design, EgganProblem, Sampled, Task
+from robocompose.io.errors import InputError
 
 
 @torch.no_grad()
@@ -21,7 +23,7 @@ def generate(generator: Generator, problem: EgganProblem, task: Task, n: int, se
              task_tensor: torch.Tensor | None = None) -> tuple[Sampled, torch.Tensor]:
     """n designs for `task` (or for a given task tensor) and the generator's (n, *design_shape) output."""
     if n < 1:
-        raise ValueError(f"samples: expected a positive number of designs, found {n}")
+        raise InputError(f"samples: expected a positive number of designs, found {n}")
     generator.eval()
     stream = torch.Generator().manual_seed(int(seed))
     tensor = problem.encode_task(task) if task_tensor is None else task_tensor
@@ -51,3 +53,56 @@ def rank_distinct(problem: EgganProblem, sampled: Sampled, output: torch.Tensor,
     scores = log_p.exp().mean(dim=1)  # (D,)
     order = sorted(range(len(designs)), key=lambda i: (-float(scores[i]), problem.design_id(designs[i])))
     return [Ranked(designs[i], float(scores[i])) for i in order[:k]]
+
+
+# --- the generator as a file: weights, sizes and provenance (the shipped default generator is one) ---
+
+MODEL_CODE = ("robocompose.eggan.networks",)  # the modules a saved generator's weights are meaningful for
+
+
+def model_code_digest() -> str:
+    """Digest of the network code a generator file must match to be loaded."""
+    from robocompose.io.provenance import code_digest
+
+    return code_digest(*MODEL_CODE)
+
+
+def save_generator(generator: Generator, problem: EgganProblem, path: str | Path, meta: dict,
+                   half: bool = False) -> Path:
+    """Write the generator's weights and sizes to `path` (torch) and `meta` + provenance beside it (`.json`).
+
+    `half` stores floating-point weights as float16 (half the file; the shipped generator), loaded as float32.
+    """
+    from robocompose.io import atomic_path, atomic_write_json
+
+    path = Path(path)
+    info = {"problem": problem.name, "task_shape": list(problem.task_shape),
+            "design_shape": list(problem.design_shape), "network": asdict(generator.config),
+            "model_code": model_code_digest(), "weights": "float16" if half else "float32", **meta}
+    with atomic_path(path) as tmp:
+        state = {k: v.half() if half and v.is_floating_point() else v.clone()
+                 for k, v in generator.state_dict().items()}
+        torch.save({"info": info, "state": state}, tmp)
+    atomic_write_json(path.with_suffix(".json"), info)
+    return path
+
+
+def load_generator(path: str | Path, problem: EgganProblem) -> tuple[Generator, dict]:
+    """A saved generator for `problem`, in eval mode, and its info; a clear error if it does not fit."""
+    from robocompose.eggan.networks import NetworkConfig
+
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such generator file")
+    try:
+        saved = torch.load(path, map_location="cpu", weights_only=True)
+        info = saved["info"]
+    except Exception as err:  # a corrupt or foreign file: name it
+        raise ValueError(f"{path}: not an EG-GAN generator file ({err})") from None
+    if info["problem"] != problem.name or tuple(info["design_shape"]) != tuple(problem.design_shape) or tuple(
+            info["task_shape"]) != tuple(problem.task_shape):
+        raise ValueError(f"{path}: a generator for {info['problem']} {info['task_shape']} -> {info['design_shape']}, "
+                         f"not for {problem.name} {list(problem.task_shape)} -> {list(problem.design_shape)}")
+    generator = Generator(problem.task_shape, problem.design_shape, NetworkConfig(**info["network"]))
+    generator.load_state_dict({k: v.float() if v.is_floating_point() else v for k, v in saved["state"].items()})
+    return generator.eval(), info

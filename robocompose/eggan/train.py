@@ -44,6 +44,7 @@ import torch.nn.functional as F
 from robocompose.eggan.networks import Discriminator, Generator, NetworkConfig
 from robocompose.eggan.problem import EgganProblem, check_problem
 from robocompose.io import McapWriter, atomic_path, atomic_write_text
+from robocompose.io.errors import InputError
 from robocompose.io.provenance import code_digest
 
 
@@ -70,16 +71,16 @@ class TrainConfig:
                      "checkpoint_every"):
             value = getattr(self, name)
             if not isinstance(value, int) or value < (0 if name in ("iterations", "evolution_steps") else 1):
-                raise ValueError(f"{name}: expected a positive integer, found {value!r}")
+                raise InputError(f"{name}: expected a positive integer, found {value!r}")
         if self.tasks < 1 or self.batch % self.tasks or (self.batch // self.tasks) % 2:
-            raise ValueError(f"batch {self.batch} / tasks {self.tasks}: expected an even number of noise vectors "
+            raise InputError(f"batch {self.batch} / tasks {self.tasks}: expected an even number of noise vectors "
                              "per task (the evolution pairs parents)")
         if self.checkpoint_every % self.log_every:
-            raise ValueError(f"checkpoint_every ({self.checkpoint_every}) must be a multiple of log_every "
+            raise InputError(f"checkpoint_every ({self.checkpoint_every}) must be a multiple of log_every "
                              f"({self.log_every}): logged rows must not straddle a resume")
         for name in ("lr_generator", "lr_discriminator"):
             if not getattr(self, name) > 0:
-                raise ValueError(f"{name}: expected a positive learning rate, found {getattr(self, name)}")
+                raise InputError(f"{name}: expected a positive learning rate, found {getattr(self, name)}")
 
 
 # Settings that do not change what iteration t computes: a finished run continues when only these grow.
@@ -214,7 +215,7 @@ def train(problem: EgganProblem, network: NetworkConfig, config: TrainConfig, ch
     """Run Algorithm 1 for `config.iterations` iterations, resuming from `checkpoint` if it holds this run."""
     check_problem(problem)
     if config.evolution not in problem.evolution_methods:
-        raise ValueError(f"evolution: problem {problem.name} supports {list(problem.evolution_methods)}, "
+        raise InputError(f"evolution: problem {problem.name} supports {list(problem.evolution_methods)}, "
                          f"found {config.evolution!r}")
     torch.set_num_threads(config.threads)
     torch.manual_seed(config.seed)

@@ -18,7 +18,8 @@ Several processes (stages, BO runs, the modular-robot and team worlds) may share
 merges under an exclusive lock, so no process loses another's entries (on a key written by both, the
 saving process's value wins; evaluations are deterministic so both agree). The file is sorted by key,
 so the same entries always give the same bytes. The cache only saves time: stages must give the same
-outputs with an empty cache, which is why its file is not a DVC output.
+outputs with an empty cache, which is why its file is not a DVC output, and why a corrupt file is moved aside
+(`<name>.corrupt`, with a warning) and the cache starts empty.
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ from typing import Any
 
 import pandas as pd
 
-from robocompose.io import get_schema, read_table, write_table
+from robocompose.io import ArtifactError, get_schema, read_table, set_aside, write_table
 
 CacheKey = tuple  # values of the key columns, in order; e.g. (design_id, task, settings_hash, seed)
 DEFAULT_CACHE_PATH = Path("data/cache/eval_cache.parquet")
@@ -56,7 +57,13 @@ class EvaluationCache:
             self._rows = self._read()
 
     def _read(self) -> dict[CacheKey, dict[str, Any]]:
-        frame = read_table(self.path, self.table)
+        """The file's entries; a corrupt or truncated file (the cache only saves time) is moved aside, kept
+        for inspection, with a warning, and the cache starts empty: never a wrong result, never a stop."""
+        try:
+            frame = read_table(self.path, self.table)
+        except ArtifactError as err:
+            set_aside(self.path, str(err).removeprefix(f"{self.path}: "))
+            return {}
         rows = {}
         for record in frame.to_dict("records"):
             key = tuple(_plain(record[c]) for c in self.key_columns)

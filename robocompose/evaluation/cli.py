@@ -4,16 +4,22 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
+
+from robocompose.arguments import non_negative_int, output_file
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     evaluate = subparsers.add_parser("evaluate", help="score a design on a task (MPPI in pybullet); prints JSON")
     evaluate.add_argument("--rules", required=True, help="comma-separated rule indices, e.g. 0,7,1,13,...")
     evaluate.add_argument("--task", default="flat", help="flat, frozen_lake, ridged or wall")
-    evaluate.add_argument("--seed", type=int, default=None, help="controller seed (default: evaluation.seed)")
-    evaluate.add_argument("--params", default="params.yaml", help="params file whose `evaluation` section is used")
-    evaluate.add_argument("--mcap", help="write the trajectory as an MCAP log (Foxglove)")
-    evaluate.add_argument("--gif", help="write the trajectory as an animated GIF")
+    evaluate.add_argument("--seed", type=non_negative_int, default=None,
+                          help="controller seed (default: evaluation.seed)")
+    evaluate.add_argument("--params", type=Path, default=Path("params.yaml"),
+                          help="params file whose `evaluation` section is used")
+    evaluate.add_argument("--mcap", type=output_file(".mcap", "MCAP"), help="write the trajectory as an MCAP log "
+                          "(Foxglove)")
+    evaluate.add_argument("--gif", type=output_file(".gif", "GIF"), help="write the trajectory as an animated GIF")
     evaluate.set_defaults(handler=_evaluate)
     register_fidelity(subparsers)
 
@@ -26,9 +32,9 @@ def _evaluate(args: argparse.Namespace) -> int:
     from robocompose.sim.physics import PhysicsSettings
     from robocompose.tasks.terrains import get_task
 
-    config = load_section(EvaluationConfig, "evaluation", args.params)
-    tree = derive(parse_rules(args.rules)).tree
+    tree = derive(parse_rules(args.rules)).tree  # the command line first: no params file needed to reject it
     task = get_task(args.task).name
+    config = load_section(EvaluationConfig, "evaluation", args.params)
     seed = config.seed if args.seed is None else args.seed
     recorder = None
     if args.mcap or args.gif:

@@ -35,6 +35,7 @@ from robocompose.control.mppi import MPPIConfig, run_episode
 from robocompose.evaluation.cache import EVAL_KEY_COLUMNS, EvaluationCache
 from robocompose.evaluation.executor import Executor, evaluate_many
 from robocompose.grammar.tree import DesignTree
+from robocompose.io.errors import InputError
 from robocompose.io.provenance import code_digest, constants_of, settings_digest
 from robocompose.params import build_config
 from robocompose.sim.physics import PhysicsSettings
@@ -63,13 +64,16 @@ class EvaluationConfig:
     def __post_init__(self) -> None:
         if isinstance(self.mppi, dict):
             object.__setattr__(self, "mppi", build_config(MPPIConfig, self.mppi, "evaluation.mppi"))
+        if not isinstance(self.mppi, MPPIConfig):
+            raise InputError(f"mppi: expected a mapping of MPPI settings, found {self.mppi!r}")
 
     def settings_hash(self, task: str) -> str:
         """16 hex digits identifying everything that changes a result on `task` besides design and seed."""
         return settings_digest({"simulation": simulation_digest(task), "mppi": self.mppi.as_dict()})
 
-    def executor(self) -> Executor:
-        return Executor(workers=self.workers, address=self.address or None)
+    def executor(self, progress: str | None = None) -> Executor:
+        """The executor these settings name; `progress` labels a progress bar for its maps."""
+        return Executor(workers=self.workers, address=self.address or None, progress=progress)
 
     def open_cache(self) -> EvaluationCache:
         return EvaluationCache(self.cache or None)

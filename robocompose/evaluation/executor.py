@@ -2,6 +2,7 @@
 
     from robocompose.evaluation.executor import Executor, evaluate_many
     with Executor(workers=0) as ex:                 # local processes (0 = all cores, 1 = in this process)
+                                                    # progress="label": a tqdm bar for every map
         rewards = ex.map(fn, items)                 # results in item order
     with Executor(address="tcp://10.0.0.5:8786") as ex:   # a running dask.distributed scheduler
         rows = evaluate_many(fn, items, key=lambda item: item.key, cache=cache, executor=ex)
@@ -30,15 +31,18 @@ from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
 from robocompose.evaluation.cache import CacheKey, EvaluationCache
+from robocompose.io.errors import InputError
 
 
 class Executor:
     """Runs `fn(item)` for many items: in this process, on local processes, or on a Dask cluster."""
 
-    def __init__(self, workers: int = 0, address: str | None = None):
+    def __init__(self, workers: int = 0, address: str | None = None, progress: str | None = None):
+        """`progress`: a label; every map then shows a tqdm bar (on stderr) of the items done."""
         if workers < 0:
-            raise ValueError(f"executor: workers must be >= 0 (0 = all cores), got {workers}")
+            raise InputError(f"executor: workers must be >= 0 (0 = all cores), got {workers}")
         self.address = address
+        self.progress = progress
         self.workers = workers or os.cpu_count() or 1
         self._pool: ProcessPoolExecutor | None = None
         self._client = None
@@ -56,6 +60,14 @@ class Executor:
         items = list(items)
         if not items:
             return iter(())
+        if self.progress is None:
+            return self._results(fn, items)
+        from tqdm import tqdm
+
+        return iter(tqdm(self._results(fn, items), total=len(items), desc=self.progress, unit="task",
+                         mininterval=5.0))
+
+    def _results(self, fn: Callable[[Any], Any], items: list[Any]) -> Iterator[Any]:
         if self._client is not None:
             futures = self._client.map(fn, items, pure=False)
             return (future.result() for future in futures)

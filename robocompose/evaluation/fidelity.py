@@ -36,6 +36,7 @@ from robocompose.evaluation.references import REFERENCE_DESIGNS
 from robocompose.grammar.derivation import derive, parse_rules
 from robocompose.grammar.tree import DesignTree
 from robocompose.io import atomic_write_text
+from robocompose.io.errors import InputError
 from robocompose.tasks.terrains import get_task
 
 THESIS = "thesis"
@@ -63,7 +64,7 @@ SCORES_DIR = "scores"
 def rung_config(name: str) -> MPPIConfig:
     """The MPPI config of ladder rung `name`."""
     if name not in LADDER:
-        raise ValueError(f"unknown fidelity rung {name!r}; known rungs: {list(LADDER)}")
+        raise InputError(f"unknown fidelity rung {name!r}; known rungs: {list(LADDER)}")
     samples, first_samples, horizon, episode = LADDER[name]
     return MPPIConfig(samples=samples, first_samples=first_samples, horizon=horizon, episode=episode)
 
@@ -91,16 +92,16 @@ class FidelityConfig:
             rung_config(rung)
         for name in ("n_screen", "n_screened", "top"):
             if getattr(self, name) < 1:
-                raise ValueError(f"evaluator_fidelity.{name} must be >= 1, got {getattr(self, name)}")
+                raise InputError(f"evaluator_fidelity.{name} must be >= 1, got {getattr(self, name)}")
 
 
 def dataset_candidates(seed: int):
     """(rules, tree) of the enumeration's valid candidates of `seed`, in candidate order, each design once."""
-    from robocompose.grammar.enumerate import MIN_LINKS, candidate
+    from robocompose.dataset.enumerate import MIN_LINKS, candidate
 
     seen, k = set(), 0
     while True:
-        reason, row = candidate(seed, k, MIN_LINKS, 40)
+        reason, row, _ = candidate(seed, k, MIN_LINKS, 40)
         k += 1
         if reason or row["design_id"] in seen:
             continue
@@ -142,12 +143,12 @@ def write_summary(summary: pd.DataFrame, directory: str | Path) -> Path:
 def read_design_set(directory: str | Path) -> pd.DataFrame:
     path = Path(directory) / DESIGNS_FILE
     if not path.exists():
-        raise FileNotFoundError(f"{path}: fidelity design set not found (run `robocompose evaluator-fidelity "
+        raise InputError(f"{path}: fidelity design set not found (run `robocompose evaluator-fidelity "
                                 "build-set`)")
     table = pd.read_csv(path, dtype={"rules": str})
     missing = [c for c in DESIGN_COLUMNS if c not in table.columns]
     if missing:
-        raise ValueError(f"{path}: missing column {missing[0]!r}; expected {list(DESIGN_COLUMNS)}")
+        raise InputError(f"{path}: missing column {missing[0]!r}; expected {list(DESIGN_COLUMNS)}")
     return table
 
 
@@ -168,7 +169,7 @@ def read_piece(path: Path) -> pd.DataFrame:
     lines = text.splitlines(keepends=True)
     complete = [line for line in lines[1:] if line.endswith("\n") and line.count(",") == len(SCORE_COLUMNS) - 1]
     if not lines or lines[0].strip() != ",".join(SCORE_COLUMNS):
-        raise ValueError(f"{path}: expected the header {','.join(SCORE_COLUMNS)}")
+        raise InputError(f"{path}: expected the header {','.join(SCORE_COLUMNS)}")
     rows = list(csv.reader(complete))
     table = pd.DataFrame(rows, columns=list(SCORE_COLUMNS))
     for column in ("reward", "objective", "seconds"):  # an empty reward is a result without one (not ok)

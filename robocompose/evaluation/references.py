@@ -19,6 +19,7 @@ from robocompose.evaluation.executor import Executor
 from robocompose.evaluation.rollout_log import RolloutRecorder
 from robocompose.grammar.derivation import derive, parse_rules
 from robocompose.grammar.tree import DesignTree
+from robocompose.io.errors import InputError
 from robocompose.sim.physics import PhysicsSettings
 from robocompose.tasks.terrains import TASK_NAMES, get_task
 
@@ -39,7 +40,7 @@ class ReferencesConfig:
 
     def __post_init__(self) -> None:
         if self.n_random < 0:
-            raise ValueError(f"evaluate_references.n_random must be >= 0, got {self.n_random}")
+            raise InputError(f"n_random: expected an integer >= 0, found {self.n_random}")
         for task in self.tasks:
             get_task(task)
 
@@ -52,7 +53,7 @@ def candidate_designs(designs: pd.DataFrame, config: ReferencesConfig) -> pd.Dat
         tree = derive(rules).tree
         rows.append({"name": name, "design_id": tree.design_id, "rules": list(rules), "tree": tree})
     if config.n_random > len(designs):
-        raise ValueError(f"evaluate_references.n_random = {config.n_random} but the dataset holds {len(designs)}")
+        raise InputError(f"evaluate_references.n_random = {config.n_random} but the dataset holds {len(designs)}")
     picks = np.random.default_rng(config.seed).choice(len(designs), size=config.n_random, replace=False)
     for k, i in enumerate(picks):
         row = designs.iloc[int(i)]

@@ -8,12 +8,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from robocompose.grammar.rules import RULES, START_GRAPH, Graph, apply_rule, first_match
-from robocompose.grammar.tree import DesignTree, classify_joint, classify_link, token_of
+from robocompose.grammar.tree import DesignTree, classify_joint, classify_link, mirrored, token_of
+from robocompose.io.errors import InputError
 
 MAX_DEPTH = 40  # rule-sequence length limit of random derivation (RoboGrammar's search depth)
 
 
-class DerivationError(ValueError):
+class DerivationError(InputError):
     """A rule sequence that does not derive a complete design; the message names the step and rule."""
 
 
@@ -100,11 +101,8 @@ def graph_to_tree(graph: Graph) -> DesignTree:
         if edge is None:
             joint_type = 0
         else:
-            w, x, y, z = edge.joint_rot
-            ax, ay, az = edge.joint_axis
-            if mirror:  # mirror across the body's sagittal plane
-                x, y, az = -x, -y, -az
-            joint_type = classify_joint(edge.joint_type, (w, x, y, z), (ax, ay, az), link_type)
+            rot, axis = mirrored(edge.joint_rot, edge.joint_axis) if mirror else (edge.joint_rot, edge.joint_axis)
+            joint_type = classify_joint(edge.joint_type, rot, axis, link_type)
         index = len(tokens)
         parents.append(parent)
         tokens.append(token_of(link_type, joint_type))

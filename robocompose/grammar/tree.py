@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass
 
 from robocompose.grammar.rules import Quaternion, axis_angle
+from robocompose.io.errors import InputError
 
 # (length, radius, density) of each link type.
 LINK_TYPES: tuple[tuple[str, float, float, float], ...] = (
@@ -41,6 +42,7 @@ JOINT_TYPES: tuple[tuple[str, str, Quaternion, tuple[float, float, float]], ...]
     ("backwards_lift_mirrored", "hinge", axis_angle(0, 0, 1, -60), MZ),
 )
 N_JOINT_TYPES = len(JOINT_TYPES)
+ROOT_JOINT = 0
 N_TOKENS = len(LINK_TYPES) * N_JOINT_TYPES  # 42
 BODY_LINK_TYPE = 1
 BODY_TOTAL_MASS = 0.45  # all body links together weigh one body segment (GLSO's mass normalisation)
@@ -72,7 +74,10 @@ class Link:
 class DesignTree:
     """A robot: `parents[i]` is node i's parent (-1 for the root, which is node 0), `tokens[i]` its token.
 
-    Nodes are in breadth-first order, parents before children.
+    Nodes are in breadth-first order, parents before children. Grammar designs give the root, and only
+    the root, the root joint type. Any token may sit anywhere (GLSO's no-grammar set draws them so): the
+    root's joint type is then ignored (the root is the free base), and a non-root node with the root
+    joint type is attached as GLSO builds its joint type 0, rigidly at the middle of its parent.
     """
 
     parents: tuple[int, ...]
@@ -80,14 +85,11 @@ class DesignTree:
 
     def __post_init__(self) -> None:
         if len(self.parents) != len(self.tokens) or not self.parents:
-            raise ValueError("a design tree needs one parent and one token per node, and at least one node")
+            raise InputError("a design tree needs one parent and one token per node, and at least one node")
         if self.parents[0] != -1 or any(not 0 <= p < i for i, p in enumerate(self.parents) if i):
-            raise ValueError(f"parents must list the root first and each parent before its child: {self.parents}")
+            raise InputError(f"parents must list the root first and each parent before its child: {self.parents}")
         if any(not 0 <= t < N_TOKENS for t in self.tokens):
-            raise ValueError(f"tokens must lie in 0..{N_TOKENS - 1}: {self.tokens}")
-        roots = [i for i, t in enumerate(self.tokens) if split_token(t)[1] == 0]
-        if roots != [0]:
-            raise ValueError(f"exactly the root (node 0) has the root joint type; found it at nodes {roots}")
+            raise InputError(f"tokens must lie in 0..{N_TOKENS - 1}: {self.tokens}")
 
     @property
     def n_links(self) -> int:
@@ -95,8 +97,8 @@ class DesignTree:
 
     @property
     def n_joints(self) -> int:
-        """Actuated (hinge) joints."""
-        return sum(JOINT_TYPES[split_token(t)[1]][1] == "hinge" for t in self.tokens)
+        """Actuated (hinge) joints (the root has none, whatever its token says)."""
+        return sum(JOINT_TYPES[split_token(t)[1]][1] == "hinge" for t in self.tokens[1:])
 
     def children(self, i: int) -> list[int]:
         return [j for j, p in enumerate(self.parents) if p == i]
@@ -107,12 +109,16 @@ class DesignTree:
         for parent, token in zip(self.parents, self.tokens, strict=True):
             link_type, joint_type = split_token(token)
             _, length, radius, density = LINK_TYPES[link_type]
-            jname, kind, rot, axis = JOINT_TYPES[joint_type]
             mass = BODY_TOTAL_MASS / n_body if link_type == BODY_LINK_TYPE else length * density
+            if parent < 0:
+                joint_type = ROOT_JOINT
+            jname, kind, rot, axis = JOINT_TYPES[joint_type]
             # Limb mounts (fixed joints on limb links) sit at the middle of their body.
             mount = kind == "fixed" and (jname == "fixed_mirrored" or link_type != BODY_LINK_TYPE)
             if jname == "fixed" and link_type != BODY_LINK_TYPE:
                 rot = _Y90
+            if parent >= 0 and joint_type == ROOT_JOINT:  # GLSO's joint type 0 off the root: a rigid mount
+                kind, rot, mount = "fixed", _Y90, True
             out.append(Link(parent, length, radius, mass, kind, 0.5 if mount else 1.0, rot, axis))
         return out
 
@@ -147,6 +153,21 @@ class DesignTree:
         return hashlib.sha256(self.canonical().encode()).hexdigest()[:16]
 
 
+def mirrored(rot: Quaternion, axis: tuple[float, float, float]) -> tuple[Quaternion, tuple[float, float, float]]:
+    """A joint's rotation and axis seen through the body's sagittal plane (RoboGrammar's mirror flag)."""
+    w, x, y, z = rot
+    ax, ay, az = axis
+    return (w, -x, -y, z), (ax, ay, -az)
+
+
+def mirror_joint(joint_type: int, link_type: int) -> int:
+    """The joint type a mirrored subtree gives a joint of `joint_type` on a link of `link_type`."""
+    name, kind, rot, axis = JOINT_TYPES[joint_type]
+    if name == "fixed" and link_type != BODY_LINK_TYPE:
+        rot = _Y90
+    return classify_joint(kind, *mirrored(rot, axis), link_type)
+
+
 def classify_joint(kind: str, rot: Quaternion, axis: tuple[float, float, float], link_type: int) -> int:
     """The joint type of a (mirrored) joint as found in a built grammar graph."""
     for j, (name, k, r, a) in enumerate(JOINT_TYPES):
@@ -156,14 +177,14 @@ def classify_joint(kind: str, rot: Quaternion, axis: tuple[float, float, float],
             r = _Y90
         if k == kind and _close(r, rot) and (kind == "fixed" or _close(a, axis)):
             return j
-    raise ValueError(f"no joint type for kind={kind} rotation={rot} axis={axis} on link type {link_type}")
+    raise InputError(f"no joint type for kind={kind} rotation={rot} axis={axis} on link type {link_type}")
 
 
 def classify_link(length: float, radius: float) -> int:
     for i, (_, l_, r_, _) in enumerate(LINK_TYPES):
         if math.isclose(length, l_) and math.isclose(radius, r_):
             return i
-    raise ValueError(f"no link type of length {length} and radius {radius}")
+    raise InputError(f"no link type of length {length} and radius {radius}")
 
 
 def _close(a, b) -> bool:

@@ -1,4 +1,4 @@
-"""Atomic file writes: an artifact is either complete or absent, never half-written."""
+"""Atomic file writes: an artifact is either complete or absent, never half-written; checked JSON reads."""
 
 from __future__ import annotations
 
@@ -9,6 +9,8 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
+
+from robocompose.io.errors import ArtifactError
 
 
 @contextmanager
@@ -43,3 +45,15 @@ def atomic_write_text(path: str | os.PathLike[str], text: str) -> Path:
 def atomic_write_json(path: str | os.PathLike[str], obj: Any) -> Path:
     """Write `obj` as JSON (sorted keys, indent 2, trailing newline) atomically; return the path."""
     return atomic_write_text(path, json.dumps(obj, sort_keys=True, indent=2) + "\n")
+
+
+def read_json(path: str | os.PathLike[str]) -> Any:
+    """The JSON document at `path` (as `atomic_write_json` writes it); ArtifactError naming the file if it is
+    missing or not valid JSON."""
+    source = Path(path)
+    if not source.is_file():
+        raise ArtifactError(f"{source}: file not found (expected a JSON file)")
+    try:
+        return json.loads(source.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as err:
+        raise ArtifactError(f"{source}: not valid JSON ({err})") from None

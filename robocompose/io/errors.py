@@ -1,8 +1,34 @@
-"""The error every artifact reader and writer raises."""
+"""The project's input error, and the one line a command prints for it.
+
+Every check of what a user hands in (a flag, a params field, a file, a rule sequence) raises `InputError`
+with a message that names the flag, field or file and says what was expected. The entries (`robocompose`,
+`robocompose.stage.run_stage`) print it as one line and exit with code 2, the code argparse uses for a bad
+command line; anything else that escapes is a bug and keeps its traceback.
+"""
+
+from __future__ import annotations
+
+INPUT_ERROR_EXIT = 2
 
 
-class ArtifactError(ValueError):
+class InputError(ValueError):
+    """Bad input: the message names the flag, field or file and what was expected vs found."""
+
+
+class ArtifactError(InputError):
     """An artifact is missing, unreadable or does not match its declared contract.
 
     The message names the file, the column or field (if any), and what was expected vs found.
     """
+
+
+def check_field(ok: bool, field: str, expected: str, found: object) -> None:
+    """Raise InputError("field: expected ..., found ...") unless `ok` (a config's value checks)."""
+    if not ok:
+        raise InputError(f"{field}: expected {expected}, found {found!r}")
+
+
+def error_line(program: str, error: InputError) -> str:
+    """`program: error: message` on one line (a multi-line message, e.g. a YAML parser's, is joined by '; ')."""
+    lines = [line.strip() for line in str(error).splitlines() if line.strip()]
+    return f"{program}: error: {'; '.join(lines) or type(error).__name__}"

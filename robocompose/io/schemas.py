@@ -50,6 +50,20 @@ SCHEMAS: dict[str, pa.Schema] = {
         _required("settings_hash", pa.string()), _required("seed", pa.int64()),
         pa.field("reward", pa.float64(), nullable=True), _required("status", pa.string()),
         _required("sim_steps", pa.int64()), _required("objective", pa.float64())]),
+    # GLSO search (robocompose.glso): one row per objective call of a run (task, method, seed). `rules` is
+    # the design's grammar derivation (empty if the grammar cannot make it), `parents`/`tokens` its tree,
+    # `latent` the latent point it was decoded from (empty for non-latent methods); `score` is what the
+    # method was told (the reward if ok, else the status's invalid score); `repeat` marks a design already
+    # evaluated earlier in the run (it costs a call and gets its cached score); `seconds` is the step's
+    # wall time (propose + evaluate), the only column that differs between identical runs.
+    "glso_steps": pa.schema([
+        _required("step", pa.int32()), _required("method", pa.string()), _required("task", pa.string()),
+        _required("seed", pa.int64()), _required("design_id", pa.string()),
+        _required("rules", pa.list_(pa.int16())), _required("parents", pa.list_(pa.int32())),
+        _required("tokens", pa.list_(pa.int16())), _required("latent", pa.list_(pa.float64())),
+        _required("score", pa.float64()), pa.field("reward", pa.float64(), nullable=True),
+        _required("status", pa.string()), _required("repeat", pa.bool_()),
+        _required("best_so_far", pa.float64()), _required("seconds", pa.float64())]),
     # Team formation (robocompose.teams). One row per region of a terrain chip: its centre in the joint
     # position + terrain space (seed_x, seed_y, seed_<terrain> shares) and the terrain weight (the region
     # raster is recomputed from them, teams.decompose), its size and its terrain shares (sum to 1).
@@ -80,25 +94,50 @@ SCHEMAS: dict[str, pa.Schema] = {
     "teams_coverage": pa.schema([_required(n, t) for n, t in [
         ("method", pa.string()), ("chip_id", pa.string()), ("budget", pa.int64()), ("seed", pa.int64()),
         ("coverage_cost", pa.float64()), ("deployment_cost", pa.int64()), ("empty_regions", pa.int64())]]),
+    # EG-GAN queries on held-out chips (Tables 5.4, 5.5): per chip x seed the hypervolume of the front of
+    # `samples` noise vectors, the distinct allocations among them and the front's size; and the fronts.
+    "teams_eggan_queries": pa.schema([_required(n, t) for n, t in [
+        ("chip_id", pa.string()), ("seed", pa.int64()), ("hypervolume", pa.float64()), ("distinct", pa.int64()),
+        ("front_size", pa.int64())]]),
+    "teams_eggan_fronts": pa.schema([_required(n, t) for n, t in [
+        ("chip_id", pa.string()), ("seed", pa.int64()), ("coverage_cost", pa.float64()),
+        ("deployment_cost", pa.int64()), ("counts", pa.list_(pa.int16()))]]),
+    # Observations of the robots of the three methods of Table 5.5 at one budget on a few test chips (Fig. 5.4).
+    "teams_coverage_examples": pa.schema([_required(n, t) for n, t in [
+        ("method", pa.string()), ("chip_id", pa.string()), ("robot", pa.int64()), ("species", pa.int16()),
+        ("step", pa.int16()), ("x", pa.float64()), ("y", pa.float64())]]),
     # Observations of the robots of one example allocation (for the trajectory picture).
     "teams_trajectories": pa.schema([_required(n, t) for n, t in [
         ("chip_id", pa.string()), ("robot", pa.int64()), ("species", pa.int16()), ("region", pa.int16()),
         ("step", pa.int16()), ("x", pa.float64()), ("y", pa.float64())]]),
-    # Modular robots (robocompose.modular). Every design (6-letter port string) on every test terrain: its
-    # fitness under the fitness rule, its measured distance (null when not simulated or unstable), status and
-    # the sim steps it cost.
+    # Modular robots (robocompose.modular). Every design (6-letter port string) on every truth terrain: its
+    # fitness under the fitness rule, its measured distance (null when not simulated or unstable), status, and
+    # the sim steps and seconds it cost (0 when not simulated).
     "modular_exhaustive": pa.schema([
         _required("terrain_seed", pa.int64()), _required("design", pa.string()), _required("fitness", pa.float64()),
         pa.field("distance", pa.float64(), nullable=True), _required("status", pa.string()),
-        _required("sim_steps", pa.int64())]),
-    # One search run (GA-20, GA-50, GA-crowding, random sampling) on one test terrain: best design, distinct
-    # solutions of its final population, mean best fitness under emergency constraints (and the exhaustive
-    # optimum under the same constraints), designs evaluated and the sim steps they cost without a cache.
-    "modular_runs": pa.schema([_required(n, t) for n, t in [
-        ("method", pa.string()), ("terrain_seed", pa.int64()), ("seed", pa.int64()), ("best_design", pa.string()),
-        ("best_fitness", pa.float64()), ("distinct", pa.int64()), ("ec_fitness", pa.float64()),
-        ("ec_optimum", pa.float64()), ("optimum", pa.float64()), ("evaluations", pa.int64()),
-        ("sim_steps", pa.int64())]]),
+        _required("sim_steps", pa.int64()), _required("seconds", pa.float64())]),
+    # One search run (GA-20, GA-50, GA-crowding, random sampling) on one test terrain: best design and its
+    # distance (null: no design it saw carried one), distinct solutions of its final population, mean distance of
+    # its emergency-constraint answers that carry one (null if none) and the count of those that do not, the
+    # exhaustive optimum (under the same constraints, and overall), designs evaluated and the sim steps and
+    # measured simulation seconds they cost without a cache.
+    "modular_runs": pa.schema([
+        _required("method", pa.string()), _required("terrain_seed", pa.int64()), _required("seed", pa.int64()),
+        _required("best_design", pa.string()), pa.field("best_distance", pa.float64(), nullable=True),
+        _required("distinct", pa.int64()), pa.field("ec_distance", pa.float64(), nullable=True),
+        _required("ec_failures", pa.int64()), _required("ec_optimum", pa.float64()),
+        _required("optimum", pa.float64()), _required("evaluations", pa.int64()), _required("sim_steps", pa.int64()),
+        _required("sim_seconds", pa.float64())]),
+    # The real-time test protocol (robocompose.modular.eggan_experiments, thesis Table 5.1): one row per method x
+    # held-out test terrain x query; distances in m (NaN: no valid candidate / no exhaustive optimum).
+    "modular_realtime": pa.schema([_required(n, t) for n, t in [
+        ("method", pa.string()), ("terrain_seed", pa.int64()), ("query", pa.int64()), ("candidates", pa.int64()),
+        ("valid", pa.int64()), ("best_design", pa.string())]] + [
+        pa.field("max_distance", pa.float64(), nullable=True), _required("distinct", pa.int64()),
+        pa.field("ec_distance", pa.float64(), nullable=True), _required("ec_failures", pa.int64()),
+        pa.field("optimum", pa.float64(), nullable=True), pa.field("regret", pa.float64(), nullable=True),
+        _required("query_ms", pa.float64())]),
     # The latent landscape (robocompose.latent.landscape, thesis Fig. 7.1): one row per (VAE variant, dataset
     # design): the first two principal components of its latent mean (and the variance fraction each explains)
     # and, for the scored subset, the evaluator's flat-terrain status and reward ("" / null when not scored).

@@ -17,6 +17,7 @@ Each message also records its step in the depth-first traversal, for the referen
 from __future__ import annotations
 
 from dataclasses import dataclass
+from weakref import WeakKeyDictionary
 
 import numpy as np
 import torch
@@ -57,6 +58,7 @@ class TreeBatch:
     n_trees: int
     n_messages: int
     levels: Levels
+    message_ends: torch.Tensor  # (M, 3) tree, sender node, receiver node (replay numbering) of message m at row m-1
     dfs_step: torch.Tensor  # (M,) step of each message in its tree's depth-first traversal
     # Encoder readout (eqs. 7.7-7.8): leaves that are not body links (all leaves if a tree has none).
     leaf_tokens: torch.Tensor  # (L,)
@@ -78,13 +80,14 @@ class TreeBatch:
 
 @dataclass(frozen=True)
 class TreeArrays:
-    """One tree's share of a batch, computed once per design (`Replay.arrays`) so that `collate` only
+    """One tree's share of a batch, computed once per design (`arrays_of`) so that `collate` only
     concatenates. Its 2(n-1) messages have local ids j = 1..2(n-1): up from node c is c, down to node c
     is n-1+c; message references hold local ids (0 = none) until `collate` maps them to batch ids."""
 
     phase: np.ndarray  # (m,) 0 up, 1 down
     level: np.ndarray  # (m,) up: -depth of the sender; down: depth of the sender
     node: np.ndarray  # (m,) the child node of the message's edge
+    ends: np.ndarray  # (m, 2) sender and receiver node
     sender: np.ndarray  # (m,) sender token
     enc_in: np.ndarray  # (m, 3) local ids of incoming messages, encoder
     dec_in: np.ndarray  # (m, 3) decoder
@@ -148,6 +151,7 @@ def tree_arrays(r: Replay) -> TreeArrays:
         phase=i64([0] * (n - 1) + [1] * (n - 1)),
         level=i64([-depth[c] for c in nodes] + [depth[c] - 1 for c in nodes]),
         node=i64(nodes + nodes),
+        ends=i64([(c, r.parents[c]) for c in nodes] + [(r.parents[c], c) for c in nodes]).reshape(-1, 2),
         sender=i64([r.tokens[c] for c in nodes] + [r.tokens[r.parents[c]] for c in nodes]),
         enc_in=enc_in, dec_in=dec_in, dfs_step=dfs_step,
         leaf_tokens=i64([r.tokens[i] for i in readout]), leaf_in=i64([down(i) for i in readout]),
@@ -159,9 +163,19 @@ def tree_arrays(r: Replay) -> TreeArrays:
     )
 
 
+_ARRAYS: WeakKeyDictionary[Replay, TreeArrays] = WeakKeyDictionary()  # each design's arrays, computed once
+
+
+def arrays_of(r: Replay) -> TreeArrays:
+    """`tree_arrays(r)`, cached for as long as the replay lives (training collates each design many times)."""
+    if r not in _ARRAYS:
+        _ARRAYS[r] = tree_arrays(r)
+    return _ARRAYS[r]
+
+
 def collate(replays: list[Replay], contacts: np.ndarray) -> TreeBatch:
     """Index tensors for a batch of trees walked in decoder order (`constraints.replay`)."""
-    trees = [r.arrays for r in replays]
+    trees = [arrays_of(r) for r in replays]
     cat = lambda name: np.concatenate([getattr(a, name) for a in trees])  # noqa: E731
     tree_of = lambda name: np.repeat(np.arange(len(trees)), [len(getattr(a, name)) for a in trees])  # noqa: E731
     # Batch message ids: sorted by (phase, level, tree, node), numbered from 1 (0 is padding).
@@ -187,6 +201,7 @@ def collate(replays: list[Replay], contacts: np.ndarray) -> TreeBatch:
     return TreeBatch(
         n_trees=len(replays), n_messages=n_msg,
         levels=_levels(bounds, sender, np.stack([ids("enc_in")[order], ids("dec_in")[order]])),
+        message_ends=t(np.column_stack([tree[order], cat("ends")[order]])),
         dfs_step=t(cat("dfs_step")[order]),
         leaf_tokens=t(cat("leaf_tokens")), leaf_incoming=t(ids("leaf_in")), leaf_tree=t(tree_of("leaf_tokens")),
         stop_tokens=t(cat("stop_tokens")), stop_incoming=t(ids("stop_in")), stop_tree=t(tree_of("stop_tokens")),

@@ -4,22 +4,28 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
+
+from robocompose.arguments import input_file, non_negative_int, positive_int
+from robocompose.io.errors import InputError
+
+MODEL_FILE = input_file("a trained VAE (e.g. models/vae_full.pt)")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     sample = subparsers.add_parser("sample", help="decode N designs from the prior z ~ N(0, I)")
-    sample.add_argument("--model", required=True, help="a trained VAE, e.g. models/vae_full.pt")
-    sample.add_argument("--n", type=int, required=True)
-    sample.add_argument("--seed", type=int, default=0)
+    sample.add_argument("--model", type=MODEL_FILE, required=True, help="a trained VAE, e.g. models/vae_full.pt")
+    sample.add_argument("--n", type=positive_int, required=True)
+    sample.add_argument("--seed", type=non_negative_int, default=0)
     sample.set_defaults(handler=_sample)
 
     encode = subparsers.add_parser("encode", help="print the latent mean of a design given by its rule sequence")
-    encode.add_argument("--model", required=True)
+    encode.add_argument("--model", type=MODEL_FILE, required=True)
     encode.add_argument("--rules", required=True, help="comma-separated rule indices")
     encode.set_defaults(handler=_encode)
 
     decode = subparsers.add_parser("decode", help="decode one latent point, e.g. --z 0.1,-1.2,...")
-    decode.add_argument("--model", required=True)
+    decode.add_argument("--model", type=MODEL_FILE, required=True)
     decode.add_argument("--z", required=True, help="comma-separated latent coordinates (--z=-0.3,... if negative)")
     decode.set_defaults(handler=_decode)
 
@@ -33,12 +39,24 @@ def design_json(tree) -> dict:
             "parents": list(tree.parents), "tokens": list(tree.tokens)}
 
 
+def parse_latent(text: str, dims: int) -> list[float]:
+    """Parse --z "0.1,-1.2,...": exactly `dims` finite numbers."""
+    try:
+        z = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise InputError(f"--z: expected {dims} comma-separated numbers, found {text!r}") from None
+    if len(z) != dims:
+        raise InputError(f"--z: expected {dims} coordinates (the model's latent space), found {len(z)}")
+    bad = next((v for v in z if not math.isfinite(v)), None)
+    if bad is not None:
+        raise InputError(f"--z: expected finite numbers, found {bad}")
+    return z
+
+
 def _sample(args: argparse.Namespace) -> int:
     from robocompose.latent.metrics import prior_decodes
     from robocompose.latent.train import load_model
 
-    if args.n < 1:
-        raise ValueError(f"--n must be a positive integer, got {args.n}")
     for tree in prior_decodes(load_model(args.model), args.n, args.seed):
         print(json.dumps(design_json(tree)))
     return 0
@@ -68,11 +86,6 @@ def _decode(args: argparse.Namespace) -> int:
     from robocompose.latent.train import load_model
 
     model = load_model(args.model)
-    try:
-        z = [float(v) for v in args.z.split(",")]
-    except ValueError:
-        raise ValueError(f"--z must be comma-separated numbers, got {args.z!r}") from None
-    if len(z) != model.config.latent:
-        raise ValueError(f"--z has {len(z)} coordinates, the model's latent space has {model.config.latent}")
+    z = parse_latent(args.z, model.config.latent)
     print(json.dumps(design_json(model.decoder.decode(torch.tensor([z]))[0].tree())))
     return 0

@@ -4,14 +4,16 @@ The decoder builds a tree depth first: at the current node it either expands (ad
 label) or stops (returns to the parent). A `Walk` follows that process and says, at every step, which
 decisions and labels are allowed, so that every finished walk is a complete design:
 
-- `grammar`: exactly the trees RoboGrammar's rules derive. A body link has, in this child order, an
-  optional mirrored limb-mount pair (token 29, then its twin 30) and an optional next body at its far
-  end (a body link with a fixed/roll/swing/lift joint); a mount carries one limb chain (each limb link
-  at most one child, joints from the limb-joint rules); the twin mount's subtree is the mirror image
-  of the first, so it is forced step by step. A node budget (`max_nodes`) counts the nodes an
-  expansion commits to (a mount pair commits four), so a walk never has to break off.
-- `tree`: any tree over the vocabulary with at most 4 neighbours per node (the no-grammar ablation's
-  own generator): the root has the root joint, every other node a real joint.
+- `grammar` (ours): exactly the trees RoboGrammar's rules derive. A body link has, in this child order,
+  an optional mirrored limb-mount pair (the mount, then its twin) and an optional next body at its far
+  end; a mount carries one limb chain (each limb link at most one child); the twin mount's subtree is
+  the mirror image of the first, so it is forced step by step. Which tokens fill each place is read
+  from the rules (`grammar.vocabulary`). A node budget (`max_nodes`) counts the nodes an expansion
+  commits to (a mount pair commits four: both mounts and their first limb links), so a walk never has
+  to break off.
+- `tree` (the original's): any of the 42 labels anywhere, root included, and any stop/expand decision,
+  within what a tree of the representation can hold: at most 4 neighbours per node (3 children, 4 at
+  the root) and `max_nodes` nodes. This is GLSO's unmasked decoding, and the no-grammar set's generator.
 
 `grammar_rules(tree)` builds the rule sequence of a grammar tree constructively: one body at a time,
 each non-terminal finished before the next is made, so that every rule's first match is the only one.
@@ -20,28 +22,21 @@ each non-terminal finished before the next is made, so that every rule's first m
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from functools import cached_property
 
 import numpy as np
 
-from robocompose.grammar.tree import BODY_LINK_TYPE, N_TOKENS, DesignTree, split_token, token_of
+from robocompose.grammar.tree import N_TOKENS, DesignTree, split_token
+from robocompose.grammar.vocabulary import vocabulary
 
 KINDS = ("grammar", "tree")
-ROOT_BODY = token_of(BODY_LINK_TYPE, 0)  # 14
-MOUNT, MOUNT_TWIN = token_of(2, 1), token_of(2, 2)  # 29, 30
-# Body joints of the rules make_{fixed,roll,swing,lift}_body_joint (10..13) -> joint types 1, 3, 4, 5.
-BODY_JOINT_RULE = {token_of(BODY_LINK_TYPE, j): r for j, r in ((1, 10), (3, 11), (4, 12), (5, 13))}
-# Limb joints of rules 14..19 (left roll, right roll, swing, acute/obtuse/backwards lift) -> joint types.
-LIMB_JOINT_RULE = {6: 14, 7: 15, 4: 16, 8: 17, 10: 18, 12: 19}
-LIMB_LINK_RULE = {2: 8, 0: 9}  # link type -> make_normal_limb_link / make_long_limb_link
-# Joint type seen through the body's mirror plane (rule 2's mirrored mount edge).
-MIRROR_JOINT = {4: 4, 6: 7, 7: 6, 8: 9, 9: 8, 10: 11, 11: 10, 12: 13, 13: 12}
-LEFT_LIMB = tuple(token_of(lt, j) for lt in sorted(LIMB_LINK_RULE) for j in sorted(LIMB_JOINT_RULE))
+VOCABULARY = vocabulary()
+ROOT_BODY, MOUNT, MOUNT_TWIN = VOCABULARY.root, VOCABULARY.mount, VOCABULARY.mount_twin
+BODY_LINK_TYPE = VOCABULARY.body_type
+MIRRORED_SIDES = 2  # a mount pair: the plain side and its mirror image
 
 
 def mirror_token(token: int) -> int:
-    link_type, joint = split_token(token)
-    return token_of(link_type, MIRROR_JOINT[joint])
+    return VOCABULARY.mirror(token)
 
 
 def _mask(tokens) -> np.ndarray:
@@ -50,11 +45,10 @@ def _mask(tokens) -> np.ndarray:
     return out
 
 
-_BODY_CHILD = _mask(BODY_JOINT_RULE)
-_LEFT_LIMB = _mask(LEFT_LIMB)
+_BODY_CHILD = _mask(VOCABULARY.next_body)
+_LEFT_LIMB = _mask(VOCABULARY.limb_tokens)
 _NONE = _mask(())
-_TREE_ROOT = _mask(token_of(lt, 0) for lt in range(3))
-_TREE_CHILD = ~_TREE_ROOT
+_ANY = ~_NONE
 MAX_NEIGHBOURS = 4
 
 
@@ -85,7 +79,7 @@ class Walk:
         kids = [self.tokens[c] for c in self.children[x]]
         if self.kind == "tree":
             room = len(kids) < MAX_NEIGHBOURS - (x > 0) and len(self.tokens) < self.max_nodes
-            return True, room, _TREE_CHILD if room else _NONE
+            return True, room, _ANY if room else _NONE
         if x in self.twin:  # mirrored side: copy the twin's next decision
             twin_kids = self.children[self.twin[x]]
             if len(kids) < len(twin_kids):
@@ -99,17 +93,18 @@ class Walk:
             if kids and split_token(kids[-1])[0] == BODY_LINK_TYPE:
                 return True, False, _NONE
             labels = _BODY_CHILD.copy() if free >= 1 else _NONE.copy()
-            if not kids and free >= 4:
+            if not kids and free >= MIRRORED_SIDES * VOCABULARY.mount_links:
                 labels[MOUNT] = True
             return True, bool(labels.any()), labels
         if token == MOUNT:
             return (True, False, _NONE) if kids else (False, True, _LEFT_LIMB)
         if kids:  # a limb link on the unmirrored side: at most one child
             return True, False, _NONE
-        return True, free >= 2, _LEFT_LIMB if free >= 2 else _NONE
+        room = free >= MIRRORED_SIDES  # the link and its mirror twin
+        return True, room, _LEFT_LIMB if room else _NONE
 
     def root_labels(self) -> np.ndarray:
-        return _mask([ROOT_BODY]) if self.kind == "grammar" else _TREE_ROOT
+        return _mask([ROOT_BODY]) if self.kind == "grammar" else _ANY
 
     def push(self, token: int) -> None:
         """Add a child with `token` to the current node (or place the root) and move to it."""
@@ -135,7 +130,9 @@ class Walk:
             return 1
         if x in self.twin or token == MOUNT_TWIN or self.tokens[x] == MOUNT:
             return 0  # promised when the mount pair (or the twin's link) was placed
-        return {MOUNT: 4}.get(token, 2 if split_token(self.tokens[x])[0] != BODY_LINK_TYPE else 1)
+        if token == MOUNT:
+            return MIRRORED_SIDES * VOCABULARY.mount_links
+        return MIRRORED_SIDES if split_token(self.tokens[x])[0] != BODY_LINK_TYPE else 1
 
     def pop(self) -> None:
         """Stop at the current node: return to its parent (-1 after the root: the walk is done)."""
@@ -167,7 +164,7 @@ def ordered_children(tree: DesignTree, kind: str) -> list[list[int]]:
     return [sorted(k, key=key) for k in kids]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # compared and hashed by identity: `batch` caches its arrays per replay
 class Replay:
     """A tree walked in decoder order: what the decoder must predict at each step, and what it may."""
 
@@ -177,13 +174,6 @@ class Replay:
     children: list[list[int]]  # in preorder numbering, decoder order
     label_masks: np.ndarray  # (n, 42) labels allowed for each node when it is placed
     stop_free: np.ndarray  # (2n - 1,) both decisions allowed; predictions in order (node, k) by preorder
-
-    @cached_property
-    def arrays(self):  # -> batch.TreeArrays
-        """This tree's share of a training batch, computed once (`batch.tree_arrays`); `collate` concatenates."""
-        from robocompose.latent.batch import tree_arrays
-
-        return tree_arrays(self)
 
 
 def replay(tree: DesignTree, kind: str, max_nodes: int) -> Replay:
@@ -237,32 +227,33 @@ def stop_predictions(children: list[list[int]]) -> list[tuple[int, int]]:
 
 def grammar_rules(tree: DesignTree) -> tuple[int, ...]:
     """A rule sequence that derives `tree` (ValueError if the grammar cannot make it)."""
+    v = VOCABULARY
     r = replay(tree, "grammar", max_nodes=len(tree.tokens))
-    rules = [0, 7]  # make_robot, end_head
+    rules = [v.make_robot, v.end_head]
     body = 0
     while True:
         kids = r.children[body]
         mounts = [c for c in kids if r.tokens[c] == MOUNT]
         nxt = [c for c in kids if split_token(r.tokens[c])[0] == BODY_LINK_TYPE]
-        rules.append(2 if mounts else 3)  # make_body_with_legs / make_body_without_legs
+        rules.append(v.body_with_mounts if mounts else v.body_without_mounts)
         if mounts:
             link = r.children[mounts[0]][0]
             first = True
             while True:
                 if not first:
-                    rules.append(4)  # append_limb_link
+                    rules.append(v.append_limb_link)
                 link_type, joint = split_token(r.tokens[link])
-                rules += [LIMB_JOINT_RULE[joint], LIMB_LINK_RULE[link_type]]
+                rules += [v.limb_joints[joint], v.limb_links[link_type]]
                 first = False
                 if not r.children[link]:
                     break
                 link = r.children[link][0]
-            rules.append(5)  # end_limb
+            rules.append(v.end_limb)
         if not nxt:
-            rules.append(6)  # end_tail
+            rules.append(v.end_tail)
             return tuple(rules)
         # The joint to the next body is set on the body -> tail edge before the body is inserted there.
-        rules += [BODY_JOINT_RULE[r.tokens[nxt[0]]], 1]
+        rules += [v.next_body[r.tokens[nxt[0]]], v.append_body]
         body = nxt[0]
 
 

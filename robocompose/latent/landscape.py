@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 import torch
 
+from robocompose.io.errors import InputError
 from robocompose.latent.batch import collate
 from robocompose.latent.model import GraphVAE
 from robocompose.latent.train import Designs
@@ -31,7 +32,7 @@ class LandscapeConfig:
 
     def __post_init__(self) -> None:
         if not 0 < self.evaluated <= self.designs:
-            raise ValueError(f"need 0 < evaluated <= designs, got {self.evaluated} and {self.designs}")
+            raise InputError(f"need 0 < evaluated <= designs, got {self.evaluated} and {self.designs}")
 
 
 def principal_components(x: np.ndarray, k: int = 2) -> tuple[np.ndarray, np.ndarray]:
@@ -55,7 +56,7 @@ def landscape(models: dict[str, GraphVAE], designs: Designs, config: LandscapeCo
     from robocompose.evaluation.evaluate import evaluate_designs
 
     if config.designs > len(designs.ids):
-        raise ValueError(f"landscape: {config.designs} designs asked for, the dataset has {len(designs.ids)}")
+        raise InputError(f"landscape: {config.designs} designs asked for, the dataset has {len(designs.ids)}")
     pick = np.random.default_rng(config.seed).choice(len(designs.ids), config.designs, replace=False)
     chosen = designs.subset(pick)
     scores = evaluate_designs(chosen.trees[: config.evaluated], [TASK], evaluation, seeds=[evaluation.seed],

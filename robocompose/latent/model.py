@@ -8,7 +8,7 @@ Decoder (eqs. 7.9-7.11): JT-VAE's depth-first decoder, teacher-forced in trainin
 node it predicts stop/expand from the node's token, z and the messages into it; a new child's label
 comes from z and the message to it. Predictions are masked to what the constraints allow
 (`constraints.py`): in training forced decisions carry no loss, in decoding every latent point gives a
-complete design.
+complete design (`decode(z, "tree")` decodes as the original, unmasked).
 Property predictor: MLP on the latent mean -> the 16 rest-contact numbers (MSE).
 """
 
@@ -23,6 +23,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from robocompose.grammar.tree import N_TOKENS
+from robocompose.io.errors import InputError
 from robocompose.latent.batch import MAX_INCOMING, Levels, TreeBatch
 from robocompose.latent.constraints import KINDS, Walk
 
@@ -43,9 +44,9 @@ class VAEConfig:
     def __post_init__(self) -> None:
         for name in ("hidden", "latent", "predictor_hidden", "max_nodes"):
             if getattr(self, name) < 1:
-                raise ValueError(f"{name} must be a positive integer, got {getattr(self, name)}")
+                raise InputError(f"{name} must be a positive integer, got {getattr(self, name)}")
         if self.constraints not in KINDS:
-            raise ValueError(f"constraints must be one of {KINDS}, got {self.constraints!r}")
+            raise InputError(f"constraints must be one of {KINDS}, got {self.constraints!r}")
 
 
 class TreeGRU(nn.Module):
@@ -207,10 +208,12 @@ class Decoder(nn.Module):
         super().__init__()
         self.constraints, self.max_nodes = constraints, max_nodes
         self.gru = TreeGRU(hidden)
-        self.stop_x = nn.Linear(hidden, hidden)  # eq. 7.9: W1 x + W2 z + W3 sum h, then u
-        self.stop_z = nn.Linear(latent, hidden, bias=False)
-        self.stop_h = nn.Linear(hidden, hidden, bias=False)
-        self.stop_u = nn.Linear(hidden, 1)
+        # eq. 7.9 with GLSO's extra hidden layer (its U_i): u . tau(V tau(W1 x + W3 sum h) + W2 z)
+        self.stop_x = nn.Linear(hidden, hidden)  # U_i's x part (with its bias)
+        self.stop_h = nn.Linear(hidden, hidden, bias=False)  # U_i's message part
+        self.stop_hidden = nn.Linear(hidden, hidden)  # U's hidden part (with its bias)
+        self.stop_z = nn.Linear(latent, hidden, bias=False)  # U's z part
+        self.stop_u = nn.Linear(hidden, 1)  # U_o
         self.label_z = nn.Linear(latent, hidden)  # eq. 7.10: U tau(W1 z + W2 h)
         self.label_h = nn.Linear(hidden, hidden, bias=False)
         self.label_u = nn.Linear(hidden, N_TOKENS)
@@ -222,8 +225,9 @@ class Decoder(nn.Module):
                     incoming_sum: torch.Tensor) -> torch.Tensor:
         """(P,) from each prediction's node token, tree (row of z) and sum of incoming messages (P, H)."""
         x_terms = gather(self.stop_x(self.gru.embedding.weight), tokens)  # (P, H)
-        z_terms = gather(self.stop_z(z), tree)
-        return self.stop_u(F.relu(x_terms + z_terms + self.stop_h(incoming_sum))).squeeze(1)
+        inner = F.relu(x_terms + self.stop_h(incoming_sum))  # (P, H)
+        z_terms = gather(self.stop_z(z), tree)  # (P, H)
+        return self.stop_u(F.relu(self.stop_hidden(inner) + z_terms)).squeeze(1)
 
     def label_logits(self, z: torch.Tensor, tree: torch.Tensor, message: torch.Tensor,
                      mask: torch.Tensor) -> torch.Tensor:
@@ -241,17 +245,23 @@ class Decoder(nn.Module):
         labels = self.label_logits(z, batch.label_tree, gather(messages, batch.label_incoming),
                                    batch.label_mask)  # (N, 42)
         label_loss = F.cross_entropy(labels, batch.label_target, reduction="sum")
+        chosen = batch.label_mask.sum(1) > 1  # labels the mask leaves a choice for (forced ones are always right)
         return {
             "label_loss": label_loss, "stop_loss": stop_loss,
-            "label_acc": (labels.argmax(1) == batch.label_target).float().mean(),
+            "label_acc": (labels.argmax(1) == batch.label_target)[chosen].float().mean(),
             "stop_acc": ((stop[free] > 0).float() == batch.stop_target[free]).float().mean(),
         }
 
     @torch.no_grad()
-    def decode(self, z: torch.Tensor) -> list[Walk]:
-        """Greedy depth-first decoding of every row of z (B, latent), all trees one step at a time."""
+    def decode(self, z: torch.Tensor, constraints: str | None = None) -> list[Walk]:
+        """Greedy depth-first decoding of every row of z (B, latent), all trees one step at a time.
+
+        `constraints` defaults to the model's own (ours: masked to what the training data's kind allows);
+        "tree" is the original's decoding: an argmax over all 42 labels, stop/expand unmasked except for
+        the at most 4 neighbours and `max_nodes` nodes a tree may have.
+        """
         H, B = self.gru.hidden, len(z)
-        walks = [Walk(self.constraints, self.max_nodes) for _ in range(B)]
+        walks = [Walk(constraints or self.constraints, self.max_nodes) for _ in range(B)]
         root_mask = torch.as_tensor(np.stack([w.root_labels() for w in walks]))
         roots = self.label_logits(z, torch.arange(B), z.new_zeros(B, H), root_mask).argmax(1)
         for w, token in zip(walks, roots.tolist(), strict=True):

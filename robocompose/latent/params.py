@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+from robocompose.io.errors import InputError
 from robocompose.latent.model import VAEConfig
 from robocompose.latent.train import TrainConfig
 from robocompose.params import build_config, read_params
@@ -31,7 +32,7 @@ class ExtraConfig:
 
     def __post_init__(self) -> None:
         if self.n < 0:
-            raise ValueError(f"n must be >= 0, got {self.n}")
+            raise InputError(f"n must be >= 0, got {self.n}")
 
 
 @dataclass(frozen=True)
@@ -44,10 +45,10 @@ def load_variant(name: str, path: str | Path = "params.yaml") -> tuple[Variant, 
     where = f"{path}: train_vae"
     section = read_params(path).get("train_vae")
     if not isinstance(section, dict):
-        raise ValueError(f"{path}: missing section 'train_vae'")
+        raise InputError(f"{path}: missing section 'train_vae'")
     variants = section.get("variants", {})
     if name not in variants:
-        raise ValueError(f"{where}.variants: no variant {name!r}; known: {sorted(variants)}")
+        raise InputError(f"{where}.variants: no variant {name!r}; known: {sorted(variants)}")
     variant = build_config(Variant, variants[name], f"{where}.variants.{name}")
     model = build_config(VAEConfig, section.get("model"), f"{where}.model")
     model = replace(model, predictor=variant.predictor, constraints=variant.constraints)

@@ -10,8 +10,10 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import io
 import math
 import os
+import pickle
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -21,7 +23,8 @@ import pandas as pd
 import torch
 
 from robocompose.grammar.tree import DesignTree
-from robocompose.io import McapWriter, atomic_path, read_table
+from robocompose.io import ArtifactError, McapWriter, read_checked, read_table, set_aside, write_checked
+from robocompose.io.errors import InputError
 from robocompose.io.provenance import code_digest, settings_digest
 from robocompose.latent.batch import collate
 from robocompose.latent.constraints import Replay, replay
@@ -59,13 +62,13 @@ class TrainConfig:
         for name in ("steps", "batch_size", "lr_decay_every", "beta_every", "log_every", "eval_every",
                      "eval_designs", "checkpoint_every", "threads"):
             if getattr(self, name) < 1:
-                raise ValueError(f"{name} must be a positive integer, got {getattr(self, name)}")
+                raise InputError(f"{name} must be a positive integer, got {getattr(self, name)}")
         for name in ("eval_every", "checkpoint_every"):  # logged rows must not straddle a resume
             if getattr(self, name) % self.log_every:
-                raise ValueError(f"{name} must be a multiple of log_every ({self.log_every}), "
+                raise InputError(f"{name} must be a multiple of log_every ({self.log_every}), "
                                  f"got {getattr(self, name)}")
         if not 0 < self.holdout < 1:
-            raise ValueError(f"holdout must lie in (0, 1), got {self.holdout}")
+            raise InputError(f"holdout must lie in (0, 1), got {self.holdout}")
 
 
 @dataclass(frozen=True)
@@ -105,7 +108,7 @@ def load_designs(path: str | Path, constraints: str, max_nodes: int) -> Designs:
         try:
             replays.append(replay(tree, constraints, max_nodes))
         except ValueError as err:
-            raise ValueError(f"{path}: design {design_id} cannot be decoded under {constraints!r}: {err}") from None
+            raise InputError(f"{path}: design {design_id} cannot be decoded under {constraints!r}: {err}") from None
     contacts = np.array([np.asarray(c, dtype=np.float32) for c in table["contacts"]]).reshape(len(table), 16)
     return Designs(list(table["design_id"]), trees, replays, contacts)
 
@@ -135,14 +138,16 @@ def lr_at(step: int, c: TrainConfig) -> float:
     return c.lr * c.lr_decay ** (step // c.lr_decay_every)
 
 
-def reconstruction_accuracy(model: GraphVAE, designs: Designs, chunk: int = 256) -> float:
-    """Fraction of designs whose latent mean decodes (greedily) to the same design."""
+def reconstruction_accuracy(model: GraphVAE, designs: Designs, chunk: int = 256,
+                            constraints: str | None = None) -> float:
+    """Fraction of designs whose latent mean decodes (greedily, under `constraints`: None = the model's
+    own) to the same design."""
     hits = 0
     with torch.no_grad():
         for lo in range(0, len(designs.ids), chunk):
             part = designs.subset(np.arange(lo, min(lo + chunk, len(designs.ids))))
             mean, _ = model.encoder(collate(part.replays, part.contacts))
-            walks = model.decoder.decode(mean)
+            walks = model.decoder.decode(mean, constraints)
             hits += sum(w.tree().design_id == i for w, i in zip(walks, part.ids, strict=True))
     return hits / len(designs.ids)
 
@@ -161,19 +166,51 @@ def run_key(model_config: VAEConfig, config: TrainConfig, designs: Designs, trai
                             code_digest("robocompose.latent.train")])
 
 
+def save_torch(obj: dict, path: str | Path) -> Path:
+    """torch.save `obj` to `path` behind a SHA-256 header (robocompose.io.write_checked), atomically.
+
+    Serialised through memory, so the bytes do not depend on the file name (torch names the archive's
+    folder after the file it writes, here a random temporary name) and are the same on every run."""
+    buffer = io.BytesIO()
+    torch.save(obj, buffer)
+    return write_checked(path, buffer.getvalue())
+
+
+def load_torch(path: str | Path, weights_only: bool = True) -> dict:
+    """What `save_torch` wrote; ArtifactError naming the file if it is truncated or corrupted."""
+    return torch.load(io.BytesIO(read_checked(path)), map_location="cpu", weights_only=weights_only)
+
+
 def save_model(model: GraphVAE, path: str | Path) -> Path:
-    with atomic_path(path) as tmp:
-        torch.save({"config": dataclasses.asdict(model.config), "state": model.state_dict()}, tmp)
-    return Path(path)
+    return save_torch({"config": dataclasses.asdict(model.config), "state": model.state_dict()}, path)
 
 
 def load_model(path: str | Path) -> GraphVAE:
+    """The VAE saved by `save_model` at `path`; any other file is an InputError naming it.
+
+    Loaded with `weights_only=True`: tensors and plain containers only, never arbitrary pickled objects.
+    """
     path = Path(path)
-    if not path.exists():
-        raise FileNotFoundError(f"{path}: no such model file (train one with `dvc repro train_vae`)")
-    saved = torch.load(path, map_location="cpu", weights_only=True)
-    model = GraphVAE(VAEConfig(**saved["config"]))
-    model.load_state_dict(saved["state"])
+    expected = "expected a VAE saved by train_vae, e.g. models/vae_full.pt"
+    if not path.is_file():
+        raise InputError(f"{path}: no such model file ({expected}; train one with `dvc repro train_vae`)")
+    try:
+        saved = load_torch(path)  # the checksum first: a cut or flipped file never reaches torch.load
+    except ArtifactError as err:
+        raise InputError(f"{err} ({expected})") from None
+    except pickle.UnpicklingError:
+        raise InputError(f"{path}: holds Python objects other than tensors and plain values, which are not loaded "
+                         f"(models load with weights_only=True; {expected})") from None
+    except Exception as err:  # an intact checksum over a payload that is no torch archive: torch raises many types
+        raise InputError(f"{path}: damaged torch archive ({type(err).__name__}; {expected})") from None
+    if not isinstance(saved, dict) or not {"config", "state"} <= set(saved):
+        raise InputError(f"{path}: not a robocompose model ({expected}, a dict with 'config' and 'state')")
+    try:
+        model = GraphVAE(VAEConfig(**saved["config"]))
+        model.load_state_dict(saved["state"])
+    except (TypeError, ValueError, RuntimeError) as err:  # other fields, other shapes: another model's file
+        raise InputError(f"{path}: model does not match this code's VAE ({expected}): "
+                         f"{' '.join(str(err).split())[:240]}") from None
     return model.eval()
 
 
@@ -206,11 +243,14 @@ def log_row(live: Live, row: dict) -> None:
             live.log_metric(name, float(row[field]))  # no timestamp, so the files are byte-reproducible
 
 
-def log_evaluation(live: Live, metrics: dict) -> None:
-    """Final metrics of the trained model, into the same summary (metrics.json, under `evaluation`)."""
+def log_evaluation(live: Live, metrics: dict, prefix: str = "evaluation") -> None:
+    """Final metrics of the trained model, into the same summary (metrics.json, under `evaluation`; a nested
+    group such as the unconstrained decoder's numbers under `evaluation/<group>`)."""
     for key, value in metrics.items():
-        if isinstance(value, int | float):
-            live.log_metric(f"evaluation/{key}", value, plot=False)
+        if isinstance(value, dict):
+            log_evaluation(live, value, f"{prefix}/{key}")
+        elif isinstance(value, int | float):
+            live.log_metric(f"{prefix}/{key}", value, plot=False)
 
 
 def read_curves(directory: str | Path) -> pd.DataFrame:
@@ -252,8 +292,13 @@ def train(model_config: VAEConfig, config: TrainConfig, designs: Designs, checkp
     optimizer = torch.optim.Adam(model.parameters(), lr=config.lr, fused=True)  # one kernel, not one loop per tensor
     key = run_key(model_config, config, designs, train_set)
     start, rows = 0, []
+    saved = None
     if checkpoint.exists():
-        saved = torch.load(checkpoint, map_location="cpu", weights_only=False)
+        try:
+            saved = load_torch(checkpoint, weights_only=True)
+        except ArtifactError as err:  # a checkpoint only saves time: keep the file, start afresh
+            set_aside(checkpoint, str(err).removeprefix(f"{checkpoint}: "))
+    if saved is not None:
         if saved["key"] == key and saved["step"] <= config.steps:
             model.load_state_dict(saved["model"])
             optimizer.load_state_dict(saved["optimizer"])
@@ -297,10 +342,8 @@ def train(model_config: VAEConfig, config: TrainConfig, designs: Designs, checkp
             running = {}
             bar.set_postfix(loss=f"{row['loss']:.2f}", rec=f"{row['heldout_reconstruction']:.2f}")
         if done % config.checkpoint_every == 0 or done == config.steps:
-            checkpoint.parent.mkdir(parents=True, exist_ok=True)
-            with atomic_path(checkpoint) as tmp:
-                torch.save({"key": key, "step": done, "model": model.state_dict(),
-                            "optimizer": optimizer.state_dict(), "rows": rows}, tmp)
+            save_torch({"key": key, "step": done, "model": model.state_dict(),
+                        "optimizer": optimizer.state_dict(), "rows": rows}, checkpoint)
             write_logs(rows, live, mcap_path)
         bar.update(1)
     bar.close()

@@ -1,7 +1,9 @@
-"""`robocompose modular ...`: evaluate one modular design on a block terrain; run a GA baseline on one terrain.
+"""`robocompose modular ...`: evaluate one modular design on a block terrain; run a GA baseline on one terrain;
+measure one terrain's exhaustive table.
 
-Settings come from the `modular:` section of `--params` (default params.yaml); without that file, the thesis's
-settings (the dataclass defaults). pybullet and the search code are imported inside the handlers.
+Settings come from the `modular:` section of `--params` (default: params.yaml if there is one, else the
+dataclass defaults: the default profile's episode on the reference's course); a file named with `--params` must
+exist. pybullet and the search code are imported inside the handlers.
 """
 
 from __future__ import annotations
@@ -9,6 +11,8 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
+
+from robocompose.arguments import non_negative_int, output_directory, output_file
 
 VARIANTS = ("ga20", "ga50", "crowding", "random")
 
@@ -22,9 +26,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     evaluate.add_argument("--design", required=True,
                           help="6 letters n/l/w/b (none/leg/wheel/leg-wheel), ports front-left, mid-left, "
                           "back-left, back-right, mid-right, front-right")
-    evaluate.add_argument("--terrain-seed", type=int, required=True, help="seed of the block terrain")
-    evaluate.add_argument("--mcap", type=Path, help="write the rollout as MCAP (Foxglove schemas)")
-    evaluate.add_argument("--gif", type=Path, help="write the rollout as an animated GIF")
+    evaluate.add_argument("--terrain-seed", type=non_negative_int, required=True, help="seed of the block terrain")
+    evaluate.add_argument("--mcap", type=output_file(".mcap", "MCAP"),
+                          help="write the rollout as MCAP (Foxglove schemas)")
+    evaluate.add_argument("--gif", type=output_file(".gif", "GIF"), help="write the rollout as an animated GIF")
     _add_params_argument(evaluate)
     evaluate.set_defaults(handler=_evaluate)
 
@@ -32,25 +37,38 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     ga.add_argument("--variant", choices=VARIANTS, required=True,
                     help="ga20 / ga50 (uniform crossover + mutation), crowding (deterministic crowding, "
                     "population 50), random (random sampling)")
-    ga.add_argument("--terrain-seed", type=int, required=True)
-    ga.add_argument("--seed", type=int, default=0, help="seed of the search")
-    ga.add_argument("--workers", type=int, help="evaluation processes (default: params; 0 = all cores)")
+    ga.add_argument("--terrain-seed", type=non_negative_int, required=True)
+    ga.add_argument("--seed", type=non_negative_int, default=0, help="seed of the search")
+    ga.add_argument("--workers", type=non_negative_int, help="evaluation processes (default: params; 0 = all cores)")
+    ga.add_argument("--address", help="a running Dask scheduler (tcp://host:8786) for the evaluations "
+                    "(default: params' modular.address; \"\" = local processes)")
     _add_params_argument(ga)
     ga.set_defaults(handler=_ga)
 
+    exhaustive = commands.add_parser(
+        "exhaustive", help="every design on one terrain, kept under reports/modular/exhaustive/ (resumes)")
+    exhaustive.add_argument("--terrain-seed", type=non_negative_int, required=True)
+    exhaustive.add_argument("--out-dir", type=output_directory, default=None,
+                            help="where the table and its provenance record go (default reports/modular/exhaustive)")
+    exhaustive.add_argument("--workers", type=non_negative_int,
+                            help="evaluation processes (default: params; 0 = all cores)")
+    _add_params_argument(exhaustive)
+    exhaustive.set_defaults(handler=_exhaustive)
+
 
 def _add_params_argument(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--params", type=Path, default=Path("params.yaml"),
-                        help="params file with a modular: section (default params.yaml; if absent, thesis settings)")
+    parser.add_argument("--params", type=Path, help="params file with a modular: section (default: params.yaml if "
+                        "there is one, else the defaults); a file named here must exist")
 
 
-def _params(path: Path):
-    from robocompose.modular.evaluate import EvalSettings, FitnessRule
-    from robocompose.modular.params import ExperimentsConfig, ModularParams, load_modular_params
+def _params(path: Path | None):
+    from robocompose.modular.params import build_modular_params, load_modular_params
 
-    if path.exists():
-        return load_modular_params(path)
-    return ModularParams(EvalSettings(), FitnessRule(), ExperimentsConfig())
+    if path is not None:
+        return load_modular_params(path)  # fails naming the file if it is missing
+    if Path("params.yaml").exists():
+        return load_modular_params("params.yaml")
+    return build_modular_params({}, "defaults")
 
 
 def _evaluate(args: argparse.Namespace) -> None:
@@ -58,8 +76,8 @@ def _evaluate(args: argparse.Namespace) -> None:
     from robocompose.modular.record import record_rollout
     from robocompose.modular.robot import parse_design
 
-    params = _params(args.params)
     design = parse_design(args.design)
+    params = _params(args.params)
     if params.fitness.skips(design):
         result = evaluate_designs([design], args.terrain_seed, params.eval, params.fitness)[0]
     else:
@@ -78,9 +96,27 @@ def _ga(args: argparse.Namespace) -> None:
     params = _params(args.params)
     workers = params.workers if args.workers is None else args.workers
     cache = EvaluationCache(params.cache or None)
-    with Executor(workers=workers, address=params.address or None) as executor:
+    address = params.address if args.address is None else args.address
+    with Executor(workers=workers, address=address or None) as executor:
         run = run_method(args.variant, args.terrain_seed, args.seed, params, cache, executor)
     print(json.dumps({"variant": args.variant, "terrain_seed": args.terrain_seed, "seed": args.seed,
-                      "best_design": run.best_design, "best_distance": run.best_distance,
+                      "best_design": run.best_design, "best_fitness": run.best_fitness,
                       "distinct": run.distinct, "evaluations": run.evaluations,
                       "seconds": round(run.seconds, 3), "sim_seconds": round(run.sim_seconds, 3)}))
+
+
+def _exhaustive(args: argparse.Namespace) -> None:
+    from robocompose.evaluation.cache import EvaluationCache
+    from robocompose.evaluation.executor import Executor
+    from robocompose.io import read_table
+    from robocompose.modular.truth import COMMITTED_DIR, measure_committed, truth_summary
+
+    params = _params(args.params)
+    workers = params.workers if args.workers is None else args.workers
+    cache = EvaluationCache(params.cache or None)
+    with Executor(workers=workers, address=params.address or None) as executor:
+        path = measure_committed(args.terrain_seed, params.eval, params.fitness, cache, executor,
+                                 args.out_dir or COMMITTED_DIR)
+    best = truth_summary(read_table(path, "modular_exhaustive"), params.experiments.near_optimal).iloc[0]
+    print(json.dumps({"terrain_seed": args.terrain_seed, "table": str(path), "optimum": best.optimum,
+                      "best_design": best.best_design, "near_optimal": int(best.near_optimal)}))

@@ -15,6 +15,7 @@ from typing import Protocol
 
 import numpy as np
 
+from robocompose.io.errors import InputError
 from robocompose.modular.robot import LEFT_SIDE, ModularRobot
 
 
@@ -48,7 +49,9 @@ class TripodGait:
     amplitude: float = math.pi / 12  # rad, swing of base and lift of shoulder
     period: float = 1.0  # s
     lift_phase: tuple[float, ...] = (math.pi, 0.0, math.pi, 0.0, math.pi, 0.0)  # per port: two alternating tripods
-    base_offset: tuple[float, ...] = tuple(k * math.pi / 8 for k in (1, 0, -1, 1, 0, -1))  # spread the legs
+    # Corner legs turned pi/8 towards the middle legs (a positive base angle turns a leg counter-clockwise seen
+    # from above, as the original's base joint about the mount's +z; its offsets carry the same signs).
+    base_offset: tuple[float, ...] = tuple(k * math.pi / 8 for k in (1, 0, -1, 1, 0, -1))
     steer: tuple[float, ...] = (-math.pi / 3, 0.0, math.pi / 3, -math.pi / 3, 0.0, math.pi / 3)  # wheels roll along x
     elbow: float = math.pi / 2  # rad, lower link vertical
 
@@ -110,5 +113,5 @@ CONTROLLERS: dict[str, type] = {"tripod": TripodController, "tripod_reversed_whe
 
 def make_controller(name: str) -> Controller:
     if name not in CONTROLLERS:
-        raise ValueError(f"controller {name!r}: unknown; expected one of {sorted(CONTROLLERS)}")
+        raise InputError(f"controller {name!r}: unknown; expected one of {sorted(CONTROLLERS)}")
     return CONTROLLERS[name]()

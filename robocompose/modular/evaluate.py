@@ -28,6 +28,7 @@ import numpy as np
 
 from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.executor import Executor, evaluate_many
+from robocompose.io.errors import InputError
 from robocompose.io.provenance import code_digest, constants_of, settings_digest
 from robocompose.modular.controller import RobotState, make_controller
 from robocompose.modular.robot import START_HEIGHT, ModularRobot, build_robot, parse_design, valid_in_original
@@ -44,7 +45,7 @@ BLOWUP_SPEED = 50.0  # m/s; a chassis faster than this has exploded
 class EvalSettings:
     """Everything a rollout depends on (all of it enters the settings hash)."""
 
-    control_steps: int = 250  # thesis: 250 (~20.8 s)
+    control_steps: int = 50  # the default profile (4.2 s); thesis and paper profile: 250 (~20.8 s)
     sim_steps_per_control: int = 20
     settle_steps: int = 100  # sim steps in the rest pose before the episode
     time_step: float = 1 / 240  # s
@@ -59,7 +60,7 @@ class EvalSettings:
     def __post_init__(self):
         for name in ("control_steps", "sim_steps_per_control", "stall_window", "solver_iterations"):
             if getattr(self, name) < 1:
-                raise ValueError(f"{name}: expected a positive integer, found {getattr(self, name)}")
+                raise InputError(f"{name}: expected a positive integer, found {getattr(self, name)}")
         make_controller(self.controller)  # fails early on an unknown name
         if isinstance(self.terrain, dict):  # from params.yaml
             object.__setattr__(self, "terrain", TerrainConfig(**self.terrain))
@@ -90,7 +91,7 @@ class FitnessRule:
 
     def __post_init__(self):
         if self.invalid not in ("penalty", "simulate"):
-            raise ValueError(f"invalid: expected 'penalty' or 'simulate', found {self.invalid!r}")
+            raise InputError(f"invalid: expected 'penalty' or 'simulate', found {self.invalid!r}")
 
     def skips(self, design: str) -> bool:
         """True if `design` is scored without simulation."""

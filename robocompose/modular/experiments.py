@@ -1,21 +1,25 @@
-"""The modular-robot experiments: exhaustive ground truth, evolutionary baselines, emergency constraints.
+"""The modular-robot experiments: evolutionary baselines and emergency constraints on the test terrains.
 
-- `exhaustive_table`: every one of the 4096 designs on every test terrain, under the fitness rule (designs the
-  rule skips are scored without simulating). The thesis never had this; it gives each method's regret.
 - `run_method`: GA-20, GA-50, GA-crowding or random sampling on one terrain with one seed.
-- `baseline_runs`: all methods x test terrains x seeds, with distinct solutions, emergency-constraint scores and
-  the exhaustive optimum beside each.
+- `baseline_runs`: all methods x test terrains x seeds, with distinct solutions, emergency-constraint distances and
+  the exhaustive optimum beside each. The runs read every fitness from the terrain's exhaustive table (the real
+  evaluator's measured results for every design; `robocompose.modular.truth`), so their runtime is the measured
+  simulation time of the evaluations they asked for, repeats included: the cost without a cache.
 
 Emergency constraints (thesis 5.1): a draw caps the count of one module type (leg, wheel or leg-wheel, uniform)
 at 0, 1 or 2 (uniform), i.e. a shortage of that module. A method answers with its best output design (final
-population; random sampling: its samples) that satisfies the cap; if none does, with a uniformly drawn feasible
-design (satisfies the cap, and is not one the fitness rule rejects unsimulated). The exhaustive optimum under
-the same draw is the best satisfying design of the table.
+population; random sampling: its samples) that is valid (not rejected by the fitness rule) and satisfies the
+cap; if none is, with a uniformly drawn valid satisfying design. The exhaustive optimum under the same draw is the
+best valid satisfying design of the table.
+
+Penalties are never averaged as distances: a run whose best design carries no distance (every design it saw was
+invalid or unstable) has no best distance and counts as a failure; an emergency answer without a distance (an
+unstable rollout) counts as an EC failure, and the EC distance is the mean over the answers that have one.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -23,10 +27,11 @@ import pandas as pd
 
 from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.executor import Executor
-from robocompose.modular.evaluate import evaluate_designs
+from robocompose.io.errors import InputError
+from robocompose.modular.evaluate import Result
 from robocompose.modular.params import ModularParams
 from robocompose.modular.problem import ModularProblem
-from robocompose.modular.robot import all_designs
+from robocompose.modular.robot import MODULE_LETTERS, N_PORTS, index_to_design
 from robocompose.search.crowding import CrowdingConfig, run_crowding
 from robocompose.search.ga import GAConfig, run_ga
 from robocompose.search.metrics import distinct_solutions
@@ -39,35 +44,11 @@ EC_CAPS = (0, 1, 2)
 DELTA, EPSILON = 1.0, 0.5  # the niching metric's Hamming distance and fitness margin (thesis)
 
 
-def exhaustive_table(params: ModularParams, cache: EvaluationCache | None, executor: Executor | None,
-                     save_every: int = 32, designs: list[str] | None = None) -> pd.DataFrame:
-    """(terrains x 4096) rows: terrain_seed, design, fitness, distance, status, sim_steps; sorted.
-
-    `designs` restricts the table to a subset (tests); None is all 4096.
-    """
-    designs = all_designs() if designs is None else designs
-    frames = []
-    for terrain_seed in params.experiments.test_terrains:
-        results = evaluate_designs(designs, terrain_seed, params.eval, params.fitness, cache, executor, save_every)
-        frames.append(pd.DataFrame({
-            "terrain_seed": terrain_seed, "design": designs,
-            "fitness": [params.fitness.fitness(r) for r in results],
-            "distance": [r.distance for r in results], "status": [r.status for r in results],
-            "sim_steps": [r.sim_steps for r in results]}))
-    return pd.concat(frames, ignore_index=True).sort_values(["terrain_seed", "design"], ignore_index=True)
-
-
-def truth_summary(table: pd.DataFrame, epsilon: float = EPSILON) -> pd.DataFrame:
-    """Per terrain: the optimum, its design(s), the near-optimal designs (within epsilon) and how many there are."""
-    rows = []
-    for terrain_seed, group in table.groupby("terrain_seed", sort=True):
-        best = group.fitness.max()
-        near = group[group.fitness >= best - epsilon].sort_values(["fitness", "design"], ascending=[False, True])
-        rows.append({"terrain_seed": int(terrain_seed), "optimum": float(best),
-                     "best_design": near.design.iloc[0], "near_optimal": len(near),
-                     "near_optimal_designs": " ".join(near.design.head(8)),
-                     "simulated": int((group.sim_steps > 0).sum())})
-    return pd.DataFrame(rows)
+def table_results(table: pd.DataFrame) -> dict[str, Result]:
+    """Design -> the evaluator's result, from one terrain's exhaustive table (null distance -> None)."""
+    return {d: Result(None if pd.isna(x) else float(x), st, int(n), float(sec))
+            for d, x, st, n, sec in zip(table.design, table.distance, table.status, table.sim_steps, table.seconds,
+                                        strict=True)}
 
 
 def _seed(*parts: int) -> int:
@@ -90,7 +71,7 @@ class MethodRun:
         return self.result.best
 
     @property
-    def best_distance(self) -> float:
+    def best_fitness(self) -> float:
         return self.result.best_fitness
 
     @property
@@ -111,17 +92,21 @@ def search(variant: str, problem: ModularProblem, seed: int, params: ModularPara
                                                     seed=seed))
     if variant == "random":
         return run_random(problem, e.random_designs, seed)
-    raise ValueError(f"method {variant!r}: expected one of {sorted(METHODS)}")
+    raise InputError(f"method {variant!r}: expected one of {sorted(METHODS)}")
 
 
 def run_method(variant: str, terrain_seed: int, seed: int, params: ModularParams,
-               cache: EvaluationCache | None = None, executor: Executor | None = None) -> MethodRun:
-    """One run of `variant` on terrain `terrain_seed` (run seed `seed`), with its distinct-solution count."""
+               cache: EvaluationCache | None = None, executor: Executor | None = None,
+               known: Mapping[str, Result] | None = None) -> MethodRun:
+    """One run of `variant` on terrain `terrain_seed` (run seed `seed`), with its distinct-solution count.
+
+    `known`: every design's result on this terrain (its exhaustive table); None simulates through the cache.
+    """
     import time
 
     if variant not in METHODS:
-        raise ValueError(f"method {variant!r}: expected one of {sorted(METHODS)}")
-    problem = ModularProblem(terrain_seed, params.eval, params.fitness, cache, executor)
+        raise InputError(f"method {variant!r}: expected one of {sorted(METHODS)}")
+    problem = ModularProblem(terrain_seed, params.eval, params.fitness, cache, executor, known)
     started = time.perf_counter()
     result = search(variant, problem, _seed(seed, terrain_seed, list(METHODS).index(variant)), params)
     seconds = time.perf_counter() - started
@@ -141,47 +126,51 @@ def satisfies(design: str, constraint: tuple[str, int]) -> bool:
 
 
 def ec_answers(designs: list[str], fitness: np.ndarray, constraints: list[tuple[str, int]],
-               rng: np.random.Generator, feasible: Callable[[str], bool] = lambda design: True) -> list[str]:
-    """The design a method answers each constraint with: its best satisfying output, else a random feasible one
-    (satisfying the constraint and `feasible`)."""
+               rng: np.random.Generator, valid: Callable[[str], bool]) -> list[str]:
+    """The design a method answers each constraint with: its fittest output design that is `valid` and satisfies
+    the constraint, else a uniformly drawn valid satisfying design."""
     order = np.argsort(-np.asarray(fitness), kind="stable")
     answers = []
     for constraint in constraints:
-        ok = [designs[k] for k in order if satisfies(designs[k], constraint)]
+        ok = [designs[k] for k in order if satisfies(designs[k], constraint) and valid(designs[k])]
         if ok:
             answers.append(ok[0])
             continue
-        while True:  # rejection sampling: every cap admits hundreds of feasible designs, so this ends fast
-            design = "".join("nlwb"[int(i)] for i in rng.integers(4, size=6))
-            if satisfies(design, constraint) and feasible(design):
+        while True:  # rejection sampling: every cap admits hundreds of valid designs, so this ends fast
+            design = index_to_design(rng.integers(len(MODULE_LETTERS), size=N_PORTS))
+            if satisfies(design, constraint) and valid(design):
                 answers.append(design)
                 break
     return answers
 
 
-def baseline_runs(params: ModularParams, truth: pd.DataFrame, cache: EvaluationCache | None,
-                  executor: Executor | None) -> pd.DataFrame:
-    """Every method x test terrain x seed (declared table `modular_runs`)."""
+def baseline_runs(params: ModularParams, truth: pd.DataFrame) -> pd.DataFrame:
+    """Every method x test terrain x seed (declared table `modular_runs`), every fitness read from `truth`."""
     e = params.experiments
+    rule = params.fitness
     rows = []
     for terrain_seed in e.test_terrains:
         table = truth[truth.terrain_seed == terrain_seed]
         if len(table) == 0:
-            raise ValueError(f"terrain {terrain_seed}: not in the exhaustive table (run modular_exhaustive first)")
-        fitness_of = dict(zip(table.design, table.fitness, strict=True))
+            raise InputError(f"terrain {terrain_seed}: not in the exhaustive table (run modular_exhaustive first)")
+        known = table_results(table)
+        distances = table.dropna(subset=["distance"])
         for variant in METHODS:
             for seed in e.ga_seeds:
-                run = run_method(variant, terrain_seed, seed, params, cache, executor)
+                run = run_method(variant, terrain_seed, seed, params, known=known)
                 rng = np.random.default_rng(_seed(seed, terrain_seed, 7919))  # the same draws for every method
                 constraints = emergency_constraints(rng, e.ec_draws)
                 answers = ec_answers(run.result.population, run.result.fitness, constraints, rng,
-                                     feasible=lambda design: not params.fitness.skips(design))
-                problem = ModularProblem(terrain_seed, params.eval, params.fitness, cache, executor)
-                ec_fitness = problem.evaluate(answers)
-                ec_optimum = [max(f for d, f in fitness_of.items() if satisfies(d, c)) for c in constraints]
+                                     valid=lambda design: not rule.skips(design))
+                ec = [known[a].distance for a in answers]
+                ec_measured = [x for x in ec if x is not None]
+                ec_optimum = [distances.distance[distances.design.map(lambda d, c=c: satisfies(d, c))].max()
+                              for c in constraints]
                 rows.append({"method": variant, "terrain_seed": terrain_seed, "seed": seed,
-                             "best_design": run.best_design, "best_fitness": run.best_distance,
-                             "distinct": run.distinct, "ec_fitness": float(np.mean(ec_fitness)),
-                             "ec_optimum": float(np.mean(ec_optimum)), "optimum": float(table.fitness.max()),
-                             "evaluations": run.evaluations, "sim_steps": run.sim_steps})
+                             "best_design": run.best_design, "best_distance": known[run.best_design].distance,
+                             "distinct": run.distinct,
+                             "ec_distance": float(np.mean(ec_measured)) if ec_measured else None,
+                             "ec_failures": len(ec) - len(ec_measured), "ec_optimum": float(np.mean(ec_optimum)),
+                             "optimum": float(distances.distance.max()), "evaluations": run.evaluations,
+                             "sim_steps": run.sim_steps, "sim_seconds": run.sim_seconds})
     return pd.DataFrame(rows)

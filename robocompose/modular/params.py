@@ -6,16 +6,26 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from robocompose.evaluation.cache import DEFAULT_CACHE_PATH
+from robocompose.io.errors import InputError
 from robocompose.modular.evaluate import EvalSettings, FitnessRule
+from robocompose.modular.robot import LINK_LENGTH, PORT_XY, SHOULDER_OFFSET, WHEEL_RADIUS, X8_3
 from robocompose.modular.terrain import TerrainConfig
 from robocompose.params import build_config, read_params
+
+FASTEST_SPEED = WHEEL_RADIUS * X8_3.speed  # m/s, a wheel's rim at the drive's rated speed (0.92; measured 0.91)
+FRONT_REACH = PORT_XY[0][0] + SHOULDER_OFFSET + LINK_LENGTH  # m, the farthest a module reaches ahead of the chassis
+TEST_SEED_BLOCK = range(1000, 2000)  # terrain seeds reserved for testing: no training terrain is drawn from them
 
 
 @dataclass(frozen=True)
 class ExperimentsConfig:
     """What the modular stages run (thesis: 10 test terrains x 20 runs; GA 50 generations)."""
 
-    test_terrains: list[int] = field(default_factory=lambda: [1000, 1001])  # terrain seeds (disjoint from training)
+    # Held-out test terrains: seeds never used for training (a generator trains on seeds outside TEST_SEED_BLOCK).
+    test_terrains: list[int] = field(default_factory=lambda: [1000, 1001, 1002, 1003])
+    # Terrains with an exhaustive table (the regret reference and the terrain criterion); must hold every test
+    # terrain. Tables measured under the current settings are committed under reports/modular/exhaustive/.
+    truth_terrains: list[int] = field(default_factory=lambda: [1000, 1001, 1002, 1003])
     ga_seeds: list[int] = field(default_factory=lambda: [0, 1, 2])  # independent runs per terrain and method
     generations: int = 50
     mutation_rate: float = 1 / 6  # per-port probability of a uniformly drawn new module
@@ -28,9 +38,17 @@ class ExperimentsConfig:
 
     def __post_init__(self):
         if not self.test_terrains:
-            raise ValueError("test_terrains: expected at least one terrain seed")
+            raise InputError("test_terrains: expected at least one terrain seed")
+        missing = sorted(set(self.test_terrains) - set(self.truth_terrains))
+        if missing:
+            raise InputError(f"truth_terrains: expected every test terrain, missing {missing} (their exhaustive "
+                             "tables are the regret reference)")
+        outside = sorted(s for s in self.test_terrains if s not in TEST_SEED_BLOCK)
+        if outside:
+            raise InputError(f"test_terrains: expected seeds in [{TEST_SEED_BLOCK.start}, {TEST_SEED_BLOCK.stop}) "
+                             f"(training draws terrains outside it), found {outside}")
         if self.generations < 1 or self.random_designs < 1:
-            raise ValueError("generations and random_designs: expected positive integers")
+            raise InputError("generations and random_designs: expected positive integers")
 
 
 @dataclass(frozen=True)
@@ -43,24 +61,45 @@ class ModularParams:
     cache: str = str(DEFAULT_CACHE_PATH)  # the shared evaluation cache (not a DVC output)
 
 
+def course_reach(settings: EvalSettings) -> float:
+    """The farthest x any design can reach within the episode: the fastest speed for the episode's duration."""
+    duration = settings.control_steps * settings.sim_steps_per_control * settings.time_step
+    return FASTEST_SPEED * duration + FRONT_REACH
+
+
+def check_course(settings: EvalSettings, where: str) -> None:
+    """The course must be as long as the episode: no design may run past the last block before the episode ends."""
+    reach, end = course_reach(settings), settings.terrain.x_range[1]
+    if end < reach:
+        raise InputError(f"{where}.terrain.x_range: the course ends at x = {end:g} m, but within the episode "
+                         f"({settings.control_steps} control steps) the fastest design (wheels, "
+                         f"{FASTEST_SPEED:.2f} m/s) reaches x = {reach:.2f} m; expected x_range[1] >= {reach:.2f} "
+                         "or fewer control_steps")
+
+
 def build_modular_params(section: dict, where: str) -> ModularParams:
     if not isinstance(section, dict):
-        raise ValueError(f"{where}: expected a mapping with eval, fitness, experiments, workers, address, cache")
+        raise InputError(f"{where}: expected a mapping with eval, fitness, experiments, workers, address, cache")
     known = {"eval", "fitness", "experiments", "workers", "address", "cache"}
     unknown = sorted(set(section) - known)
     if unknown:
-        raise ValueError(f"{where}.{unknown[0]}: unknown field; expected one of {sorted(known)}")
-    evaluation = dict(section.get("eval", {}))
+        raise InputError(f"{where}.{unknown[0]}: unknown field; expected one of {sorted(known)}")
+    evaluation = section.get("eval", {})
+    if not isinstance(evaluation, dict):
+        raise InputError(f"{where}.eval: expected a mapping of evaluator settings, found {evaluation!r}")
+    evaluation = dict(evaluation)
     terrain = build_config(TerrainConfig, evaluation.pop("terrain", {}), f"{where}.eval.terrain")
     settings = build_config(EvalSettings, evaluation, f"{where}.eval")
     workers, address = section.get("workers", 0), section.get("address", "")
     cache = section.get("cache", str(DEFAULT_CACHE_PATH))
     if not isinstance(workers, int) or workers < 0:
-        raise ValueError(f"{where}.workers: expected an integer >= 0 (0 = all cores), found {workers!r}")
+        raise InputError(f"{where}.workers: expected an integer >= 0 (0 = all cores), found {workers!r}")
     if not isinstance(address, str) or not isinstance(cache, str):
-        raise ValueError(f"{where}.address and {where}.cache: expected strings")
+        raise InputError(f"{where}.address and {where}.cache: expected strings")
+    settings = EvalSettings(**{**settings.__dict__, "terrain": terrain})
+    check_course(settings, f"{where}.eval")
     return ModularParams(
-        eval=EvalSettings(**{**settings.__dict__, "terrain": terrain}),
+        eval=settings,
         fitness=build_config(FitnessRule, section.get("fitness", {}), f"{where}.fitness"),
         experiments=build_config(ExperimentsConfig, section.get("experiments", {}), f"{where}.experiments"),
         workers=workers, address=address, cache=cache)
@@ -70,5 +109,5 @@ def load_modular_params(path: str | Path = "params.yaml") -> ModularParams:
     """The `modular:` section of a params file, checked (errors name the file and the field)."""
     document = read_params(path)
     if "modular" not in document:
-        raise ValueError(f"{path}: missing section 'modular'")
+        raise InputError(f"{path}: missing section 'modular'")
     return build_modular_params(document["modular"], f"{path}: modular")

@@ -17,7 +17,11 @@ x is tangential and its y points radially outward (as in the reference's mountin
 Geometry the reference does not give, chosen here: the chassis is a disc reaching the ports (radius 0.176 m,
 0.04 m thick); brackets are boxes; the wheel bracket drops the axle 0.185 m below the port so that every module
 type holds the chassis at about the same height (foot 0.295 m, wheel 0.29 m, leg-wheel 0.28 m below the ports).
-Each actuator's mass sits in the link it turns with its output's parent (the housing), lumped per link.
+Masses sit where the parts are: every primitive of a link (actuator housing, bracket, link tube, foot, wheel)
+carries its part's mass, and each link's inertial frame is its parts' centre of mass, its inertia the parts'
+(solid cylinders, boxes and spheres, moved there by the parallel-axis theorem) along its principal axes. An
+actuator's housing belongs to the link it is bolted to (the elbow X5-9 to the upper leg link, 0.275 m from the
+shoulder). The chassis keeps the reference's mass and inertia about its centre.
 Joint limits are enforced on the targets (`ModularRobot.command` clips), since pybullet's createMultiBody takes
 none; joint damping is the reference's damping/friction figure, applied as pybullet joint damping.
 """
@@ -29,6 +33,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import pybullet as pb
+
+from robocompose.io.errors import InputError
 
 MODULE_LETTERS = "nlwb"  # none, leg, wheel, leg-wheel (both)
 N_PORTS = 6
@@ -98,7 +104,7 @@ ROLE_REST = {"base": math.pi / 2, "shoulder": 0.0, "elbow": math.pi / 2, "steer"
 def parse_design(design: str) -> str:
     """Check a port string (6 letters of n/l/w/b) and return it lower-cased."""
     if not isinstance(design, str) or len(design) != N_PORTS or any(c not in MODULE_LETTERS for c in design.lower()):
-        raise ValueError(f"design {design!r}: expected {N_PORTS} letters of {MODULE_LETTERS!r} (none/leg/wheel/"
+        raise InputError(f"design {design!r}: expected {N_PORTS} letters of {MODULE_LETTERS!r} (none/leg/wheel/"
                          f"leg-wheel), one per port in the order {', '.join(PORT_NAMES)}")
     return design.lower()
 
@@ -199,12 +205,15 @@ class _Link:
     orientation: tuple[float, float, float, float]  # link frame in the parent link frame (x, y, z, w)
     axis: tuple[float, float, float]  # joint axis in this link's frame
     joint_type: int
-    mass: float
     kind: str
-    shapes: list[dict]  # kwargs of one primitive each: geom, size, position, orientation, color
+    shapes: list[dict]  # one primitive each: geom, size, position, orientation, color, mass (its part's, kg)
     role: str | None = None  # actuated joint role, None for fixed
     port: int = -1
     module: str = "n"
+
+    @property
+    def mass(self) -> float:
+        return sum(s["mass"] for s in self.shapes)
 
 
 _QUAT_Y_TO_Z = tuple(pb.getQuaternionFromEuler([math.pi / 2, 0, 0]))  # a z-axis primitive lying along y
@@ -214,19 +223,63 @@ COLORS = {"chassis": (0.25, 0.45, 0.80, 1), "actuator": (0.85, 0.15, 0.15, 1), "
           "foot": (0.1, 0.1, 0.1, 1), "wheel": (0.15, 0.15, 0.15, 1), "bracket": (0.7, 0.7, 0.7, 1)}
 
 
-def _cylinder(radius: float, length: float, position, orientation=_IDENTITY, kind: str = "actuator") -> dict:
+def _cylinder(radius: float, length: float, mass: float, position, orientation=_IDENTITY,
+              kind: str = "actuator") -> dict:
     return {"geom": pb.GEOM_CYLINDER, "radius": radius, "length": length, "position": position,
-            "orientation": orientation, "color": COLORS[kind]}
+            "orientation": orientation, "color": COLORS[kind], "mass": mass}
 
 
-def _box(half_extents, position, kind: str = "bracket") -> dict:
+def _actuator(actuator: Actuator, position, orientation=_IDENTITY) -> dict:
+    """An actuator's housing: a cylinder of its collision size and mass."""
+    return _cylinder(ACTUATOR_RADIUS, actuator.length, actuator.mass, position, orientation)
+
+
+def _box(half_extents, mass: float, position, kind: str = "bracket") -> dict:
     return {"geom": pb.GEOM_BOX, "half_extents": half_extents, "position": position, "orientation": _IDENTITY,
-            "color": COLORS[kind]}
+            "color": COLORS[kind], "mass": mass}
 
 
-def _sphere(radius: float, position, kind: str = "foot") -> dict:
+def _sphere(radius: float, mass: float, position, kind: str = "foot") -> dict:
     return {"geom": pb.GEOM_SPHERE, "radius": radius, "position": position, "orientation": _IDENTITY,
-            "color": COLORS[kind]}
+            "color": COLORS[kind], "mass": mass}
+
+
+def _solid_inertia(shape: dict) -> np.ndarray:
+    """(3, 3) inertia of a uniform solid primitive about its centre, in its own frame (cylinders along z)."""
+    m = shape["mass"]
+    if shape["geom"] == pb.GEOM_CYLINDER:
+        r, length = shape["radius"], shape["length"]
+        side = m * (3 * r * r + length * length) / 12
+        return np.diag([side, side, m * r * r / 2])
+    if shape["geom"] == pb.GEOM_BOX:
+        a, b, c = shape["half_extents"]
+        return np.diag([m * (b * b + c * c), m * (a * a + c * c), m * (a * a + b * b)]) / 3
+    return np.eye(3) * (2 / 5 * m * shape["radius"] ** 2)  # sphere
+
+
+def inertial_frame(shapes: list[dict]) -> tuple[np.ndarray, tuple[float, float, float, float], np.ndarray]:
+    """A link's inertial frame from its parts: (3,) centre of mass and principal-axes quaternion (x, y, z, w) in
+    the link frame, and the (3,) principal moments.
+
+    Each part's inertia is rotated into the link frame and moved to the common centre of mass by the parallel-axis
+    theorem; the sum's eigenvectors are the principal axes.
+    """
+    from scipy.spatial.transform import Rotation
+
+    masses = np.array([s["mass"] for s in shapes])  # (P,)
+    positions = np.array([s["position"] for s in shapes], dtype=np.float64)  # (P, 3)
+    com = masses @ positions / masses.sum()
+    inertia = np.zeros((3, 3))
+    for shape, mass, position in zip(shapes, masses, positions, strict=True):
+        rotation = np.array(pb.getMatrixFromQuaternion(shape["orientation"])).reshape(3, 3)
+        d = position - com
+        inertia += rotation @ _solid_inertia(shape) @ rotation.T + mass * (d @ d * np.eye(3) - np.outer(d, d))
+    if np.allclose(inertia, np.diag(np.diag(inertia)), rtol=0, atol=1e-12):
+        return com, _IDENTITY, np.diag(inertia).copy()  # already principal (keeps symmetric parts unrotated)
+    moments, axes = np.linalg.eigh(inertia)  # columns of `axes` are the principal axes
+    if np.linalg.det(axes) < 0:
+        axes[:, 2] *= -1  # a proper rotation
+    return com, tuple(float(v) for v in Rotation.from_matrix(axes).as_quat()), moments
 
 
 def _link_mass(length: float) -> float:
@@ -235,25 +288,25 @@ def _link_mass(length: float) -> float:
 
 def _leg_links(parent_mount: int, port: int, module: str, first: int, lower_length: float) -> list[_Link]:
     """Base, upper and lower links of a leg (or leg-wheel) on `port`; `first` is the index of the base link."""
-    base_shapes = [_cylinder(ACTUATOR_RADIUS, X8_9.length, (0, 0, 0)),
-                   _box((0.5 * (SHOULDER_OFFSET - ACTUATOR_RADIUS), 0.025, 0.015), (SHOULDER_OFFSET / 2, 0, 0)),
-                   _cylinder(ACTUATOR_RADIUS, X8_16.length, (SHOULDER_OFFSET, 0, 0), _QUAT_Y_TO_Z)]
+    base_shapes = [_actuator(X8_9, (0, 0, 0)),
+                   _box((0.5 * (SHOULDER_OFFSET - ACTUATOR_RADIUS), 0.025, 0.015), BRACKET_MASS,
+                        (SHOULDER_OFFSET / 2, 0, 0)),
+                   _actuator(X8_16, (SHOULDER_OFFSET, 0, 0), _QUAT_Y_TO_Z)]
     mount = _mount_orientation(port)
-    base = _Link(parent_mount, (*PORT_XY[port], 0.0), mount, (0, 0, 1), pb.JOINT_REVOLUTE,
-                 X8_9.mass + BRACKET_MASS + X8_16.mass, "actuator", base_shapes, "base", port, module)
+    base = _Link(parent_mount, (*PORT_XY[port], 0.0), mount, (0, 0, 1), pb.JOINT_REVOLUTE, "actuator",
+                 base_shapes, "base", port, module)
     # The shoulder axis is the leg frame's -y, so a positive angle lifts the leg's far end.
-    upper = _Link(first, (SHOULDER_OFFSET, 0, 0), _IDENTITY, (0, -1, 0), pb.JOINT_REVOLUTE,
-                  _link_mass(LINK_LENGTH) + X5_9.mass, "link",
-                  [_cylinder(LINK_RADIUS, LINK_LENGTH, (LINK_LENGTH / 2, 0, 0), _QUAT_X_TO_Z, "link"),
-                   _cylinder(ACTUATOR_RADIUS, X5_9.length, (LINK_LENGTH, 0, 0), _QUAT_Y_TO_Z)],
+    upper = _Link(first, (SHOULDER_OFFSET, 0, 0), _IDENTITY, (0, -1, 0), pb.JOINT_REVOLUTE, "link",
+                  [_cylinder(LINK_RADIUS, LINK_LENGTH, _link_mass(LINK_LENGTH), (LINK_LENGTH / 2, 0, 0),
+                             _QUAT_X_TO_Z, "link"),
+                   _actuator(X5_9, (LINK_LENGTH, 0, 0), _QUAT_Y_TO_Z)],
                   "shoulder", port, module)
     # The elbow turns about +y, so at pi/2 the lower link's x points straight down and its z radially out.
-    lower_shapes = [_cylinder(LINK_RADIUS, lower_length, (lower_length / 2, 0, 0), _QUAT_X_TO_Z, "link")]
-    lower_mass = _link_mass(lower_length)
+    lower_shapes = [_cylinder(LINK_RADIUS, lower_length, _link_mass(lower_length), (lower_length / 2, 0, 0),
+                              _QUAT_X_TO_Z, "link")]
     if module == "b":
-        lower_shapes.append(_cylinder(ACTUATOR_RADIUS, X8_3.length, (lower_length, 0, 0)))
-        lower_mass += X8_3.mass
-    lower = _Link(first + 1, (LINK_LENGTH, 0, 0), _IDENTITY, (0, 1, 0), pb.JOINT_REVOLUTE, lower_mass, "link",
+        lower_shapes.append(_actuator(X8_3, (lower_length, 0, 0)))
+    lower = _Link(first + 1, (LINK_LENGTH, 0, 0), _IDENTITY, (0, 1, 0), pb.JOINT_REVOLUTE, "link",
                   lower_shapes, "elbow", port, module)
     return [base, upper, lower]
 
@@ -264,8 +317,8 @@ def _mount_orientation(port: int) -> tuple[float, float, float, float]:
 
 def _wheel_link(parent: int, position, orientation, port: int, module: str) -> _Link:
     """The wheel: a cylinder about its link's z axis (the axle), spun by the drive joint about z."""
-    return _Link(parent, position, orientation, (0, 0, 1), pb.JOINT_REVOLUTE, WHEEL_MASS, "wheel",
-                 [_cylinder(WHEEL_RADIUS, WHEEL_WIDTH, (0, 0, 0), kind="wheel")], "drive", port, module)
+    return _Link(parent, position, orientation, (0, 0, 1), pb.JOINT_REVOLUTE, "wheel",
+                 [_cylinder(WHEEL_RADIUS, WHEEL_WIDTH, WHEEL_MASS, (0, 0, 0), kind="wheel")], "drive", port, module)
 
 
 def _module_links(port: int, module: str, first: int) -> list[_Link]:
@@ -276,17 +329,18 @@ def _module_links(port: int, module: str, first: int) -> list[_Link]:
         lower_length = LINK_LENGTH if module == "l" else LEGWHEEL_LINK_LENGTH
         links = _leg_links(0, port, module, first, lower_length)
         if module == "l":
-            links.append(_Link(first + 2, (LINK_LENGTH, 0, 0), _IDENTITY, (0, 0, 1), pb.JOINT_FIXED, FOOT_MASS,
-                               "foot", [_sphere(FOOT_RADIUS, (0, 0, 0))], None, port, module))
+            links.append(_Link(first + 2, (LINK_LENGTH, 0, 0), _IDENTITY, (0, 0, 1), pb.JOINT_FIXED, "foot",
+                               [_sphere(FOOT_RADIUS, FOOT_MASS, (0, 0, 0))], None, port, module))
         else:  # lower link frame: x down, z radially out; the wheel sits beside the drive along z
             links.append(_wheel_link(first + 2, (lower_length, 0, AXLE_OFFSET), _IDENTITY, port, module))
         return links
     # Wheel: steering link (X5-9 housing, bracket down to the drive, X8-3 housing), then the wheel.
-    steer_shapes = [_cylinder(ACTUATOR_RADIUS, X5_9.length, (0, 0, 0)),
-                    _box((0.02, 0.01, WHEEL_DROP / 2), (0, WHEEL_OUT - ACTUATOR_RADIUS - 0.01, -WHEEL_DROP / 2)),
-                    _cylinder(ACTUATOR_RADIUS, X8_3.length, (0, WHEEL_OUT, -WHEEL_DROP), _QUAT_Y_TO_Z)]
-    steer = _Link(0, (*PORT_XY[port], 0.0), _mount_orientation(port), (0, 0, -1), pb.JOINT_REVOLUTE,
-                  X5_9.mass + BRACKET_MASS + X8_3.mass, "actuator", steer_shapes, "steer", port, module)
+    steer_shapes = [_actuator(X5_9, (0, 0, 0)),
+                    _box((0.02, 0.01, WHEEL_DROP / 2), BRACKET_MASS,
+                         (0, WHEEL_OUT - ACTUATOR_RADIUS - 0.01, -WHEEL_DROP / 2)),
+                    _actuator(X8_3, (0, WHEEL_OUT, -WHEEL_DROP), _QUAT_Y_TO_Z)]
+    steer = _Link(0, (*PORT_XY[port], 0.0), _mount_orientation(port), (0, 0, -1), pb.JOINT_REVOLUTE, "actuator",
+                  steer_shapes, "steer", port, module)
     # The wheel frame's z is the mount's y (radially out): a rotation of -pi/2 about x.
     axle_frame = tuple(pb.getQuaternionFromEuler([-math.pi / 2, 0, 0]))
     wheel = _wheel_link(first, (0, WHEEL_OUT + AXLE_OFFSET, -WHEEL_DROP), axle_frame, port, module)
@@ -318,9 +372,10 @@ def build_robot(design: str, client: int, position=(0.0, 0.0, START_HEIGHT), vis
     links: list[_Link] = []
     for port, module in enumerate(design):
         links.extend(_module_links(port, module, len(links) + 1))
-    chassis_shape = [_cylinder(CHASSIS_RADIUS, CHASSIS_THICKNESS, (0, 0, 0), kind="chassis")]
+    chassis_shape = [_cylinder(CHASSIS_RADIUS, CHASSIS_THICKNESS, CHASSIS_MASS, (0, 0, 0), kind="chassis")]
     shapes = [_collision_and_visual(client, chassis_shape, visual)]
     shapes += [_collision_and_visual(client, link.shapes, visual) for link in links]
+    inertials = [inertial_frame(link.shapes) for link in links]
     body = pb.createMultiBody(
         baseMass=CHASSIS_MASS, baseCollisionShapeIndex=shapes[0][0], baseVisualShapeIndex=shapes[0][1],
         basePosition=list(position), baseOrientation=[0, 0, 0, 1],
@@ -329,8 +384,8 @@ def build_robot(design: str, client: int, position=(0.0, 0.0, START_HEIGHT), vis
         linkVisualShapeIndices=[s[1] for s in shapes[1:]],
         linkPositions=[list(lk.position) for lk in links],
         linkOrientations=[list(lk.orientation) for lk in links],
-        linkInertialFramePositions=[[0, 0, 0]] * len(links),
-        linkInertialFrameOrientations=[[0, 0, 0, 1]] * len(links),
+        linkInertialFramePositions=[list(com) for com, _, _ in inertials],
+        linkInertialFrameOrientations=[list(axes) for _, axes, _ in inertials],
         linkParentIndices=[lk.parent for lk in links],
         linkJointTypes=[lk.joint_type for lk in links],
         linkJointAxis=[list(lk.axis) for lk in links],
@@ -340,10 +395,11 @@ def build_robot(design: str, client: int, position=(0.0, 0.0, START_HEIGHT), vis
     pb.changeDynamics(body, -1, lateralFriction=FRICTION["chassis"], localInertiaDiagonal=list(CHASSIS_INERTIA),
                       physicsClientId=client)
     joints = []
-    for i, link in enumerate(links):
+    for i, (link, (_, _, moments)) in enumerate(zip(links, inertials, strict=True)):
         friction = FRICTION.get(link.kind, FRICTION["link"])
         damping = ROLE_ACTUATOR[link.role].damping if link.role else 0.0
-        pb.changeDynamics(body, i, lateralFriction=friction, jointDamping=damping, physicsClientId=client)
+        pb.changeDynamics(body, i, lateralFriction=friction, jointDamping=damping,
+                          localInertiaDiagonal=[float(v) for v in moments], physicsClientId=client)
         if link.kind == "wheel":
             pb.changeDynamics(body, i, anisotropicFriction=list(WHEEL_ANISOTROPY), physicsClientId=client)
         if link.parent > 0:  # a joint's parent and child never collide

@@ -17,7 +17,7 @@ class ReportConfig:
 
 
 def build_report(config: ReportConfig, reports_dir: Path = Path("reports"), data_dir: Path = Path("data")) -> Path:
-    from robocompose.report import dataset, evaluation, fidelity, latent, metadata, modular, teams
+    from robocompose.report import dataset, eggan, evaluation, fidelity, glso, latent, metadata, modular, teams
 
     sections = [
         "# robocompose report",
@@ -27,7 +27,9 @@ def build_report(config: ReportConfig, reports_dir: Path = Path("reports"), data
         evaluation.section(reports_dir, data_dir),
         fidelity.section(reports_dir),
         latent.section(reports_dir, data_dir),
+        glso.section(reports_dir, data_dir),
         modular.section(reports_dir, data_dir),
+        eggan.section(reports_dir, data_dir),
         teams.section(reports_dir, data_dir),
         metadata.section(reports_dir),
     ]

@@ -5,13 +5,13 @@ Built from the `evaluate_references` stage's outputs; the MPPI settings come fro
 
 from __future__ import annotations
 
-import json
 import shutil
 from pathlib import Path
 
 import pandas as pd
 
 from robocompose.io import read_table
+from robocompose.io.atomic import read_json
 
 # The thesis's settings (RoboGrammar's MPPI) and its reported cost.
 THESIS_MPPI = {"samples": 64, "first_samples": 512, "horizon": 16, "episode": 128}
@@ -73,7 +73,7 @@ def section(reports_dir: Path, data_dir: Path, params: Path = Path("params.yaml"
         lines += [f"| wall seconds per evaluation as run (one process, shared machine; flat / wall) | "
                   f"{THESIS_SECONDS} | {flat:.0f} / {wall:.0f} s |"]
     bench = Path(reports_dir) / "benchmarks.json"
-    figures = json.loads(bench.read_text()) if bench.exists() else {}
+    figures = read_json(bench) if bench.exists() else {}
     if "mppi.overhead_ratio" in figures:
         lines += ["", f"MPPI wall time is {figures['mppi.overhead_ratio']:.2f}x the time of the raw physics steps it "
                   f"takes (target <= 1.2; `benchmarks/bench_evaluate.py`)."]

@@ -6,10 +6,11 @@ reports/metrics/evaluator_fidelity.json) and the default profile's `evaluation.m
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import pandas as pd
+
+from robocompose.io.atomic import read_json
 
 
 def _row(r: pd.Series) -> str:
@@ -32,7 +33,7 @@ def section(reports_dir: Path, params: Path = Path("params.yaml")) -> str:
     from robocompose.params import load_section
 
     summary = pd.read_csv(summary_path)
-    choice = json.loads(choice_path.read_text()) if choice_path.exists() else {}
+    choice = read_json(choice_path) if choice_path.exists() else {}
     mppi = load_section(EvaluationConfig, "evaluation", params).mppi
     lines = [title, "",
              "One fixed set of designs (the two RoboGrammar reference designs, random dataset designs and the best "

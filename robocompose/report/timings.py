@@ -6,11 +6,12 @@ file DVC does not track; the report shows them.
 
 from __future__ import annotations
 
-import json
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+
+from robocompose.io.atomic import read_json
 
 TIMINGS_FILE = Path("reports/timings.json")
 
@@ -27,7 +28,7 @@ class Timing(dict):
 
 
 def read_timings(path: Path = TIMINGS_FILE) -> dict:
-    return json.loads(path.read_text()) if path.exists() else {}
+    return read_json(path) if path.exists() else {}
 
 
 @contextmanager

@@ -15,6 +15,7 @@ from functools import partial
 
 import numpy as np
 
+from robocompose.io.errors import InputError
 from robocompose.search.evolve import evolve
 from robocompose.search.problem import Problem, SearchResult
 
@@ -29,7 +30,7 @@ class CrowdingConfig:
 
     def __post_init__(self):
         if self.population < 2 or self.population % 2 or self.generations < 1:
-            raise ValueError(f"CrowdingConfig: need an even population >= 2 and generations >= 1; got {self}")
+            raise InputError(f"CrowdingConfig: need an even population >= 2 and generations >= 1; got {self}")
 
 
 def crowding_generation(problem: Problem, population: list, fitness: np.ndarray, rng: np.random.Generator,

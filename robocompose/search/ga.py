@@ -14,6 +14,7 @@ from functools import partial
 
 import numpy as np
 
+from robocompose.io.errors import InputError
 from robocompose.search.evolve import evolve
 from robocompose.search.problem import Problem, SearchResult
 
@@ -29,7 +30,7 @@ class GAConfig:
 
     def __post_init__(self):
         if self.population < 2 or self.generations < 1 or not 0 <= self.elite < self.population:
-            raise ValueError(f"GAConfig: need population >= 2, generations >= 1, 0 <= elite < population; got {self}")
+            raise InputError(f"GAConfig: need population >= 2, generations >= 1, 0 <= elite < population; got {self}")
 
 
 def tournament(fitness: np.ndarray, rng: np.random.Generator) -> int:

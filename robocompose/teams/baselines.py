@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from robocompose.teams.ergodic import ChipCoverage, ergodic_cost
+from robocompose.teams.ergodic import ChipCoverage, Robots, ergodic_cost
 from robocompose.teams.species import coverage_weights
 
 
@@ -39,6 +39,14 @@ def random_allocation(rng: np.random.Generator, budget: int, n_regions: int, n_s
     return counts
 
 
+def joint_plan(decomposed: ChipCoverage, species_counts: np.ndarray, seed: int) -> tuple[Robots, torch.Tensor]:
+    """Robots of (B, O) teams started anywhere on the chip and planned jointly for the whole chip
+    (team b = allocation b), and their (N, T, 2) observations."""
+    whole_chip = ChipCoverage(decomposed.terrain.numpy(), np.zeros_like(decomposed.regions), 1, decomposed.config)
+    _, robots, observations = whole_chip.evaluate(species_counts[:, None, :], seed)
+    return robots, observations
+
+
 def no_decomposition_costs(decomposed: ChipCoverage, species_counts: np.ndarray, seed: int
                            ) -> tuple[np.ndarray, np.ndarray]:
     """Teams of (B, O) robots planning jointly over the whole chip, scored per region.
@@ -46,8 +54,7 @@ def no_decomposition_costs(decomposed: ChipCoverage, species_counts: np.ndarray,
     Returns ((B,) coverage costs, (B,) number of regions none of the team's observations fall in).
     """
     regions = decomposed.regions
-    whole_chip = ChipCoverage(decomposed.terrain.numpy(), np.zeros_like(regions), 1, decomposed.config)
-    _, robots, observations = whole_chip.evaluate(species_counts[:, None, :], seed)  # (N, T, 2)
+    robots, observations = joint_plan(decomposed, species_counts, seed)  # (N, T, 2)
     height, width = regions.shape
     points = observations.reshape(-1, 2).double()  # (N*T, 2)
     col = (points[:, 0] * width).long().clamp(0, width - 1)

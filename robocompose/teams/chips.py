@@ -25,6 +25,8 @@ import numpy as np
 from PIL import Image
 from scipy import ndimage
 
+from robocompose.io.errors import InputError, check_field
+
 CLASSES: tuple[str, ...] = ("BUILDING", "CLUTTER", "VEGETATION", "WATER", "GROUND", "CAR")
 BUILDING, CLUTTER, VEGETATION, WATER, GROUND, CAR = range(6)
 CLASS_COLOURS_RGB: tuple[tuple[int, int, int], ...] = (
@@ -51,6 +53,11 @@ class ChipsConfig:
     seed: int = 0  # seed of the synthetic chips
     max_chips: int = 0  # keep the first max_chips chips (sorted by id); 0 = all
 
+    def __post_init__(self) -> None:
+        check_field(self.n_synthetic >= 1, "n_synthetic", "an integer >= 1", self.n_synthetic)
+        check_field(self.seed >= 0, "seed", "an integer >= 0", self.seed)
+        check_field(self.max_chips >= 0, "max_chips", "an integer >= 0 (0 = all)", self.max_chips)
+
 
 @dataclass(frozen=True)
 class Chip:
@@ -69,8 +76,11 @@ def read_label_png(path: Path) -> tuple[np.ndarray, np.ndarray]:
 
     Fails with the file and the offending colour if a pixel has a colour that is not in the table.
     """
-    with Image.open(path) as image:
-        rgb = np.asarray(image.convert("RGB"))
+    try:
+        with Image.open(path) as image:
+            rgb = np.asarray(image.convert("RGB"))
+    except (OSError, ValueError) as err:  # PIL: UnidentifiedImageError (an OSError), truncated or bad data
+        raise InputError(f"{path}: not a readable image, expected a DroneDeploy label PNG ({err})") from None
     codes = _colour_code(rgb)  # (H, W)
     ignore = codes == _IGNORE_CODE
     order = np.argsort(_CLASS_CODES)
@@ -80,7 +90,7 @@ def read_label_png(path: Path) -> tuple[np.ndarray, np.ndarray]:
     if unknown.any():
         row, col = np.argwhere(unknown)[0]
         colour = tuple(int(v) for v in rgb[row, col])
-        raise ValueError(f"{path}: pixel (row {row}, col {col}) has colour {colour}, "
+        raise InputError(f"{path}: pixel (row {row}, col {col}) has colour {colour}, "
                          f"expected one of the DroneDeploy label colours {CLASS_COLOURS_RGB} "
                          f"or IGNORE {IGNORE_COLOUR_RGB}")
     return classes.astype(np.uint8), ignore
@@ -102,9 +112,11 @@ def chips_in_file(path: Path, chip_size: int = CHIP_SIZE) -> Iterator[Chip]:
 
 def load_chips(directory: Path, chip_size: int = CHIP_SIZE) -> Iterator[Chip]:
     """Yield the chips of every *.png label file in `directory` (sorted by name), see chips_in_file."""
+    if not Path(directory).is_dir():
+        raise InputError(f"{directory}: not a directory (teams.chips.directory: expected a folder of label PNGs)")
     files = sorted(Path(directory).glob("*.png"))
     if not files:
-        raise FileNotFoundError(f"{directory}: no *.png label files (teams.chips.directory)")
+        raise InputError(f"{directory}: no *.png label files (teams.chips.directory)")
     for path in files:
         yield from chips_in_file(path, chip_size)
 
@@ -201,6 +213,8 @@ def prepare_chips(config: ChipsConfig, store: Path) -> list[Chip]:
     loader; DroneDeploy label PNGs in config.directory are cut into chips, each written to
     `store/<chip id>.png`. A chip's `source` is its file in `store`.
     """
+    # Every source file is read (and checked) before the store is touched, so bad input leaves it as it was.
+    source = sorted(load_chips(Path(config.directory)), key=lambda chip: chip.chip_id) if config.directory else []
     store = Path(store)
     store.mkdir(parents=True, exist_ok=True)
     for stale in store.glob("*.png"):
@@ -210,7 +224,7 @@ def prepare_chips(config: ChipsConfig, store: Path) -> list[Chip]:
         chips = sorted(load_chips(store), key=lambda chip: chip.chip_id)
     else:
         chips = []
-        for chip in sorted(load_chips(Path(config.directory)), key=lambda chip: chip.chip_id):
+        for chip in source:
             write_label_png(chip.classes, store / f"{chip.chip_id}.png")
             chips.append(Chip(chip.chip_id, str(store / f"{chip.chip_id}.png"), chip.classes))
     return chips[:config.max_chips] if config.max_chips else chips
@@ -220,5 +234,5 @@ def read_chip(chip_id: str, source: str | Path) -> Chip:
     """The chip stored as one label PNG at `source` (as written by prepare_chips)."""
     classes, ignore = read_label_png(Path(source))
     if ignore.any():
-        raise ValueError(f"{source}: chip {chip_id} holds IGNORE pixels")
+        raise InputError(f"{source}: chip {chip_id} holds IGNORE pixels")
     return Chip(chip_id, str(source), classes)

@@ -31,26 +31,32 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from robocompose.io.errors import InputError, check_field
 from robocompose.teams.chips import Chip
 
 N_TERRAINS = 4
+# Regions per chip at most: the full-size raster keeps (H*W, K) distance arrays, ~0.7 MB per region each for a
+# 300 x 300 chip, and every region should keep pixels of the 100 x 100 Lloyd grid (>= 150 on average).
+MAX_REGIONS = 64
 TERRAIN_COLUMNS = ("water", "mountain", "plain", "city")
 CENTRE_COLUMNS = ("seed_x", "seed_y", "seed_water", "seed_mountain", "seed_plain", "seed_city")
 
 
 @dataclass(frozen=True)
 class DecomposeConfig:
-    n_regions: int = 8  # K regions per chip
+    n_regions: int = 8  # K regions per chip (1..MAX_REGIONS)
     terrain_weight: float = 0.3  # w, chip sides a terrain mismatch counts for (0 = plain Voronoi)
     lloyd_iterations: int = 10  # Lloyd (k-means) steps of the centres in the joint space
-    test_fraction: float = 0.25  # share of chips put in the test split
+    test_fraction: float = 0.25  # share of chips put in the test split, strictly between 0 and 1
     seed: int = 0  # seeds the initial centres and the split
 
     def __post_init__(self) -> None:
-        if self.n_regions < 1:
-            raise ValueError(f"n_regions: expected >= 1, found {self.n_regions}")
-        if self.terrain_weight < 0:
-            raise ValueError(f"terrain_weight: expected >= 0, found {self.terrain_weight}")
+        check_field(1 <= self.n_regions <= MAX_REGIONS, "n_regions", f"an integer in 1..{MAX_REGIONS}", self.n_regions)
+        check_field(self.terrain_weight >= 0, "terrain_weight", "a number >= 0", self.terrain_weight)
+        check_field(self.lloyd_iterations >= 0, "lloyd_iterations", "an integer >= 0", self.lloyd_iterations)
+        check_field(0 < self.test_fraction < 1, "test_fraction", "a share strictly between 0 and 1 (test chips / "
+                    "all chips)", self.test_fraction)
+        check_field(self.seed >= 0, "seed", "an integer >= 0", self.seed)
 
 
 def pixel_centres(height: int, width: int) -> np.ndarray:
@@ -107,7 +113,7 @@ def decompose(terrain: np.ndarray, rng: np.random.Generator, n_regions: int, ter
                    + np.minimum((start[:, 0] * width).astype(int), width - 1))
     centres = np.concatenate([start, onehot[start_pixel]], axis=1)  # (K, 6)
     if n_regions > len(features):
-        raise ValueError(f"n_regions: {n_regions} regions cannot split a {height} x {width} chip")
+        raise InputError(f"n_regions: {n_regions} regions cannot split a {height} x {width} chip")
     steps, restarts = 0, 0
     while True:
         distances = _squared_distances(centres, terrain, terrain_weight)  # (P, K)
@@ -140,7 +146,8 @@ def terrain_features(terrain: np.ndarray, regions: np.ndarray, n_regions: int) -
     joint = np.bincount(regions.ravel() * N_TERRAINS + terrain.ravel(), minlength=n_regions * N_TERRAINS)
     counts = joint.reshape(n_regions, N_TERRAINS).astype(np.float64)
     if (counts.sum(1) == 0).any():
-        raise ValueError(f"a region holds no pixel (pixels per region {counts.sum(1)})")
+        raise InputError(f"n_regions {n_regions}: a region holds no pixel of the chip (pixels per region "
+                         f"{counts.sum(1).astype(int).tolist()}); expected fewer regions")
     return counts / counts.sum(1, keepdims=True)
 
 

@@ -47,6 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
+from robocompose.io.errors import check_field
 from robocompose.teams.decompose import pixel_centres
 from robocompose.teams.species import coverage_weights, step_lengths
 
@@ -60,6 +61,15 @@ class CoverageConfig:
     learning_rate: float = 0.15  # Adam step size on the controls u
     initial_control_std: float = 1.0  # controls start as N(0, std^2): robots start moving apart
     robots_per_species: int = 20  # N_j, robots of each species in the bank
+
+    def __post_init__(self) -> None:
+        for name in ("n_coefficients", "substeps", "robots_per_species"):
+            check_field(getattr(self, name) >= 1, name, "an integer >= 1", getattr(self, name))
+        check_field(self.n_observations >= 2, "n_observations", "an integer >= 2 (the start and a step)",
+                    self.n_observations)
+        check_field(self.iterations >= 0, "iterations", "an integer >= 0", self.iterations)
+        check_field(self.learning_rate > 0, "learning_rate", "a number > 0", self.learning_rate)
+        check_field(self.initial_control_std >= 0, "initial_control_std", "a number >= 0", self.initial_control_std)
 
     def settings_hash(self) -> str:
         """Short hash of every setting that changes a coverage cost (the cache key part)."""
@@ -236,14 +246,26 @@ class ChipCoverage:
 
         Returns (coverage costs (B,) float64, the robots, their observations (N, T, 2)).
         """
+        costs, robots, observations = self.evaluate_teams(counts, seed)
+        return costs.sum(1), robots, observations
+
+    def evaluate_teams(self, counts: np.ndarray, seed: int) -> tuple[np.ndarray, Robots, torch.Tensor]:
+        """As `evaluate`, with the (B, K) team costs a_i E_i / G_i (their row sums are the coverage costs)."""
         counts = np.asarray(counts)
-        n_batch = len(counts)
         robots = self.deploy(counts, seed)
-        phi = self.phi.repeat(n_batch, 1, 1)  # (B*K, n, n)
+        phi = self.phi.repeat(len(counts), 1, 1)  # (B*K, n, n)
         metrics, observations = optimise_trajectories(robots, phi, self.terrain, self.config)
-        return self.coverage_cost(metrics), robots, observations
+        return self.team_costs(metrics), robots, observations
+
+    def team_costs(self, metrics: torch.Tensor) -> np.ndarray:
+        """(B, K) team costs a_i E_i / G_i of (B*K,) raw team metrics (team b*K + i in region i)."""
+        return (metrics.reshape(-1, self.n_regions) / self.glance * self.area).numpy()
+
+    def empty_team_costs(self) -> np.ndarray:
+        """(K,) the team cost of each region without robots: a_i sum_k Lambda_k phi_k^2 / G_i."""
+        _, sobolev = frequencies(self.config.n_coefficients)
+        return (self.area * (sobolev * self.phi**2).sum((-2, -1)) / self.glance).numpy()
 
     def coverage_cost(self, metrics: torch.Tensor) -> np.ndarray:
-        """(B,) coverage costs sum_i a_i E_i / G_i of (B*K,) raw team metrics (team b*K + i in region i)."""
-        per_team = metrics.reshape(-1, self.n_regions) / self.glance * self.area  # (B, K)
-        return per_team.sum(1).numpy()
+        """(B,) coverage costs sum_i a_i E_i / G_i of (B*K,) raw team metrics."""
+        return self.team_costs(metrics).sum(1)

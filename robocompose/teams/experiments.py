@@ -1,11 +1,13 @@
 """The experiments of thesis Tables 5.4 and 5.5 on the decomposed test chips.
 
-Every row of both tables runs on the same chips and seeds: the first `test_chips` test chips and
-each of `seeds`. Table 5.4: NSGA-II with each population size per chip and seed; the runtime is the
-wall time of the run measured inside it, with an empty evaluation cache (as the thesis times a run
-from scratch); every evaluation is then merged into the stage's cache for later stages. Runtimes are
-returned apart from the runs table, which DVC hashes (wall time is not reproducible). Table 5.5: the
-baselines of baselines.py at each deployment budget, per chip and seed.
+Every row of a table runs on the same chips and seeds: Table 5.4 on the first `table_5_4_chips`
+test chips, Table 5.5 on the first `table_5_5_chips`, each on every one of `seeds` (EG-GAN's rows
+come from generative.py on the same chips). Table 5.4: NSGA-II with each population size per chip
+and seed; the runtime is the wall time of the run measured inside it, with an empty evaluation
+cache (as the thesis times a run from scratch); every evaluation is then merged into the stage's
+cache for later stages. Runtimes are returned apart from the runs table, which DVC hashes (wall
+time is not reproducible). Table 5.5: the baselines of baselines.py at each deployment budget, per
+chip and seed.
 
 The runs (chip x seed x population) and the per-chip baselines are independent tasks, fanned out
 through the project's Executor (local processes or a Dask cluster; None = in this process). Each task
@@ -62,7 +64,7 @@ def nsga2_runs(chips: list[tuple[Chip, Decomposition]], coverage: CoverageConfig
                           crossover_probability=config.crossover_probability,
                           mutation_rate=config.mutation_rate, seed=seed),
               torch.get_num_threads())
-             for chip, decomposition in chips[:config.test_chips]
+             for chip, decomposition in chips[:config.table_5_4_chips]
              for seed in config.seeds
              for population in config.populations]
     results = (executor or Executor(workers=1)).map(_nsga2_run, tasks)
@@ -82,20 +84,27 @@ def nsga2_runs(chips: list[tuple[Chip, Decomposition]], coverage: CoverageConfig
             seconds)
 
 
+def baseline_draws(chip_id: str, seed: int, budgets: list[int], n_regions: int, robots_per_species: int
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """The random draws of Table 5.5 on one chip and seed, from Generator((seed, hash of the chip id)):
+    ((n_budgets, K, O) random allocations, (n_budgets, O) species counts of the joint teams)."""
+    rng = np.random.default_rng([seed, int(hashlib.sha1(chip_id.encode()).hexdigest()[:12], 16)])
+    n_species = len(SPECIES)
+    allocations = np.stack([random_allocation(rng, b, n_regions, n_species, robots_per_species) for b in budgets])
+    teams = np.stack([random_species_counts(rng, b, n_species, robots_per_species) for b in budgets])
+    return allocations, teams
+
+
 def _chip_baselines(task: tuple[Chip, Decomposition, CoverageConfig, ExperimentsConfig, int]) -> list[tuple]:
     """The Table 5.5 rows of one chip (an executor task), every seed x budget."""
     chip, decomposition, coverage, config, threads = task
     torch.set_num_threads(threads)
     problem = chip_coverage(chip, decomposition, coverage)
     n_regions = decomposition.n_regions
-    n_species, bank = len(SPECIES), coverage.robots_per_species
-    chip_hash = int(hashlib.sha1(chip.chip_id.encode()).hexdigest()[:12], 16)
     rows = []
     for seed in config.seeds:
-        rng = np.random.default_rng([seed, chip_hash])
-        allocations = np.stack([random_allocation(rng, b, n_regions, n_species, bank)
-                                for b in config.budgets])  # (n_budgets, K, O)
-        teams = np.stack([random_species_counts(rng, b, n_species, bank) for b in config.budgets])
+        allocations, teams = baseline_draws(chip.chip_id, seed, config.budgets, n_regions,
+                                            coverage.robots_per_species)
         random_costs, _, _ = problem.evaluate(allocations, seed)
         joint_costs, joint_unvisited = no_decomposition_costs(problem, teams, seed)
         for budget, random_cost, joint_cost, unvisited, allocation, team in zip(
@@ -111,7 +120,7 @@ def coverage_baselines(chips: list[tuple[Chip, Decomposition]], coverage: Covera
                        config: ExperimentsConfig, executor: Executor | None = None) -> pd.DataFrame:
     """Table 5.5 baselines per chip x seed x budget: the "teams_coverage" table."""
     tasks = [(chip, decomposition, coverage, config, torch.get_num_threads())
-             for chip, decomposition in chips[:config.test_chips]]
+             for chip, decomposition in chips[:config.table_5_5_chips]]
     per_chip = (executor or Executor(workers=1)).map(_chip_baselines, tasks)
     rows = [row for chip_rows in per_chip for row in chip_rows]
     return pd.DataFrame(rows, columns=["method", "chip_id", "budget", "seed", "coverage_cost",

@@ -35,13 +35,16 @@ import numpy as np
 from pymoo.algorithms.moo.nsga2 import NSGA2
 from pymoo.core.crossover import Crossover
 from pymoo.core.mutation import Mutation
+from pymoo.core.population import Population
 from pymoo.core.problem import Problem
 from pymoo.core.sampling import Sampling
 from pymoo.core.selection import Selection
 from pymoo.indicators.hv import HV
+from pymoo.operators.survival.rank_and_crowding import RankAndCrowding
 from pymoo.optimize import minimize
 from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting
 
+from robocompose.io.errors import check_field
 from robocompose.teams.species import allocation_to_counts
 
 REFERENCE_POINT = (0.25, 60.0)
@@ -54,6 +57,13 @@ class NSGA2Config:
     crossover_probability: float = 0.5  # share of matings that cross over
     mutation_rate: float = 0.1  # per-gene probability of a uniform redraw
     seed: int = 0  # seeds pymoo's Generator
+
+    def __post_init__(self) -> None:
+        check_field(self.population >= 2, "population", "an integer >= 2", self.population)
+        check_field(self.generations >= 1, "generations", "an integer >= 1", self.generations)
+        for name in ("crossover_probability", "mutation_rate"):
+            check_field(0 <= getattr(self, name) <= 1, name, "a probability in [0, 1]", getattr(self, name))
+        check_field(self.seed >= 0, "seed", "an integer >= 0", self.seed)
 
 
 class DeploymentShareSampling(Sampling):
@@ -159,3 +169,29 @@ def run_nsga2(evaluate: Callable[[np.ndarray], np.ndarray], n_regions: int, n_sp
     keep = keep[np.argsort(objectives[keep, 1], kind="stable")]
     return NSGA2Result(objectives[keep], counts[keep], hypervolume(objectives[keep]), seconds,
                        int(result.algorithm.evaluator.n_eval))
+
+
+def nsga2_generation(genomes: np.ndarray, objectives: np.ndarray, problem: AllocationProblem,
+                     crossover_probability: float, mutation_rate: float, rng: np.random.Generator
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """One NSGA-II generation on a given population (Algorithm 3's loop body, EG-GAN's data creation).
+
+    (B, n_var) genomes with (B, 2) objectives: rank and crowding distance, roulette-wheel selection of
+    B/2 parent pairs, single-point arithmetic crossover with probability `crossover_probability` (else
+    the parents are copied), uniform mutation, evaluation of the B children by `problem`, and the
+    elitist survival of B of the 2B parents and children. Returns the survivors' genomes and objectives.
+    """
+    survival = RankAndCrowding()
+    population = survival.do(problem, Population.new(X=genomes, F=objectives), n_survive=len(genomes),
+                             random_state=rng)  # sets rank and crowding
+    parents = RankRouletteSelection()._do(problem, population, len(genomes) // 2, 2, random_state=rng)
+    pairs = population.get("X")[parents.T]  # (2, B/2, n_var)
+    crossed = SinglePointArithmeticCrossover(crossover_probability)._do(problem, pairs, random_state=rng)
+    keep = rng.random(pairs.shape[1]) >= crossover_probability  # (B/2,) matings that copy their parents
+    children = np.where(keep[None, :, None], pairs, crossed).reshape(-1, pairs.shape[-1])  # (B, n_var)
+    children = UniformMutation(mutation_rate)._do(problem, children, random_state=rng)
+    child_objectives = problem.evaluate_counts(problem.counts(children))
+    merged = Population.new(X=np.concatenate([population.get("X"), children]),
+                            F=np.concatenate([population.get("F"), child_objectives]))
+    survivors = survival.do(problem, merged, n_survive=len(genomes), random_state=rng)
+    return survivors.get("X"), survivors.get("F")

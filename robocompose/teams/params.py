@@ -6,9 +6,10 @@ what was expected.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 
+from robocompose.io.errors import InputError, check_field
 from robocompose.params import build_config, read_params
 from robocompose.teams.chips import ChipsConfig
 from robocompose.teams.decompose import DecomposeConfig
@@ -21,18 +22,39 @@ class ExperimentsConfig:
     generations: int = 50  # NSGA-II generations
     crossover_probability: float = 0.5  # NSGA-II single-point arithmetic crossover probability
     mutation_rate: float = 0.1  # NSGA-II per-gene uniform mutation rate
-    test_chips: int = 2  # every table's rows run on the first test_chips test chips (sorted by id) ...
-    seeds: list[int] = field(default_factory=lambda: [0])  # ... and each of these seeds
+    table_5_4_chips: int = 2  # Table 5.4 (NSGA-II:20, :50, EG-GAN) on the first test chips (by id) ...
+    table_5_5_chips: int = 20  # Table 5.5 (no decomposition, random, EG-GAN) on the first test chips ...
+    seeds: list[int] = field(default_factory=lambda: [0])  # ... each row of a table on these seeds
     budgets: list[int] = field(default_factory=lambda: [15, 30, 45])  # Table 5.5 deployment budgets
     workers: int = 0  # processes running the independent runs; 0 = all cores, 1 = in the stage's process
     address: str = ""  # a running Dask scheduler (e.g. tcp://10.0.0.5:8786) to fan out over; "" = local
 
     def __post_init__(self) -> None:
-        if self.test_chips < 1 or not self.seeds:
-            raise ValueError(f"test_chips, seeds: expected >= 1 chip and a non-empty seed list, found "
-                             f"{self.test_chips} and {self.seeds}")
-        if self.workers < 0:
-            raise ValueError(f"workers: expected >= 0 (0 = all cores), found {self.workers}")
+        check_field(bool(self.populations) and min(self.populations) >= 2, "populations",
+                    "a non-empty list of integers >= 2", self.populations)
+        check_field(self.generations >= 1, "generations", "an integer >= 1", self.generations)
+        for name in ("crossover_probability", "mutation_rate"):
+            check_field(0 <= getattr(self, name) <= 1, name, "a probability in [0, 1]", getattr(self, name))
+        for name in ("table_5_4_chips", "table_5_5_chips"):
+            check_field(getattr(self, name) >= 1, name, "an integer >= 1", getattr(self, name))
+        check_field(bool(self.seeds) and min(self.seeds) >= 0, "seeds", "a non-empty list of integers >= 0",
+                    self.seeds)
+        check_field(bool(self.budgets) and min(self.budgets) >= 1, "budgets", "a non-empty list of integers >= 1",
+                    self.budgets)
+        check_field(self.workers >= 0, "workers", "an integer >= 0 (0 = all cores)", self.workers)
+
+
+@dataclass(frozen=True)
+class EgganConfig:
+    iterations: int = 100  # Algorithm 1 iterations (`tasks` training chips each)
+    batch: int = 32  # noise vectors per iteration = |X_gen| = |X_pop|, over `tasks` tasks
+    tasks: int = 4  # training chips per iteration (batch / tasks z each; several, so batch norm keeps the task)
+    evolution_steps: int = 1  # NSGA-II generations per iteration (the group's code: 1)
+    lr: float = 1e-3  # Adam step of both networks (group's code 1e-3; thesis 1e-5 for 20 h)
+    latent: int = 16  # P, the size of z (the group's code: 16)
+    samples: int = 64  # noise vectors per query (the front of a task)
+    seed: int = 0  # seeds training
+    checkpoint_every: int = 25  # iterations between checkpoints
 
 
 @dataclass(frozen=True)
@@ -41,23 +63,34 @@ class TeamsParams:
     decompose: DecomposeConfig
     coverage: CoverageConfig
     experiments: ExperimentsConfig
+    eggan: EgganConfig
     threads: int = 1  # torch threads: the tensors are small, one thread is fastest and reproducible
 
 
 def load_teams_params(path: str | Path = "params.yaml") -> TeamsParams:
-    """Read the `teams:` section of a params file."""
+    """Read the `teams:` section of a params file.
+
+    All four sub-sections are required (the decompose stage reads chips and decompose, teams_baselines the
+    regions it made and coverage and experiments; a stage must not run on defaults that the params file does
+    not show); a field left out of a sub-section takes the dataclass default; `threads` defaults to 1.
+    """
     section = read_params(path).get("teams")
     where = f"{path}: teams"
-    if not isinstance(section, dict):
-        raise ValueError(f"{where}: missing section (expected chips, decompose, coverage, experiments)")
     parts = {"chips": ChipsConfig, "decompose": DecomposeConfig, "coverage": CoverageConfig,
-             "experiments": ExperimentsConfig}
+             "experiments": ExperimentsConfig, "eggan": EgganConfig}
+    if not isinstance(section, dict):
+        raise InputError(f"{where}: missing section (expected sub-sections {list(parts)})")
     known = sorted([*parts, "threads"])
-    unknown = sorted(set(section) - set(known))
+    unknown = sorted(set(section) - set(known), key=str)
     if unknown:
-        raise ValueError(f"{where}.{unknown[0]}: unknown field; expected one of {known}")
-    built = {name: build_config(cls, section.get(name, {}), f"{where}.{name}") for name, cls in parts.items()}
+        raise InputError(f"{where}.{unknown[0]}: unknown field; expected one of {known}")
+    built = {name: build_config(cls, section[name], f"{where}.{name}") for name, cls in parts.items()
+             if name in section}  # a bad field of a given section is named before a missing section
     threads = section.get("threads", 1)
-    if not isinstance(threads, int) or threads < 1:
-        raise ValueError(f"{where}.threads: expected a positive integer, found {threads!r}")
+    if not isinstance(threads, int) or isinstance(threads, bool) or threads < 1:
+        raise InputError(f"{where}.threads: expected a positive integer, found {threads!r}")
+    missing = [name for name in parts if name not in section]
+    if missing:
+        raise InputError(f"{where}.{missing[0]}: missing section (expected fields "
+                         f"{[f.name for f in fields(parts[missing[0]])]})")
     return TeamsParams(**built, threads=threads)

@@ -14,6 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from robocompose.io.errors import InputError
+
 TERRAINS: tuple[str, ...] = ("Water", "Mountain", "Plain", "City")
 SPEED_SCALE = 0.3 / 100
 
@@ -70,13 +72,32 @@ def deployment_cost(counts: np.ndarray) -> np.ndarray:
     return np.asarray(counts).sum(axis=(-2, -1))
 
 
-def parse_allocation(text: str, n_species: int = len(SPECIES)) -> np.ndarray:
-    """Parse "a,b,c;d,e,f;..." (one row of species fractions per region) into a (K, O) array."""
+def parse_allocation(text: str) -> np.ndarray:
+    """Parse "a,b,c;d,e,f;..." (one row of species fractions per region) into a (K, O) array.
+
+    Entry (i, j) is the fraction of species j's robots sent to region i: a number in [0, 1], and each species'
+    fractions sum to at most 1 over the regions (robots not sent stay undeployed). Anything else is an
+    InputError; nothing is rescaled.
+    """
+    names = ",".join(f"f_{s.name}" for s in SPECIES)
     rows = [row.split(",") for row in text.strip().split(";") if row.strip()]
-    if not rows or any(len(row) != n_species for row in rows):
-        raise ValueError(f"--allocation {text!r}: expected rows 'f_ground,f_aerial,f_aquatic' "
-                         f"separated by ';', one row per region, {n_species} numbers per row")
+    if not rows or any(len(row) != len(SPECIES) for row in rows):
+        raise InputError(f"--allocation {text!r}: expected rows '{names}' separated by ';', one row per region, "
+                         f"{len(SPECIES)} numbers per row")
     try:
-        return np.array([[float(v) for v in row] for row in rows])
+        fractions = np.array([[float(v) for v in row] for row in rows])  # (K, O)
     except ValueError as err:
-        raise ValueError(f"--allocation {text!r}: {err}") from None
+        raise InputError(f"--allocation {text!r}: {err}") from None
+    bad = ~np.isfinite(fractions) | (fractions < 0) | (fractions > 1)
+    if bad.any():
+        region, species = np.argwhere(bad)[0]
+        raise InputError(f"--allocation: region {region}, {SPECIES[species].name}: expected a fraction in [0, 1], "
+                         f"found {fractions[region, species]:g}")
+    sums = fractions.sum(axis=0)  # (O,)
+    over = np.flatnonzero(sums > 1 + 1e-9)
+    if over.size:
+        species = over[0]
+        raise InputError(f"--allocation: the {SPECIES[species].name} fractions sum to {sums[species]:g} over the "
+                         f"regions, expected at most 1 (each is a share of that species' robots; nothing is "
+                         f"rescaled)")
+    return fractions

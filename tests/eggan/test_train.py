@@ -22,6 +22,7 @@ from robocompose.eggan.train import (
     discriminator_loss,
     gan_generator_loss,
     train,
+    write_logs,
 )
 from tests.eggan.conftest import MatchProblem
 
@@ -140,3 +141,9 @@ def test_a_checkpoint_of_other_settings_is_not_resumed(tmp_path, match_problem, 
     train(match_problem, NetworkConfig(latent=8, hidden=16), small, checkpoint)
     train(MatchProblem(), NetworkConfig(latent=8, hidden=16), TrainConfig(**{**small.__dict__, "seed": 1}), checkpoint)
     assert "starting afresh" in capsys.readouterr().out
+
+
+def test_training_log_validates_against_its_schema(tmp_path, valid_foxglove_log):
+    rows = [{"iteration": i, "d_loss": 0.5, "g_loss": float("nan"), "gen_distinct": 3} for i in (1, 2)]
+    write_logs(rows, None, tmp_path / "log.mcap", "/eggan/train")
+    assert valid_foxglove_log(tmp_path / "log.mcap") == 2

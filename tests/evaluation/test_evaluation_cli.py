@@ -1,5 +1,6 @@
 import json
 
+import pytest
 import yaml
 
 from robocompose.cli import main
@@ -28,3 +29,21 @@ def test_bad_task_and_rules_exit_2_with_a_message(tmp_path, capsys):
     assert "unknown task 'moon'" in capsys.readouterr().err
     assert main(["evaluate", "--rules", "0,7,x", "--params", str(_params(tmp_path))]) == 2
     assert "rule sequence item 2" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("flags", "fragments"), [
+    (["--seed", "-1"], ["argument --seed", "expected an integer >= 0, found -1"]),
+    (["--mcap", "folder"], ["argument --mcap", "folder: is a directory, expected a file name ending in .mcap"]),
+    (["--gif", "run.png"], ["argument --gif", "run.png: expected a .gif file name"]),
+    (["--params", "missing.yaml"], ["missing.yaml: params file not found"]),
+])
+def test_bad_flags_fail_before_any_simulation(tmp_path, monkeypatch, cli_error, flags, fragments):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "folder").mkdir()
+    cli_error(["evaluate", "--rules", RIDGED_BEST, "--task", "flat", *flags], *fragments)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["folder"]
+
+
+def test_unknown_task_is_reported_without_a_params_file(tmp_path, monkeypatch, cli_error):
+    monkeypatch.chdir(tmp_path)  # no ./params.yaml here
+    cli_error(["evaluate", "--rules", RIDGED_BEST, "--task", "moon"], "unknown task 'moon'", "known tasks")

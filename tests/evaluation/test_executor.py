@@ -1,6 +1,7 @@
 import math
 import os
 
+import pandas as pd
 import pytest
 
 from robocompose.evaluation.cache import EvaluationCache
@@ -27,6 +28,16 @@ def test_local_processes_return_results_in_order():
     assert Executor(workers=1).backend == "inline"
     with pytest.raises(ValueError, match="workers"):
         Executor(workers=-1)
+
+
+def test_a_progress_label_shows_a_bar_without_changing_results(capsys):
+    with Executor(workers=2, progress="scoring") as ex:
+        assert ex.map(abs, [-3, 2, -1]) == [3, 2, 1]
+    bar = capsys.readouterr().err
+    assert "scoring" in bar and "3/3" in bar
+    with Executor(workers=1) as ex:
+        ex.map(abs, [-1])
+    assert capsys.readouterr().err == ""  # no label, no bar
 
 
 def test_evaluate_many_evaluates_each_missing_key_once(tmp_path):
@@ -65,3 +76,54 @@ def test_dask_cluster_backend():
                                                "seconds": 0.0},
                                  [("a", 1), ("b", 2)], _key, executor=ex)
             assert [r["reward"] for r in rows] == [1.0, 2.0]
+
+
+# --- a real Dask cluster (`dask_address`, tests/conftest.py): every kind of fan-out gives what local processes give ---
+
+def test_enumeration_on_a_dask_cluster_is_byte_identical_to_local_processes(dask_address, tmp_path):
+    from robocompose.dataset.enumerate import EnumerateConfig, enumerate_designs
+    from robocompose.io import write_table
+
+    local, _ = enumerate_designs(EnumerateConfig(n=6, seed=3, workers=2, chunk=8), progress=None)
+    remote, _ = enumerate_designs(EnumerateConfig(n=6, seed=3, chunk=8, address=dask_address), progress=None)
+    paths = [write_table(t, tmp_path / f"{name}.parquet", "designs") for name, t in (("l", local), ("d", remote))]
+    assert paths[0].read_bytes() == paths[1].read_bytes()
+
+
+def test_grammar_and_modular_evaluations_on_a_dask_cluster_match_local_processes(dask_address):
+    from robocompose.control.mppi import MPPIConfig
+    from robocompose.evaluation.evaluate import EvaluationConfig, evaluate_designs
+    from robocompose.evaluation.references import REFERENCE_DESIGNS
+    from robocompose.grammar.derivation import derive, parse_rules
+    from robocompose.modular import evaluate as modular
+
+    trees = [derive(parse_rules(rules)).tree for rules in REFERENCE_DESIGNS.values()]
+    config = EvaluationConfig(mppi=MPPIConfig(samples=4, first_samples=4, horizon=4, episode=4))
+    settings, rule = modular.EvalSettings(control_steps=8), modular.FitnessRule()
+    designs = ["wwwwww", "llllll", "lwblwb"]
+    with Executor(workers=2) as local, Executor(address=dask_address) as remote:
+        assert remote.backend == "dask"
+        grammar = [evaluate_designs(trees, ["flat"], config, executor=ex).drop(columns="seconds") for ex in
+                   (local, remote)]
+        robots = [modular.evaluate_designs(designs, 4, settings, rule, executor=ex) for ex in (local, remote)]
+    assert grammar[0].equals(grammar[1])
+    assert [(r.distance, r.status, r.sim_steps) for r in robots[0]] == \
+           [(r.distance, r.status, r.sim_steps) for r in robots[1]]
+
+
+def test_teams_experiments_on_a_dask_cluster_match_local_processes(dask_address, tmp_path):
+    from robocompose.teams.chips import ChipsConfig, prepare_chips
+    from robocompose.teams.decompose import DecomposeConfig, regions_table
+    from robocompose.teams.ergodic import CoverageConfig
+    from robocompose.teams.evaluator import teams_cache
+    from robocompose.teams.experiments import decomposed_chips, nsga2_runs
+    from robocompose.teams.params import ExperimentsConfig
+
+    chips = prepare_chips(ChipsConfig(n_synthetic=2, seed=2), tmp_path / "chips")
+    test_chips = decomposed_chips(regions_table(chips, DecomposeConfig(n_regions=3, test_fraction=0.5)), "test")
+    coverage = CoverageConfig(iterations=3, n_observations=5)
+    experiments = ExperimentsConfig(populations=[4], generations=2, table_5_4_chips=1, seeds=[0, 1], budgets=[3])
+    with Executor(workers=2) as local, Executor(address=dask_address) as remote:
+        out = [nsga2_runs(test_chips, coverage, experiments, teams_cache(), ex)[:2] for ex in (local, remote)]
+    for a, b in zip(out[0], out[1], strict=True):
+        pd.testing.assert_frame_equal(a, b)

@@ -3,6 +3,7 @@ import pandas as pd
 import pytest
 
 from robocompose.control.mppi import MPPIConfig
+from robocompose.dataset.enumerate import design_row
 from robocompose.evaluation.evaluate import EvaluationConfig
 from robocompose.evaluation.executor import Executor
 from robocompose.evaluation.references import (
@@ -14,7 +15,6 @@ from robocompose.evaluation.references import (
     record_best,
 )
 from robocompose.grammar.derivation import random_derivation
-from robocompose.grammar.enumerate import design_row
 from robocompose.io import read_mcap, read_table, write_table
 
 TINY = EvaluationConfig(mppi=MPPIConfig(samples=2, first_samples=2, horizon=2, episode=4), workers=1)

@@ -162,32 +162,12 @@ def test_failing_stage_fails_the_flow_after_one_retry(
 TINY_PARAMS = {"enumerate": {"n": 6, "seed": 0, "workers": 2, "chunk": 8}, "nogram": {"n": 4, "seed": 1}}
 
 
-def copy_project(root: Path, params: dict) -> Path:
-    """The project's tracked files (as in the working tree) in a new git repo, with tiny params."""
-    import shutil
-
-    import yaml
-
-    source = PIPELINE_FILE.parents[1]
-    files = subprocess.run(["git", "ls-files"], cwd=source, check=True, capture_output=True, text=True).stdout.split()
-    for name in files:
-        if (source / name).is_file():
-            (root / name).parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(source / name, root / name)
-    document = yaml.safe_load((root / "profiles" / "default.yaml").read_text())
-    for section, values in params.items():
-        document[section].update(values)
-    (root / "params.yaml").write_text(yaml.safe_dump(document))
-    subprocess.run(["git", "init", "-q"], cwd=root, check=True)
-    return root
-
-
 def dvc(project: Path, *args: str) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "dvc", *args], cwd=project, capture_output=True, text=True)
 
 
 def test_flow_runs_the_real_enumerate_stage_reproducibly(
-    flows_pipeline: ModuleType, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    flows_pipeline: ModuleType, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, copy_project
 ) -> None:
     import os
 
@@ -231,6 +211,16 @@ def yaml_dump(document: dict) -> str:
     return yaml.safe_dump(document)
 
 
+def test_unknown_stage_is_rejected_before_any_prefect_server_starts(tmp_path: Path) -> None:
+    project = make_dvc_project(tmp_path / "project")
+    home = tmp_path / "prefect_home"
+    env = {**os.environ, "PREFECT_HOME": str(home), "PREFECT_API_URL": "", "DVC_NO_ANALYTICS": "1",
+           "DVC_SITE_CACHE_DIR": str(tmp_path / "dvc_site_cache")}
+    result = subprocess.run([sys.executable, str(PIPELINE_FILE), "--stage", "nosuch", "--project-dir", str(project)],
+                            capture_output=True, text=True, env=env)
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    assert "error: unknown DVC stage(s) ['nosuch']; dvc.yaml defines" in result.stderr.splitlines()[-1]
+    assert not list(home.rglob("*.db"))  # the ephemeral server's database: never created
 # --- served on a real Prefect server ---
 
 # `b` fails on its first attempt (it leaves a marker), succeeds on the second: the task's retry.

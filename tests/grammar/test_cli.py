@@ -19,18 +19,6 @@ def test_derive_bad_sequence_exits_nonzero_naming_the_step(capsys, rules, step):
     assert step in capsys.readouterr().err
 
 
-def test_enumerate_writes_parquet(tmp_path, capsys):
-    out = tmp_path / "d.parquet"
-    assert main(["enumerate", "--n", "3", "--seed", "0", "--out", str(out), "--workers", "1"]) == 0
-    assert out.exists() and json.loads(capsys.readouterr().out)["kept"] == 3
-
-
-def test_enumerate_negative_count_fails_without_output(tmp_path, capsys):
-    out = tmp_path / "d.parquet"
-    assert main(["enumerate", "--n", "-4", "--out", str(out)]) == 2
-    assert "n must be a positive integer" in capsys.readouterr().err and not out.exists()
-
-
 def test_help_does_not_import_torch_or_pybullet():
     code = ("import sys; from robocompose.cli import parser; parser(); "
             "print('torch' in sys.modules, 'pybullet' in sys.modules)")

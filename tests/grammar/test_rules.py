@@ -41,3 +41,11 @@ def test_append_body_keeps_the_parent_edge_attributes():
 def test_end_rules_not_applicable_without_their_symbol():
     assert first_match(RULES[6], START_GRAPH) is None  # no tail yet
     assert first_match(RULES[5], START_GRAPH) is None  # no limb yet
+
+
+def test_the_grammar_imports_no_physics_no_dataset_and_no_learning():
+    from robocompose.io.provenance import PACKAGE_DIR, import_closure
+
+    modules = [f"robocompose.grammar.{p.stem}" for p in (PACKAGE_DIR / "grammar").glob("*.py") if p.stem != "__init__"]
+    used = {p.relative_to(PACKAGE_DIR).parts[0] for p in import_closure(*modules) if p.parent != PACKAGE_DIR}
+    assert used <= {"grammar", "io"}, used  # io: the input-error class (io imports nothing of the project)

@@ -34,18 +34,20 @@ def test_body_mass_is_normalised(reference_rules):
     ((-1, 1), (14, 15), "parent before"),
     ((-1,), (42,), "0..41"),
     ((-1, 0), (14,), "one parent and one token"),
-    ((-1, 0), (14, 14), "root joint type"),
 ])
 def test_invalid_trees_are_rejected(parents, tokens, message):
     with pytest.raises(ValueError, match=message):
         DesignTree(parents, tokens)
 
 
-def test_only_the_root_has_the_root_joint():
-    with pytest.raises(ValueError, match="root joint type"):
-        DesignTree((-1, 0), (14, 14))
-    with pytest.raises(ValueError, match="root joint type"):
-        DesignTree((-1, 0), (15, 29))
+def test_tokens_off_their_grammar_place_build_as_glso_builds_them():
+    """No-grammar designs put any token anywhere: the root's joint type is ignored (it is the free base),
+    and the root joint type off the root is GLSO's joint type 0, a rigid mount at the parent's middle."""
+    grammar = DesignTree((-1, 0), (14, 29)).links()  # a body with a limb mount (fixed, middle, turned)
+    anywhere = DesignTree((-1, 0), (15, 28)).links()  # root with a fixed joint type; child with the root's
+    assert anywhere[0].joint_kind == "none" and DesignTree((-1, 0), (17, 31)).n_joints == 1
+    assert (anywhere[1].joint_kind, anywhere[1].joint_pos, anywhere[1].joint_rot) == (
+        "fixed", 0.5, grammar[1].joint_rot)
 
 
 def test_canonical_order_is_the_same_for_every_sibling_order(reorder):

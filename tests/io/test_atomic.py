@@ -3,7 +3,7 @@ from pathlib import Path
 
 import pytest
 
-from robocompose.io import atomic_path, atomic_write_json, atomic_write_text
+from robocompose.io import ArtifactError, atomic_path, atomic_write_json, atomic_write_text, read_json
 
 
 def test_atomic_path_yields_hidden_sibling_with_same_suffix_and_renames(tmp_path: Path) -> None:
@@ -47,3 +47,12 @@ def test_atomic_write_json_is_sorted_indented_with_trailing_newline(tmp_path: Pa
     text = path.read_text()
     assert text == '{\n  "a": [\n    1,\n    2\n  ],\n  "b": 1\n}\n'
     assert json.loads(text) == {"a": [1, 2], "b": 1}
+
+
+def test_read_json_round_trips_and_names_a_bad_file(tmp_path: Path) -> None:
+    assert read_json(atomic_write_json(tmp_path / "m.json", {"a": [1, 2]})) == {"a": [1, 2]}
+    (tmp_path / "cut.json").write_text('{"a": [1,')
+    with pytest.raises(ArtifactError, match=r"cut\.json: not valid JSON"):
+        read_json(tmp_path / "cut.json")
+    with pytest.raises(ArtifactError, match=r"none\.json: file not found"):
+        read_json(tmp_path / "none.json")

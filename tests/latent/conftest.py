@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
+from robocompose.dataset.nogram import random_graph
 from robocompose.grammar.derivation import random_derivation
-from robocompose.grammar.nogram import random_tree
 
 
 def grammar_trees(n: int, seed: int = 0, min_links: int = 1) -> list:
@@ -30,4 +30,4 @@ def trees() -> list:
 @pytest.fixture(scope="session")
 def nogram_trees() -> list:
     rng = np.random.default_rng(0)
-    return [random_tree(rng, int(rng.integers(1, 16))) for _ in range(30)]
+    return [random_graph(rng) for _ in range(30)]

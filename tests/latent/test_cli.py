@@ -7,7 +7,7 @@ from robocompose.cli import main
 from robocompose.evaluation.references import REFERENCE_DESIGNS
 from robocompose.grammar.derivation import derive
 from robocompose.latent.model import GraphVAE, VAEConfig
-from robocompose.latent.train import save_model
+from robocompose.latent.train import save_model, save_torch
 
 
 @pytest.fixture(scope="module")
@@ -43,16 +43,40 @@ def test_encode_then_decode_round_trips_through_the_cli(model_path, capsys):
 
 
 @pytest.mark.parametrize(("argv", "message"), [
-    (["decode", "--z", "0.1,0.2"], "latent space has 4"),
-    (["decode", "--z", "a,b"], "comma-separated numbers"),
-    (["sample", "--n", "0"], "positive integer"),
+    (["decode", "--z", "0.1,0.2"], "--z: expected 4 coordinates (the model's latent space), found 2"),
+    (["decode", "--z", "a,b"], "--z: expected 4 comma-separated numbers, found 'a,b'"),
+    (["decode", "--z", "nan,0,0,0"], "--z: expected finite numbers, found nan"),
+    (["decode", "--z", "0,inf,0,0"], "--z: expected finite numbers, found inf"),
+    (["sample", "--n", "0"], "argument --n: expected an integer >= 1, found 0"),
+    (["sample", "--n", "1", "--seed", "-1"], "argument --seed: expected an integer >= 0, found -1"),
     (["encode", "--rules", "0,7,1"], "incomplete"),
 ])
-def test_bad_input_names_the_problem(model_path, capsys, argv, message):
-    assert main([*argv, "--model", model_path]) == 2
-    assert message in capsys.readouterr().err
+def test_bad_input_names_the_problem(model_path, cli_error, argv, message):
+    cli_error([*argv, "--model", model_path], message)
 
 
-def test_missing_model_is_reported(tmp_path, capsys):
-    assert main(["sample", "--model", str(tmp_path / "none.pt"), "--n", "1"]) == 2
-    assert "no such model file" in capsys.readouterr().err
+class Opaque:  # a pickled object that is not a tensor: weights_only=True refuses it
+    pass
+
+
+def _model_files(folder, model_path) -> dict:
+    good = open(model_path, "rb").read()
+    files = {"text.pt": b"hello\n", "truncated.pt": good[: len(good) // 2], "legacy.pt": b"\x80\x04K\x01."}
+    for name, data in files.items():
+        (folder / name).write_bytes(data)
+    save_torch({"weights": torch.zeros(2)}, folder / "other_dict.pt")
+    save_torch({"x": Opaque()}, folder / "object.pt")
+    torch.save({"weights": torch.zeros(2)}, folder / "plain_torch.pt")  # a torch file without our checksum header
+    return {"text.pt": "no checksum header", "truncated.pt": "checksum mismatch", "legacy.pt": "no checksum header",
+            "plain_torch.pt": "no checksum header", "other_dict.pt": "not a robocompose model",
+            "object.pt": "holds Python objects other than tensors"}
+
+
+def test_every_bad_model_file_is_one_clear_error_naming_it(tmp_path, model_path, cli_error):
+    for name, message in _model_files(tmp_path, model_path).items():
+        line = cli_error(["sample", "--model", str(tmp_path / name), "--n", "1"], f"{tmp_path / name}: ", message)
+        assert "weights_only=False" not in line
+
+
+def test_missing_model_is_reported(tmp_path, cli_error):
+    cli_error(["sample", "--model", str(tmp_path / "none.pt"), "--n", "1"], "argument --model", "none.pt: no such file")

@@ -19,6 +19,21 @@ def test_grammar_model_decodes_only_valid_designs(trees):
     assert metrics["prior_validity"] == 1.0 and metrics["prior_grammar_valid"] == 1.0
     assert 0 <= metrics["prior_rest_valid"] <= 1 and 0 < metrics["uniqueness"] <= 1 and 0 <= metrics["novelty"] <= 1
     assert metrics["heldout_designs"] == 10 and metrics["property_mse"] > 0
+    # The original's unmasked decoding of the same untrained model: labels from all 42 tokens, so (almost)
+    # nothing it decodes is a grammar design.
+    unmasked = metrics["unconstrained"]
+    assert set(unmasked) == {"reconstruction_accuracy", "prior_validity", "prior_grammar_valid", "prior_rest_valid",
+                             "uniqueness", "novelty"}
+    assert unmasked["prior_grammar_valid"] < 0.5 and unmasked["reconstruction_accuracy"] == 0.0
+
+
+def test_unconstrained_decoding_places_any_token_anywhere():
+    torch.manual_seed(0)
+    model = GraphVAE(VAEConfig(hidden=16, latent=4, max_nodes=30))
+    trees = prior_decodes(model, 60, seed=2, constraints="tree")
+    assert len({t.tokens[0] for t in trees}) > 1  # the root is not forced to be the root body
+    assert max(len(t.children(0)) for t in trees) <= 4
+    assert all(len(t.children(i)) <= 3 for t in trees for i in range(1, t.n_links))
 
 
 def test_free_model_decodes_trees_the_grammar_does_not_make(nogram_trees):

@@ -1,5 +1,7 @@
 import json
 
+import pytest
+
 from robocompose.cli import main
 
 TINY = """
@@ -39,4 +41,50 @@ def test_ga_prints_the_best_design(tmp_path, capsys):
                  "--params", str(params)]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["evaluations"] == 3 and len(out["best_design"]) == 6
-    assert set(out) >= {"best_design", "best_distance", "distinct", "evaluations", "seconds"}
+    assert set(out) >= {"best_design", "best_fitness", "distinct", "evaluations", "seconds"}
+
+
+@pytest.mark.parametrize(("flags", "fragments"), [
+    (["--params", "missing.yaml"], ["missing.yaml: params file not found"]),
+    (["--terrain-seed", "-1"], ["argument --terrain-seed", "expected an integer >= 0, found -1"]),
+    (["--mcap", "folder"], ["argument --mcap", "folder: is a directory"]),
+    (["--gif", "r.mp4"], ["argument --gif", "r.mp4: expected a .gif file name"]),
+    (["--design", "lwx"], ["design 'lwx': expected 6 letters"]),
+])
+def test_bad_evaluate_input_names_the_flag_or_file(tmp_path, monkeypatch, cli_error, flags, fragments):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "folder").mkdir()
+    defaults = {"--design": "lwbnlw", "--terrain-seed": "0"}
+    given = dict(zip(flags[::2], flags[1::2], strict=True))
+    argv = [x for flag, value in {**defaults, **given}.items() for x in (flag, value)]
+    cli_error(["modular", "evaluate", *argv], *fragments)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["folder"]
+
+
+def test_ga_rejects_a_negative_seed(cli_error):
+    cli_error(["modular", "ga", "--variant", "ga20", "--terrain-seed", "0", "--seed", "-2"],
+              "argument --seed", "expected an integer >= 0, found -2")
+
+
+def test_exhaustive_commits_one_terrains_table_with_its_provenance(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr("robocompose.modular.truth.all_designs", lambda: ["wwwwww", "llllll", "nnnnnn"])
+    params = tmp_path / "params.yaml"
+    params.write_text(TINY)
+    assert main(["modular", "exhaustive", "--terrain-seed", "1003", "--out-dir", str(tmp_path / "truth"),
+                 "--params", str(params)]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["best_design"] in ("wwwwww", "llllll") and out["table"].endswith("blocks-1003.parquet")
+    record = json.loads((tmp_path / "truth" / "blocks-1003.json").read_text())
+    assert record["simulated"] == 2 and record["settings"]["control_steps"] == 3 and record["physics_digest"]
+
+
+def test_ga_on_a_dask_cluster_finds_what_local_processes_find(tmp_path, capsys, dask_address):
+    params = tmp_path / "params.yaml"
+    params.write_text(TINY)
+    outs = []
+    for where in (["--workers", "2"], ["--address", dask_address]):
+        assert main(["modular", "ga", "--variant", "random", "--terrain-seed", "3", "--seed", "1",
+                     "--params", str(params), *where]) == 0
+        outs.append(json.loads(capsys.readouterr().out))
+    keys = ("best_design", "best_fitness", "distinct", "evaluations")
+    assert [outs[0][k] for k in keys] == [outs[1][k] for k in keys]

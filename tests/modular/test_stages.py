@@ -3,33 +3,41 @@ import runpy
 from pathlib import Path
 
 from robocompose.io import read_table
+from robocompose.modular.params import load_modular_params
+from robocompose.modular.truth import write_committed
 
 STAGES = Path(__file__).resolve().parents[2] / "stages"
 TINY = """
 modular:
   eval: {control_steps: 2, settle_steps: 5}
-  experiments: {test_terrains: [7], ga_seeds: [0], generations: 1, random_designs: 3, ec_draws: 2}
+  experiments: {test_terrains: [1007], truth_terrains: [1007, 1008], ga_seeds: [0], generations: 1,
+                random_designs: 3, ec_draws: 2}
   workers: 1
   cache: data/cache.parquet
 """
 SUBSET = ["llllll", "wwwwww", "bbbbbb", "nnnnnn", "lwlwlw"]
 
 
-def test_exhaustive_then_baselines_write_their_tables_and_metrics(tmp_path, monkeypatch):
+def test_exhaustive_then_baselines_write_their_tables_and_metrics(tmp_path, monkeypatch, synthetic_truth):
     monkeypatch.chdir(tmp_path)
     (tmp_path / "params.yaml").write_text(TINY)
-    monkeypatch.setattr("robocompose.modular.experiments.all_designs", lambda: SUBSET)  # 5 designs, not 4096
+    params = load_modular_params("params.yaml")
+    # Terrain 1007: a committed one-off (all 4096 designs, made-up distances); 1008: simulated (5 designs).
+    write_committed(synthetic_truth(lambda d: float(d.count("w"))), params.eval, params.fitness, seconds=1.0)
+    monkeypatch.setattr("robocompose.modular.truth.all_designs", lambda: SUBSET)
     runpy.run_path(str(STAGES / "modular_exhaustive.py"), run_name="__main__")
     truth = read_table("data/modular/exhaustive.parquet", "modular_exhaustive")
-    assert sorted(truth.design) == sorted(SUBSET)
+    assert len(truth[truth.terrain_seed == 1007]) == 4096 and sorted(truth[truth.terrain_seed == 1008].design) == \
+        sorted(SUBSET)
     metrics = json.loads(Path("reports/metrics/modular_exhaustive.json").read_text())
-    assert metrics["optimum"]["7"] == round(truth.fitness.max(), 4)
+    assert metrics["source"] == {"1007": "committed", "1008": "simulated"} and metrics["optimum"]["1007"] == 6.0
+    assert metrics["criterion"]["terrains"] == 2 and len(metrics["criterion"]["per_terrain"]) == 2
     first = Path("data/modular/exhaustive.parquet").read_bytes()
     runpy.run_path(str(STAGES / "modular_exhaustive.py"), run_name="__main__")  # from the cache: same bytes
     assert Path("data/modular/exhaustive.parquet").read_bytes() == first
 
     runpy.run_path(str(STAGES / "modular_baselines.py"), run_name="__main__")
     runs = read_table("data/modular/runs.parquet", "modular_runs")
-    assert sorted(runs.method) == ["crowding", "ga20", "ga50", "random"]
+    assert sorted(runs.method) == ["crowding", "ga20", "ga50", "random"] and (runs.terrain_seed == 1007).all()
     assert set(json.loads(Path("reports/metrics/modular_baselines.json").read_text())) == set(runs.method)
     assert "modular_baselines" in json.loads(Path("reports/timings.json").read_text())

@@ -15,7 +15,7 @@ def test_terrain_is_a_function_of_its_seed():
 
 @pytest.mark.parametrize("seed", range(5))
 def test_blocks_respect_the_reference_ranges(seed):
-    t = generate_terrain(seed)
+    t = generate_terrain(seed, TerrainConfig(max_height_range=(0.0, 0.08)))  # the reference's heights
     assert len(t.centers) > 10
     assert (np.abs(t.centers[:, 0]) >= 0.5).all()
     assert (t.centers[:, 0] >= -1).all() and (t.centers[:, 0] < 9).all() and (np.abs(t.centers[:, 1]) <= 2).all()
@@ -74,3 +74,10 @@ def test_blocks_stand_where_the_generator_put_them():
 def test_bad_ranges_name_the_field():
     with pytest.raises(ValueError, match="spacing_range"):
         TerrainConfig(spacing_range=(1.0, 0.4))
+
+
+def test_the_widened_heights_give_near_flat_and_rough_terrains():
+    # H ~ U(0, 0.2) per terrain (the reference: U(0, 0.08)): some terrains stay below wheel-rolling heights,
+    # others carry blocks taller than a wheel's radius.
+    tallest = [generate_terrain(seed).max_height for seed in range(1000, 1008)]
+    assert max(tallest) <= 0.2 and min(tallest) < 0.05 and max(tallest) > 0.105

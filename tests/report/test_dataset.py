@@ -2,8 +2,8 @@ import json
 
 import numpy as np
 
-from robocompose.grammar.enumerate import EnumerateConfig, enumerate_designs
-from robocompose.grammar.nogram import NogramConfig, enumerate_nogram
+from robocompose.dataset.enumerate import EnumerateConfig, enumerate_designs
+from robocompose.dataset.nogram import NogramConfig, enumerate_nogram
 from robocompose.io import write_table
 from robocompose.report.dataset import contact_counts, section
 
@@ -16,7 +16,7 @@ def test_contact_counts_ignore_padding():
 def test_section_reports_counts_and_writes_figures(tmp_path):
     data, reports = tmp_path / "data", tmp_path / "reports"
     designs, stats = enumerate_designs(EnumerateConfig(n=5, seed=0, workers=1, chunk=8), progress=None)
-    nogram, nogram_stats = enumerate_nogram(NogramConfig(n=3), designs["n_links"].tolist(), workers=1, progress=None)
+    nogram, nogram_stats = enumerate_nogram(NogramConfig(n=3), workers=1, progress=None)
     write_table(designs, data / "designs.parquet", "designs")
     write_table(nogram, data / "designs_nogram.parquet", "designs")
     (reports / "metrics").mkdir(parents=True)

@@ -2,7 +2,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from robocompose.io import write_table
+from robocompose.io import ArtifactError, write_table
 from robocompose.latent.train import LOG_FIELDS, log_evaluation, log_row, training_log
 from robocompose.report.latent import section
 
@@ -12,7 +12,9 @@ PARAMS = """train_vae:
           holdout: 0.1}
 """
 METRIC = {"reconstruction_accuracy": 0.75, "prior_validity": 1.0, "prior_grammar_valid": 1.0,
-          "prior_rest_valid": 0.8, "uniqueness": 0.9, "novelty": 0.5, "property_mse": 0.25, "prior_samples": 100}
+          "prior_rest_valid": 0.8, "uniqueness": 0.9, "novelty": 0.5, "property_mse": 0.25, "prior_samples": 100,
+          "unconstrained": {"reconstruction_accuracy": 0.125, "prior_validity": 0.5, "prior_grammar_valid": 0.0,
+                            "prior_rest_valid": 0.0, "uniqueness": 1.0, "novelty": 1.0}}
 
 
 def test_section_reports_pending_without_metrics(tmp_path):
@@ -22,7 +24,10 @@ def test_section_reports_pending_without_metrics(tmp_path):
 def test_a_corrupt_summary_is_named(tmp_path):
     (tmp_path / "training" / "vae_full").mkdir(parents=True)
     (tmp_path / "training" / "vae_full" / "metrics.json").write_text("{not json")
-    with pytest.raises(ValueError, match="vae_full/metrics.json: expected dvclive's summary"):
+    with pytest.raises(ArtifactError, match="vae_full/metrics.json: not valid JSON"):
+        section(tmp_path, tmp_path, tmp_path / "params.yaml")
+    (tmp_path / "training" / "vae_full" / "metrics.json").write_text('{"loss": 1.0}')
+    with pytest.raises(ArtifactError, match="vae_full/metrics.json: expected dvclive's summary"):
         section(tmp_path, tmp_path, tmp_path / "params.yaml")
 
 
@@ -37,6 +42,7 @@ def test_section_shows_metrics_curves_and_landscape(tmp_path):
     text = section(tmp_path, tmp_path, tmp_path / "params.yaml")
     assert "| GLSO (with property predictor) | 0.750 | 1.000" in text and "| GLSO_nopred |" in text
     assert "n/a" in text  # nopred has no property predictor
+    assert "| GLSO (with property predictor) | 0.125 | 0.500 | 0.000" in text  # decoded as the original
     assert (tmp_path / "figures" / "vae_training.png").exists()
     assert "Latent landscape (Fig. 7.1): pending" in text
 

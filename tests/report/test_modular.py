@@ -7,22 +7,25 @@ from robocompose.report.modular import section
 TINY_PARAMS = """
 modular:
   eval: {control_steps: 2, settle_steps: 5}
-  experiments: {test_terrains: [11], ga_seeds: [0, 1], gallery: 1}
+  experiments: {test_terrains: [1011], truth_terrains: [1011, 1012], ga_seeds: [0, 1], gallery: 1, ec_draws: 5}
 """
 
 
 def _tables(data):
     designs = all_designs()
-    fitness = [float(d.count("w")) for d in designs]  # the optimum is wwwwww with 6 m
-    truth = pd.DataFrame({"terrain_seed": 11, "design": designs, "fitness": fitness, "distance": fitness,
-                          "status": "ok", "sim_steps": 100})
-    write_table(truth, data / "modular" / "exhaustive.parquet", "modular_exhaustive")
+    truth = []
+    for seed, module in ((1011, "w"), (1012, "l")):  # wheels best on 1011, legs on 1012
+        distance = [float(d.count(module)) for d in designs]
+        truth.append(pd.DataFrame({"terrain_seed": seed, "design": designs, "fitness": distance,
+                                   "distance": distance, "status": "ok", "sim_steps": 100, "seconds": 0.2}))
+    write_table(pd.concat(truth), data / "modular" / "exhaustive.parquet", "modular_exhaustive")
     rows = []
     for method, best in [("ga20", 5.0), ("ga50", 6.0), ("crowding", 6.0), ("random", 3.0)]:
         for seed in (0, 1):
-            rows.append({"method": method, "terrain_seed": 11, "seed": seed, "best_design": "wwwwww",
-                         "best_fitness": best, "distinct": 2, "ec_fitness": 1.0, "ec_optimum": 2.0, "optimum": 6.0,
-                         "evaluations": 1000, "sim_steps": 6_000_000})
+            rows.append({"method": method, "terrain_seed": 1011, "seed": seed, "best_design": "wwwwww",
+                         "best_distance": None if (method, seed) == ("random", 1) else best, "distinct": 2,
+                         "ec_distance": 1.0, "ec_failures": seed, "ec_optimum": 2.0, "optimum": 6.0,
+                         "evaluations": 1000, "sim_steps": 6_000_000, "sim_seconds": 1200.0})
     write_table(pd.DataFrame(rows), data / "modular" / "runs.parquet", "modular_runs")
 
 
@@ -30,19 +33,27 @@ def test_section_says_not_run_yet_without_stage_outputs(tmp_path):
     assert "Not run yet" in section(tmp_path / "reports", tmp_path / "data")
 
 
-def test_section_puts_ours_beside_the_thesis_with_regret_and_the_picture(tmp_path, monkeypatch):
+def test_section_shows_the_criterion_and_ours_beside_the_thesis_counting_failures(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     (tmp_path / "params.yaml").write_text(TINY_PARAMS)
     (tmp_path / "reports").mkdir()
     (tmp_path / "reports" / "benchmarks.json").write_text('{"modular.steps_per_s": 5000.0}')
     _tables(tmp_path / "data")
     text = section(tmp_path / "reports", tmp_path / "data")
-    # GA-20: best 5 m on a 6 m optimum -> regret 1; runtime 6e6 steps / 5000 steps/s = 20 min.
-    assert ("| GA-20 | 5.00 ± 0.00 | 2.0 ± 0.0 | 1.00 ± 0.00 | 1000 | 20.0 ± 0.0 "
+    # Optima wwwwww (6 m) and llllll (6 m); every all-leg-and-wheel design averages 3 m, the first port string
+    # (llllll) is taken: regret 6 m on 1011, 0 on 1012, 50% of the mean optimum.
+    assert "2 distinct optimal designs" in text and "`llllll`, loses 3.00 m" in text
+    assert "50% of the mean optimum (6.00 m)" in text
+    assert "does **not** hold" in text  # 2 terrains, 2 optima: short of the criterion
+    assert "| `wwwwww` | 6.00 | 0.00 | 6.00 |" in text and "| `llllll` | 6.00 | 6.00 | 0.00 |" in text
+    # GA-20: best 5 m on a 6 m optimum -> regret 1; 6e6 steps / 5000 steps/s = 20 min; 1200 s measured = 20 min.
+    assert ("| GA-20 | 5.00 ± 0.00 | 2.0 ± 0.0 | 1.00 ± 0.00 | 0 of 2 | 1000 | 20.0 ± 0.0 | 20.0 ± 0.0 "
             "| 4.21 ± 1.43 | 1.8 ± 0.8 | 25.4 ± 0.7 |") in text
     assert "| GA-crowding | 6.00 ± 0.00 |" in text and "5.33 ± 0.25" in text
-    assert ("| Random sampling (10 designs) | 3.00 ± 0.00 | 1.00 ± 0.00 | 2.00 ± 0.00 "
+    # The random run without a distance is a failure, not a -10 averaged into the metres.
+    assert ("| Random sampling (10 designs) | 3.00 ± 0.00 | 1 of 2 | 1.00 ± 0.00 | 1 of 10 | 2.00 ± 0.00 "
             "| 0.72 ± 0.64 | 0.63 ± 0.69 |") in text
-    assert "| 11 | 4096 | 6.00 | `wwwwww` | 1 | 1.00 ± 0.00 | 0.00 ± 0.00 | 0.00 ± 0.00 | 3.00 ± 0.00 |" in text
+    assert "| 1011 | 4096 | 6.00 | `wwwwww` | 1 | 1.00 ± 0.00 | 0.00 ± 0.00 | 0.00 ± 0.00 | 3.00 ± 0.00 |" in text
+    assert "| 1012 | 4096 |" not in text  # not a test terrain: in the criterion only
     assert "GA-50 100%" in text and "GA-20 0%" in text
     assert (tmp_path / "reports" / "figures" / "modular_terrains.png").stat().st_size > 5000

@@ -2,6 +2,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from robocompose.io.errors import InputError
 from robocompose.teams.chips import (
     CLASS_TO_TERRAIN,
     IGNORE_COLOUR_RGB,
@@ -48,5 +49,5 @@ def test_unknown_colour_names_file_pixel_and_colour(tmp_path):
 
 
 def test_empty_directory_is_an_error_naming_it(tmp_path):
-    with pytest.raises(FileNotFoundError, match="no \\*.png"):
+    with pytest.raises(InputError, match="no \\*.png"):
         list(load_chips(tmp_path))

@@ -1,17 +1,14 @@
-import argparse
 import json
 
 import numpy as np
 import pytest
 
+from robocompose.cli import parser
 from robocompose.teams.chips import write_label_png
-from robocompose.teams.cli import register
 
 
 def run(argv: list[str], capsys) -> dict:
-    parser = argparse.ArgumentParser(prog="robocompose")
-    register(parser.add_subparsers(dest="command", required=True))
-    args = parser.parse_args(argv)
+    args = parser().parse_args(argv)
     args.handler(args)
     return json.loads(capsys.readouterr().out)
 
@@ -33,7 +30,102 @@ def test_nsga2_prints_hypervolume_seconds_and_a_front(capsys):
     assert all(len(point) == 2 for point in out["front"])
 
 
-def test_wrong_number_of_allocation_rows_is_explained(tmp_path, capsys):
-    with pytest.raises(SystemExit, match="2 rows, expected one per region"):
-        run(["teams", "coverage", "--synthetic-seed", "0", "--regions", "3",
-             "--allocation", "0.1,0,0;0,0,0"], capsys)
+@pytest.mark.parametrize(("allocation", "fragments"), [
+    ("0.1,0,0;0,0,0", ["--allocation has 2 rows, expected one per region (--regions 3)"]),
+    ("2,2,2;0,0,0;0,0,0", ["--allocation: region 0, ground: expected a fraction in [0, 1], found 2"]),
+    ("0.5,0,0;0.6,0,0;0,0,0", ["--allocation: the ground fractions sum to 1.1", "expected at most 1"]),
+    ("0,0.4,0;0,0.4,0;0,0.4,0", ["the aerial fractions sum to 1.2"]),
+    ("0,0,0;0,nan,0;0,0,0", ["region 1, aerial: expected a fraction in [0, 1], found nan"]),
+    ("0,0;0,0;0,0", ["expected rows 'f_ground,f_aerial,f_aquatic'"]),
+])
+def test_allocations_are_rejected_never_rescaled(cli_error, allocation, fragments):
+    cli_error(["teams", "coverage", "--synthetic-seed", "0", "--regions", "3", "--allocation", allocation], *fragments)
+
+
+@pytest.mark.parametrize(("flags", "fragments"), [
+    (["--pop", "-4"], ["argument --pop", "expected an integer >= 2, found -4"]),
+    (["--generations", "-1"], ["argument --generations", "expected an integer >= 1, found -1"]),
+    (["--regions", "0"], ["argument --regions", "expected an integer >= 1, found 0"]),
+    (["--regions", "100000"], ["--regions: expected an integer in 1..64, found 100000"]),
+    (["--seed", "-1"], ["argument --seed", "expected an integer >= 0, found -1"]),
+])
+def test_nsga2_bad_numbers_fail_fast(cli_error, flags, fragments):
+    cli_error(["teams", "nsga2", "--synthetic-seed", "0", *flags], *fragments)
+
+
+def test_chip_that_is_not_an_image_is_named(tmp_path, cli_error):
+    (tmp_path / "notes.txt").write_text("not a picture")
+    cli_error(["teams", "nsga2", "--chip", str(tmp_path / "notes.txt")],
+              f"{tmp_path / 'notes.txt'}: not a readable image, expected a DroneDeploy label PNG")
+    cli_error(["teams", "nsga2", "--chip", str(tmp_path / "none.png")], "argument --chip", "none.png: no such file")
+@pytest.fixture(scope="module")
+def tiny_model(tmp_path_factory):
+    """A generator file from a two-iteration training on two small chips (K = 3)."""
+    import dataclasses
+
+    from robocompose.eggan.networks import NetworkConfig
+    from robocompose.eggan.train import TrainConfig, train
+    from robocompose.teams.chips import synthetic_chip
+    from robocompose.teams.decompose import DecomposeConfig, decompose_chip
+    from robocompose.teams.eggan_problem import TeamsProblem
+    from robocompose.teams.ergodic import CoverageConfig
+    from robocompose.teams.generative import save_generator
+    from robocompose.teams.params import EgganConfig
+
+    coverage, decompose = CoverageConfig(iterations=3, n_observations=5), DecomposeConfig(n_regions=3)
+    chips = [synthetic_chip(4, index, size=40) for index in range(2)]
+    problem = TeamsProblem([(chip, decompose_chip(chip, decompose)) for chip in chips], coverage)
+    trained = train(problem, NetworkConfig(latent=4, hidden=16),
+                    TrainConfig(iterations=2, batch=8, tasks=2, evolution="nsga2", log_every=1, checkpoint_every=2))
+    params = {"coverage": dataclasses.asdict(coverage), "decompose": dataclasses.asdict(decompose),
+              "eggan": dataclasses.asdict(EgganConfig(samples=16))}
+    path = tmp_path_factory.mktemp("model") / "teams.pt"
+    save_generator(trained, 3, params, {}, path)
+    return path
+
+
+def test_compose_teams_prints_the_measured_front_and_the_best_within_a_budget(tmp_path, tiny_model, capsys):
+    chip = tmp_path / "chip.png"
+    write_label_png(np.random.default_rng(0).choice([2, 3, 4], size=(300, 300)).astype(np.uint8), chip)
+    out = run(["compose", "teams", "--chip", str(chip), "--model", str(tiny_model)], capsys)
+    assert out["regions"] == 3 and out["hypervolume"] >= 0 and out["generator_ms"] > 0
+    front = out["front"]
+    assert front and all(np.array(p["counts"]).shape == (3, 3) for p in front)
+    assert all(sum(map(sum, p["counts"])) == p["deployment_cost"] for p in front)
+    budget = front[-1]["deployment_cost"]
+    best = run(["compose", "teams", "--chip", str(chip), "--model", str(tiny_model), "--budget", str(budget)],
+               capsys)["allocation"]
+    assert best["coverage_cost"] == min(p["coverage_cost"] for p in front if p["deployment_cost"] <= budget)
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--budget", "0"], "--budget 0: expected a number of robots in 1..60"),
+    (["--budget", "61"], "--budget 61: expected a number of robots in 1..60"),
+    (["--regions", "5"], "--regions 5: the generator was trained for K = 3"),
+])
+def test_compose_teams_rejects_bad_flags_with_exit_code_2(tmp_path, tiny_model, capsys, extra, message):
+    from robocompose.cli import main
+
+    chip = tmp_path / "chip.png"
+    write_label_png(np.full((300, 300), 4, dtype=np.uint8), chip)
+    assert main(["compose", "teams", "--chip", str(chip), "--model", str(tiny_model), *extra]) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_compose_teams_rejects_a_chip_in_the_wrong_format(tmp_path, tiny_model, capsys):
+    from PIL import Image
+
+    from robocompose.cli import main
+
+    Image.fromarray(np.full((300, 300, 3), 7, dtype=np.uint8)).save(tmp_path / "photo.png")
+    assert main(["compose", "teams", "--chip", str(tmp_path / "photo.png"), "--model", str(tiny_model)]) == 2
+    assert "photo.png: pixel (row 0, col 0)" in capsys.readouterr().err  # not a label colour
+    write_label_png(np.full((100, 100), 4, dtype=np.uint8), tmp_path / "small.png")
+    assert main(["compose", "teams", "--chip", str(tmp_path / "small.png"), "--model", str(tiny_model)]) == 2
+    assert "no 300 x 300 window" in capsys.readouterr().err
+
+
+def test_nsga2_on_a_dask_cluster_gives_the_local_front(capsys, dask_address):
+    argv = ["teams", "nsga2", "--synthetic-seed", "1", "--regions", "3", "--pop", "6", "--generations", "2"]
+    local, remote = run(argv, capsys), run([*argv, "--address", dask_address], capsys)
+    assert remote["front"] == local["front"] and remote["hypervolume"] == local["hypervolume"]

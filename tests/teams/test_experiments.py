@@ -19,7 +19,8 @@ from robocompose.teams.experiments import (
 from robocompose.teams.params import ExperimentsConfig
 
 TINY = CoverageConfig(iterations=3, n_observations=5)
-EXPERIMENTS = ExperimentsConfig(populations=[4, 6], generations=2, test_chips=1, seeds=[0, 1], budgets=[3, 6])
+EXPERIMENTS = ExperimentsConfig(populations=[4, 6], generations=2, table_5_4_chips=1,
+                                table_5_5_chips=1, seeds=[0, 1], budgets=[3, 6])
 
 
 @pytest.fixture(scope="module")
@@ -63,18 +64,19 @@ def test_coverage_baselines_deploy_exactly_the_budget(test_chips):
     assert np.isfinite(table.coverage_cost).all() and (table.coverage_cost > 0).all()
 
 
-def test_every_table_runs_on_the_same_chips_and_seeds(test_chips):
-    config = dataclasses.replace(EXPERIMENTS, test_chips=2, seeds=[3], populations=[4])
+def test_every_row_of_a_table_runs_on_the_same_chips_and_seeds(test_chips):
+    config = dataclasses.replace(EXPERIMENTS, table_5_4_chips=1, table_5_5_chips=2, seeds=[3], populations=[4, 6])
     runs, _, _ = nsga2_runs(test_chips, TINY, config, teams_cache())
+    for _, rows in runs.groupby("population"):
+        assert list(zip(rows.chip_id, rows.seed, strict=True)) == [(test_chips[0][0].chip_id, 3)]
     coverage = coverage_baselines(test_chips, TINY, config)
-    pairs = set(zip(runs.chip_id, runs.seed, strict=True))
-    assert len(pairs) == 2
+    pairs = {(chip.chip_id, 3) for chip, _ in test_chips[:2]}
     for _, rows in coverage.groupby(["method", "budget"]):
         assert set(zip(rows.chip_id, rows.seed, strict=True)) == pairs
 
 
 def test_tables_and_cache_are_the_same_on_two_worker_processes_as_in_process(test_chips):
-    config = dataclasses.replace(EXPERIMENTS, test_chips=2, seeds=[0])
+    config = dataclasses.replace(EXPERIMENTS, table_5_4_chips=2, table_5_5_chips=2, seeds=[0])
     serial_cache, parallel_cache = teams_cache(), teams_cache()
     serial = [*nsga2_runs(test_chips, TINY, config, serial_cache)[:2], coverage_baselines(test_chips, TINY, config)]
     with Executor(workers=2) as executor:

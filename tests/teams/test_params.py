@@ -1,5 +1,6 @@
 import pytest
 
+from robocompose.io.errors import InputError
 from robocompose.teams.params import load_teams_params
 
 
@@ -16,6 +17,7 @@ teams:
   decompose: {n_regions: 4}
   coverage: {iterations: 7, learning_rate: 1}
   experiments: {populations: [4, 6], budgets: [3]}
+  eggan: {}
 """))
     assert params.chips.n_synthetic == 5 and params.chips.directory == ""
     assert params.decompose.n_regions == 4 and params.decompose.lloyd_iterations == 10
@@ -23,16 +25,36 @@ teams:
     assert params.experiments.populations == [4, 6] and params.threads == 1
 
 
+SECTIONS = {"chips": "{}", "decompose": "{}", "coverage": "{}", "experiments": "{}"}
+
+
+def teams_yaml(**changed: str) -> str:
+    """A teams section with every sub-section (empty: the defaults), `changed` ones replaced or added."""
+    return "teams:\n" + "".join(f"  {name}: {value}\n" for name, value in {**SECTIONS, **changed}.items())
+
+
 @pytest.mark.parametrize("text, message", [
     ("other: 1\n", r"params.yaml: teams: missing section"),
-    ("teams:\n  coverage: {iteration: 3}\n", r"teams.coverage.iteration: unknown field"),
-    ("teams:\n  coverage: {iterations: 2.5}\n", r"teams.coverage.iterations: expected int, found 2.5"),
-    ("teams:\n  experiments: {populations: 20}\n", r"teams.experiments.populations: expected list"),
-    ("teams:\n  threads: 0\n", r"teams.threads: expected a positive integer"),
-    ("teams:\n  chip: {}\n", r"teams.chip: unknown field"),
-    ("teams:\n  experiments: {seeds: []}\n", r"teams.experiments.*non-empty seed list"),
-    ("teams:\n  decompose: {terrain_weight: -1.0}\n", r"teams.decompose.*terrain_weight: expected >= 0"),
+    (teams_yaml(coverage="{iteration: 3}"), r"teams.coverage.iteration: unknown field"),
+    (teams_yaml(coverage="{iterations: 2.5}"), r"teams.coverage.iterations: expected int, found 2.5"),
+    (teams_yaml(experiments="{populations: 20}"), r"teams.experiments.populations: expected list"),
+    (teams_yaml(experiments="{populations: [20, x]}"), r"teams.experiments.populations: expected a list of int"),
+    (teams_yaml(threads="0"), r"teams.threads: expected a positive integer"),
+    (teams_yaml(chip="{}"), r"teams.chip: unknown field"),
+    (teams_yaml(experiments="{seeds: []}"), r"teams.experiments.seeds: expected a non-empty list"),
+    (teams_yaml(decompose="{terrain_weight: -1.0}"), r"teams.decompose.terrain_weight: expected a number >= 0"),
+    # a sub-section the stages need is never silently replaced by defaults
+    ("teams:\n  chips: {}\n  coverage: {}\n  experiments: {}\n", r"teams.decompose: missing section"),
+    # value ranges name the field that is wrong
+    (teams_yaml(decompose="{test_fraction: 1.5}"), r"teams.decompose.test_fraction: expected a share strictly "
+                                                   r"between 0 and 1 .*found 1.5"),
+    (teams_yaml(decompose="{n_regions: 0}"), r"teams.decompose.n_regions: expected an integer in 1..64, found 0"),
+    (teams_yaml(decompose="{n_regions: 100000}"), r"teams.decompose.n_regions: expected an integer in 1..64"),
+    (teams_yaml(chips="{n_synthetic: -1}"), r"teams.chips.n_synthetic: expected an integer >= 1, found -1"),
+    (teams_yaml(coverage="{learning_rate: .nan}"), r"teams.coverage.learning_rate: expected a number > 0"),
+    (teams_yaml(experiments="{mutation_rate: 2}"), r"teams.experiments.mutation_rate: expected a probability"),
 ])
 def test_bad_params_name_file_field_and_expectation(tmp_path, text, message):
-    with pytest.raises(ValueError, match=message):
+    with pytest.raises(InputError, match=message) as error:
         load_teams_params(write(tmp_path, text))
+    assert "\n" not in str(error.value)

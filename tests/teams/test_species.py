@@ -1,6 +1,7 @@
 import numpy as np
 import pytest
 
+from robocompose.io.errors import InputError
 from robocompose.teams.species import (
     SPEED_SCALE,
     allocation_to_counts,
@@ -40,6 +41,8 @@ def test_deployment_cost_counts_robots():
 def test_bad_allocations_are_rejected_with_the_expected_form():
     with pytest.raises(ValueError, match="non-negative"):
         allocation_to_counts(np.array([[-0.1, 0.2, 0.0]]), 20)
-    with pytest.raises(ValueError, match="f_ground,f_aerial,f_aquatic"):
+    with pytest.raises(InputError, match="f_ground,f_aerial,f_aquatic"):
         parse_allocation("0.1,0.2;0.3,0.4,0.5")
-    assert parse_allocation("0.1,0.2,0.3;0,0,1").shape == (2, 3)
+    assert parse_allocation("0.1,0.2,0.3;0,0,0.7").shape == (2, 3)
+    with pytest.raises(InputError, match="the aquatic fractions sum to 1.3"):
+        parse_allocation("0.1,0.2,0.3;0,0,1")

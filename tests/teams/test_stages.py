@@ -9,8 +9,8 @@ teams:
   chips: {n_synthetic: 4, seed: 1}
   decompose: {n_regions: 3, test_fraction: 0.5}
   coverage: {iterations: 2, n_observations: 4}
-  experiments: {populations: [4, 6], generations: 2, test_chips: 1, seeds: [0], budgets: [3, 6],
-                workers: 1}  # processes: test_experiments.py
+  experiments: {populations: [4, 6], generations: 2, table_5_4_chips: 1, table_5_5_chips: 1, seeds: [0],
+                budgets: [3, 6], workers: 1}  # processes: test_experiments.py
 """
 
 
@@ -34,3 +34,18 @@ def test_stages_write_their_tables_deterministically(tmp_path, monkeypatch):
     run_stage("teams_baselines")
     for name in ["fronts", "coverage", "trajectories"]:
         pd.testing.assert_frame_equal(pd.read_parquet(f"data/teams/{name}.parquet"), first[name])
+
+
+def test_eggan_stage_trains_queries_and_resumes(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "params.yaml").write_text(TINY_PARAMS + "  eggan: {iterations: 2, batch: 8, tasks: 2, samples: 16, "
+                                          "checkpoint_every: 1, latent: 4}\n")
+    run_stage("decompose")
+    run_stage("teams_eggan")
+    queries = pd.read_parquet("data/teams/eggan_queries.parquet")
+    assert len(queries) == 1 and (queries.hypervolume >= 0).all()
+    examples = pd.read_parquet("data/teams/coverage_examples.parquet")
+    assert {"dec_random_allocation", "no_decomposition"} <= set(examples.method)
+    model = Path("models/teams_eggan.pt").read_bytes()
+    run_stage("teams_eggan")  # the checkpoint holds the finished run: same generator file
+    assert Path("models/teams_eggan.pt").read_bytes() == model

@@ -1,5 +1,11 @@
 """The GLSO dataset: random grammar derivations with rest-contact features, enumerated in parallel.
 
+A candidate is kept as GLSO's `collect_data.py` keeps it: a uniform random derivation that completes
+within 40 rules (`depth_limit`), has at least 11 links (`too_few_links`), and passes the rest-contact
+rule of `sim.contacts` (`self_collision`, `unstable`, `too_few_contacts`, `midline_contact`); each
+rejected candidate is counted under the first rule it fails. Unlike GLSO, designs are deduplicated by
+design id (`duplicates`).
+
 Candidate k is derived from its own random stream (seed, k), so which designs are kept depends only on
 the seed, never on the number of workers: candidates are processed in chunks through the project's
 executor (local processes, or a Dask cluster given its address) and taken in index order until `n`
@@ -18,6 +24,7 @@ import pandas as pd
 
 from robocompose.grammar.derivation import MAX_DEPTH, random_derivation
 from robocompose.grammar.tree import DesignTree
+from robocompose.io.errors import InputError
 
 MIN_LINKS = 11  # the thesis keeps designs with at least 11 links
 
@@ -37,9 +44,9 @@ class EnumerateConfig:
     def __post_init__(self) -> None:
         for name in ("n", "chunk", "min_links", "max_depth"):
             if getattr(self, name) < 1:
-                raise ValueError(f"{name} must be a positive integer, got {getattr(self, name)}")
+                raise InputError(f"{name} must be a positive integer, got {getattr(self, name)}")
         if self.workers < 0:
-            raise ValueError(f"workers must be >= 0 (0 = all cores), got {self.workers}")
+            raise InputError(f"workers must be >= 0 (0 = all cores), got {self.workers}")
 
 
 @dataclass
@@ -47,15 +54,18 @@ class EnumerateStats:
     candidates: int = 0
     kept: int = 0
     duplicates: int = 0
-    rejected: Counter = field(default_factory=Counter)  # reason -> count
+    rejected: Counter = field(default_factory=Counter)  # rule -> candidates it rejected
+    dropped_points: int = 0  # off-floor contact points dropped from kept designs
+    designs_with_dropped_points: int = 0
 
     def as_dict(self) -> dict:
         return {"candidates": self.candidates, "kept": self.kept, "duplicates": self.duplicates,
-                "rejected": dict(sorted(self.rejected.items()))}
+                "rejected": dict(sorted(self.rejected.items())), "dropped_points": self.dropped_points,
+                "designs_with_dropped_points": self.designs_with_dropped_points}
 
 
-# A candidate's outcome: (reason, row); reason "" means valid.
-Outcome = tuple[str, dict | None]
+# A candidate's outcome: (reason, row, off-floor points dropped); reason "" means valid.
+Outcome = tuple[str, dict | None, int]
 _CLIENT: int | None = None
 
 
@@ -84,14 +94,14 @@ def candidate(seed: int, k: int, min_links: int, max_depth: int) -> Outcome:
 
     derivation = random_derivation(np.random.default_rng([seed, k]), max_depth)
     if derivation is None:
-        return "depth_limit", None
+        return "depth_limit", None, 0
     tree = derivation.tree
     if tree.n_links < min_links:
-        return "too_few_links", None
+        return "too_few_links", None, 0
     contacts = contact_features(tree, _client(), rest_self_penetrating=False)
     if not contacts.valid:
-        return contacts.reason, None
-    return "", design_row(tree, derivation.rules, contacts.features)
+        return contacts.reason, None, 0
+    return "", design_row(tree, derivation.rules, contacts.features), contacts.dropped
 
 
 def _chunk(task: tuple[Callable[..., Outcome], int, int, int, tuple]) -> list[Outcome]:
@@ -121,7 +131,7 @@ def collect(make: Callable[..., Outcome], n: int, seed: int, args: tuple, worker
         while len(rows) < n:
             round_index += 1
             following = submit(round_index)  # queued now, so no worker idles while this round is read
-            for reason, row in (outcome for batch in current for outcome in batch):
+            for reason, row, dropped in (outcome for batch in current for outcome in batch):
                 if len(rows) == n:
                     break
                 stats.candidates += 1
@@ -132,6 +142,8 @@ def collect(make: Callable[..., Outcome], n: int, seed: int, args: tuple, worker
                 else:
                     seen.add(row["design_id"])
                     rows.append(row)
+                    stats.dropped_points += dropped
+                    stats.designs_with_dropped_points += dropped > 0
                     bar.update(1)
             current = following
     bar.close()

@@ -1,9 +1,11 @@
+import numpy as np
 import pandas as pd
 import pytest
 
-from robocompose.grammar.enumerate import EnumerateConfig, enumerate_designs
+from robocompose.dataset.enumerate import EnumerateConfig, enumerate_designs
 from robocompose.grammar.tree import DesignTree
 from robocompose.io import read_table, write_table
+from robocompose.sim.contacts import PAD_X, REASONS, SCALE, rejection
 
 
 @pytest.fixture(scope="module")
@@ -26,10 +28,13 @@ def test_designs_are_distinct_valid_and_large_enough(small_runs):
     assert len(designs) == 12 and designs["design_id"].is_unique
     assert (designs["n_links"] >= 11).all()
     assert stats.candidates == 12 + stats.duplicates + sum(stats.rejected.values())
+    assert set(stats.rejected) <= {"depth_limit", "too_few_links", *REASONS}
     for row in designs.itertuples():
         tree = DesignTree(tuple(row.parents), tuple(row.tokens))
         assert tree.design_id == row.design_id and tree.n_links == row.n_links
-        assert len(row.contacts) == 16
+        points = np.asarray(row.contacts).reshape(8, 2)
+        real = points[points[:, 0] != PAD_X]
+        assert rejection(real / SCALE) == "" and (real[:, 0] <= 0).all()  # kept designs pass GLSO's rule
 
 
 def test_round_trip_through_parquet(small_runs, tmp_path):

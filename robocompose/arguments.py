@@ -1,0 +1,79 @@
+"""Command-line argument types: checked while argparse parses, so a bad flag fails before any work.
+
+argparse reports a failed check as `usage: ...` + `PROG: error: argument --flag: <message>` and exits 2.
+`output_file` checks where a command will write before it computes anything: not a directory, the
+extension of the format it writes, a parent that is (or can become) a directory.
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Callable
+from pathlib import Path
+
+from robocompose.io.errors import InputError
+
+
+def int_at_least(minimum: int) -> Callable[[str], int]:
+    """argparse type of an integer >= `minimum`."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected an integer, found {text!r}") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"expected an integer >= {minimum}, found {value}")
+        return value
+
+    parse.__name__ = f"integer >= {minimum}"
+    return parse
+
+
+non_negative_int = int_at_least(0)  # seeds, counts that may be zero
+positive_int = int_at_least(1)
+
+
+def check_output_file(path: Path, suffix: str, what: str) -> Path:
+    """`path` if a `what` file (extension `suffix`) can be written there; else InputError saying why."""
+    if path.is_dir():
+        raise InputError(f"{path}: is a directory, expected a file name ending in {suffix}")
+    if path.suffix.lower() != suffix:
+        raise InputError(f"{path}: expected a {suffix} file name (it is written as {what})")
+    parent = next((p for p in path.parents if p.exists()), Path("."))
+    if not parent.is_dir():
+        raise InputError(f"{path}: {parent} is not a directory")
+    return path
+
+
+def output_file(suffix: str, what: str) -> Callable[[str], Path]:
+    """argparse type of an output path that must end in `suffix` (e.g. ".png") and not be a directory."""
+    def parse(text: str) -> Path:
+        try:
+            return check_output_file(Path(text), suffix, what)
+        except InputError as err:
+            raise argparse.ArgumentTypeError(str(err)) from None
+
+    parse.__name__ = f"{suffix} file"
+    return parse
+
+
+def output_directory(text: str) -> Path:
+    """argparse type of a directory a command writes into: absent (it is created) or a directory, not a file."""
+    path = Path(text)
+    blocking = next((p for p in (path, *path.parents) if p.exists() and not p.is_dir()), None)
+    if blocking is not None:
+        raise argparse.ArgumentTypeError(f"{path}: {blocking} is a file, expected a directory")
+    return path
+
+
+def input_file(what: str) -> Callable[[str], Path]:
+    """argparse type of a file that must exist (a model, a label PNG)."""
+    def parse(text: str) -> Path:
+        path = Path(text)
+        if not path.is_file():
+            found = "a directory" if path.is_dir() else "no such file"
+            raise argparse.ArgumentTypeError(f"{path}: {found}, expected {what}")
+        return path
+
+    parse.__name__ = "file"
+    return parse

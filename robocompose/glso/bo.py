@@ -1,0 +1,112 @@
+"""GLSO: Bayesian optimisation in a graph VAE's latent space (thesis 8; JiahengHu/GLSO run_bo.py), bayes_opt 3.
+
+The loop, one objective call per step:
+- steps 0 .. init-1: random points inside the bounds [-3, 3]^latent (paper 50);
+- every later step i: a random point when (i - init + 1) % 10 == 0 (GLSO's --rd_explore), else the
+  suggestion of expected improvement (xi 0.01) on a GP (Matern nu 2.5, alpha 1e-3, normalised targets);
+- (the acquisition's L-BFGS-B gets its finite-difference gradient from one batched GP call, see
+  `ExpectedImprovement`: faster, the same search);
+- the latent point is decoded greedily into a design; the design's score (the invalid score when it
+  cannot be simulated) is registered at that point;
+- after every step past the initial points, sequential domain reduction (gamma_osc 0.7, gamma_pan 1.0,
+  eta 0.9) shrinks the bounds, exactly the call `maximize()` makes: set_bounds(transformer.transform(space)).
+Random points are drawn inside the current (reduced) bounds, as in the original. The best so far is taken
+from the whole history by the run, not from `optimizer.max`, which only sees points inside the current
+bounds. The whole optimiser is pickled with the run's checkpoint: bayes_opt's own `load_state`
+re-initialises the domain-reduction transformer from the reduced bounds, so a resumed run would diverge.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+from bayes_opt import BayesianOptimization, SequentialDomainReductionTransformer, acquisition
+from scipy.optimize import minimize
+
+from robocompose.glso.designs import Proposal
+from robocompose.grammar.tree import DesignTree
+from robocompose.io.errors import check_field
+
+
+@dataclass(frozen=True)
+class BOConfig:
+    bound: float = 3.0  # every latent coordinate lies in [-bound, bound]
+    init: int = 50  # random initial points (paper 50)
+    random_every: int = 10  # every 10th step after the initial points is a random point (0 = never)
+    xi: float = 0.01  # expected improvement's exploration margin
+    alpha: float = 1e-3  # GP noise added to the kernel's diagonal
+    domain_reduction: bool = True
+    gamma_osc: float = 0.7
+    gamma_pan: float = 1.0
+    eta: float = 0.9
+    minimum_window: float = 0.5  # narrowest a reduced window may get
+
+    def __post_init__(self) -> None:
+        check_field(self.bound > 0, "bound", "a positive number", self.bound)
+        check_field(self.init >= 1, "init", "at least 1 random initial point", self.init)
+        check_field(self.random_every >= 0, "random_every", ">= 0 (0 = never)", self.random_every)
+
+
+class ExpectedImprovement(acquisition.ExpectedImprovement):
+    """bayes_opt's expected improvement, maximised the same way (10,000 random points, then L-BFGS-B from the
+    best 10), with one change of speed only: L-BFGS-B gets the forward-difference gradient scipy would
+    compute (step sqrt(eps) max(1, |x|), signed like x, turned back at an upper bound) from one batched GP
+    prediction of the d + 1 points instead of d + 1 separate predictions (28 dimensions: ~29x fewer calls).
+    """
+
+    def _smart_minimize(self, acq, space, x_seeds, random_state):
+        bounds = space.bounds
+        step_size = np.sqrt(np.finfo(float).eps)
+
+        def value_and_gradient(x: np.ndarray) -> tuple[float, np.ndarray]:
+            h = step_size * np.where(x >= 0, 1.0, -1.0) * np.maximum(1.0, np.abs(x))  # (d,)
+            h = np.where(x + h > bounds[:, 1], -np.abs(h), h)
+            values = acq(np.vstack([x, x + np.diag(h)]))  # (d + 1,)
+            return float(values[0]), (values[1:] - values[0]) / h
+
+        best_x, best_value = None, np.inf
+        for x_try in x_seeds:
+            res = minimize(value_and_gradient, x_try, bounds=bounds, method="L-BFGS-B", jac=True)
+            if res.success and res.fun < best_value:
+                best_x, best_value = res.x, float(res.fun)
+        if best_x is None:
+            return np.full(len(bounds), np.nan), np.inf
+        return np.clip(best_x, bounds[:, 0], bounds[:, 1]), best_value
+
+
+def decode(model, z: np.ndarray) -> DesignTree:
+    """Greedy decoding of one latent point (latent,) into a design tree."""
+    with torch.no_grad():
+        return model.decoder.decode(torch.as_tensor(z, dtype=torch.float32)[None])[0].tree()
+
+
+class LatentBO:
+    def __init__(self, config: BOConfig, seed: int, budget: int, latent: int) -> None:
+        self.config = config
+        self.keys = [f"z{i:03d}" for i in range(latent)]  # zero-padded: bayes_opt's key order is latent order
+        transformer = (SequentialDomainReductionTransformer(gamma_osc=config.gamma_osc, gamma_pan=config.gamma_pan,
+                                                            eta=config.eta, minimum_window=config.minimum_window)
+                       if config.domain_reduction else None)
+        self.optimizer = BayesianOptimization(
+            f=None, pbounds={k: (-config.bound, config.bound) for k in self.keys},
+            acquisition_function=ExpectedImprovement(xi=config.xi), random_state=seed, verbose=0,
+            bounds_transformer=transformer, allow_duplicate_points=True)
+        self.optimizer.set_gp_params(alpha=config.alpha)  # the kernel stays bayes_opt's Matern(nu=2.5)
+        self.step = 0
+
+    def is_random_step(self) -> bool:
+        c, i = self.config, self.step - self.config.init
+        return i < 0 or (c.random_every > 0 and (i + 1) % c.random_every == 0)
+
+    def propose(self, env) -> Proposal:
+        params = self.optimizer.random_sample(1)[0] if self.is_random_step() else self.optimizer.suggest()
+        z = np.array([params[k] for k in self.keys], dtype=np.float64)
+        return Proposal(decode(env.model, z), None, z=z)
+
+    def tell(self, proposal: Proposal, score: float) -> None:
+        self.optimizer.register(dict(zip(self.keys, proposal.z.tolist(), strict=True)), score)
+        if self.config.domain_reduction and self.step >= self.config.init:
+            self.optimizer.set_bounds(self.optimizer._bounds_transformer.transform(self.optimizer.space))
+        self.step += 1

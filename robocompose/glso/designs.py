@@ -1,0 +1,72 @@
+"""What every GLSO search method shares: a proposal, the pybullet checks of a design, random grammar designs.
+
+A method proposes one complete design at a time (`Proposal`); the run (`runs.py`) spends one objective
+call on it and tells the method its score. Which designs a method may propose follows its original:
+- grammar methods (random search, MCTS, GHS) redraw a derivation that is incomplete at the depth limit or
+  self-penetrates when placed (RoboGrammar's `get_result` is None: no evaluation is spent on it);
+- random search (and the GA's first generation) draws with the dataset's enumeration and filters (>= 11
+  links, valid rest contacts);
+- the graph GA rejects a child that self-penetrates before evaluating it;
+- GLSO evaluates whatever the decoder gives; a design that cannot be simulated costs a call and scores
+  `INVALID_SCORE` (the evaluator's status says why).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from robocompose.grammar.derivation import MAX_DEPTH
+from robocompose.grammar.tree import DesignTree
+
+MAX_TRIES = 1000  # redraws before a method gives up on finding a valid design (RoboGrammar's max_tries)
+
+
+@dataclass
+class Proposal:
+    """One design a method wants evaluated. `rules` is its grammar derivation (None if the grammar cannot
+    make it), `z` its latent point (latent methods), `info` what the method needs back when told."""
+
+    tree: DesignTree
+    rules: tuple[int, ...] | None
+    z: np.ndarray | None = None
+    info: Any = field(default=None, repr=False)
+
+
+_CLIENT: int | None = None
+
+
+def _client() -> int:
+    """One headless pybullet client per process, made on first use (every check resets it)."""
+    global _CLIENT
+    if _CLIENT is None:
+        from robocompose.sim.physics import connect
+
+        _CLIENT = connect()
+    return _CLIENT
+
+
+def self_colliding(tree: DesignTree) -> bool:
+    """Whether the design self-penetrates when placed at rest (it cannot be simulated)."""
+    from robocompose.sim.contacts import contact_features
+
+    return contact_features(tree, _client(), rest_self_penetrating=False).reason == "self_collision"
+
+
+def run_stream(seed: int, method: str) -> int:
+    """An enumeration seed of a method's run seed, far from the dataset's own (`enumerate.seed`, 0)."""
+    return 10_000 * (1 + seed) + sum(ord(c) for c in method)
+
+
+def random_grammar_design(seed: int, k: int, max_depth: int = MAX_DEPTH) -> tuple[Proposal, int]:
+    """The first candidate from k on of the dataset's enumeration stream `seed` that passes its filters
+    (depth limit, >= 11 links, no self-penetration, valid rest contacts), and the next k to draw from."""
+    from robocompose.dataset.enumerate import MIN_LINKS, candidate
+
+    for j in range(k, k + MAX_TRIES):
+        reason, row, _ = candidate(seed, j, MIN_LINKS, max_depth)
+        if not reason:
+            return Proposal(DesignTree(tuple(row["parents"]), tuple(row["tokens"])), tuple(row["rules"])), j + 1
+    raise RuntimeError(f"no valid random derivation in {MAX_TRIES} candidates")

@@ -1,0 +1,127 @@
+"""GA with graph mutation, NGE-style (Wang et al., ICLR 2019), on design trees outside the grammar.
+
+Population 50. Generation 0 is random grammar designs (the dataset's filters). Each later generation:
+rank by score, cull the worst `cull_fraction` (NGE's elimination rate), refill to the population size
+by mutating uniformly chosen survivors (no crossover, as NGE). One mutation per child:
+- add leaf (p 0.2): every node with room for a neighbour (at most 4) is picked with p 0.1, repeated until
+  at least one is; each picked node gets a new leaf child with a uniformly random non-root token;
+- remove subtree (p 0.2): a uniformly random node that has children loses one random child's subtree;
+- relabel (p 0.6): every non-root node is picked with p 0.1 (at least one); each gets a new uniformly
+  random non-root token (link type x joint type: NGE's attribute perturbation on our discrete nodes).
+At `max_nodes` links "add" becomes "relabel"; at 2 links "remove" does. A child that self-penetrates at
+rest cannot be built and is rejected before evaluation (a new child is drawn). Children are evaluated
+one objective call each, in the order they were made.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from robocompose.glso.designs import MAX_TRIES, Proposal, random_grammar_design, run_stream, self_colliding
+from robocompose.grammar.derivation import MAX_DEPTH
+from robocompose.grammar.tree import N_TOKENS, DesignTree, split_token
+from robocompose.io.errors import check_field
+
+NON_ROOT_TOKENS = tuple(t for t in range(N_TOKENS) if split_token(t)[1] != 0)
+MAX_NEIGHBOURS = 4  # the VAE's limit: a node's parent and children together
+
+
+@dataclass(frozen=True)
+class GAConfig:
+    population: int = 50  # designs per generation (thesis)
+    cull_fraction: float = 0.3  # worst share removed each generation (NGE's README runs: 0.3)
+    add_probability: float = 0.2  # NGE's mutation ratios: add / remove / perturb = 0.2 / 0.2 / 0.6
+    remove_probability: float = 0.2
+    node_probability: float = 0.1  # NGE's node_mutate_ratio
+    max_nodes: int = 50  # links a design may have (the VAE's max_nodes)
+    max_depth: int = MAX_DEPTH  # derivation depth of the random first generation
+
+    def __post_init__(self) -> None:
+        check_field(self.population >= 2, "population", "at least 2 designs", self.population)
+        check_field(0 < self.cull_fraction < 1, "cull_fraction", "a fraction in (0, 1)", self.cull_fraction)
+
+
+def rebuild(children: dict[int, list[int]], tokens: dict[int, int]) -> DesignTree:
+    """A tree in breadth-first order from node -> children and node -> token (node 0 is the root)."""
+    order, parents, queue = [], [], [(0, -1)]
+    while queue:
+        node, parent = queue.pop(0)
+        parents.append(parent)
+        order.append(node)
+        queue.extend((kid, len(order) - 1) for kid in children.get(node, []))
+    return DesignTree(tuple(parents), tuple(tokens[i] for i in order))
+
+
+def _pick_nodes(rng: np.random.Generator, candidates: list[int], p: float) -> list[int]:
+    """Each candidate with probability p, redrawn until at least one is picked (NGE)."""
+    while True:
+        picked = [n for n in candidates if rng.random() < p]
+        if picked:
+            return picked
+
+
+def mutate(tree: DesignTree, rng: np.random.Generator, config: GAConfig) -> DesignTree:
+    children = {i: tree.children(i) for i in range(tree.n_links)}
+    tokens = dict(enumerate(tree.tokens))
+    roll = rng.random()
+    op = "add" if roll < config.add_probability else (
+        "remove" if roll < config.add_probability + config.remove_probability else "relabel")
+    if op == "add" and tree.n_links >= config.max_nodes:
+        op = "relabel"
+    if op == "remove" and tree.n_links <= 2:
+        op = "relabel"
+    if op == "add":
+        room = [i for i in range(tree.n_links) if len(children[i]) + (i > 0) < MAX_NEIGHBOURS]
+        for node in _pick_nodes(rng, room, config.node_probability):
+            new = len(tokens)
+            tokens[new] = NON_ROOT_TOKENS[int(rng.integers(len(NON_ROOT_TOKENS)))]
+            children[node] = [*children[node], new]
+    elif op == "remove":
+        # not the root's only child: that would leave the root alone (NGE undoes such a removal)
+        with_children = [i for i in range(tree.n_links) if children[i] and (i or len(children[0]) > 1)]
+        parent = with_children[int(rng.integers(len(with_children)))]
+        drop = int(rng.integers(len(children[parent])))
+        children[parent] = children[parent][:drop] + children[parent][drop + 1:]
+    else:
+        for node in _pick_nodes(rng, list(range(1, tree.n_links)), config.node_probability):
+            tokens[node] = NON_ROOT_TOKENS[int(rng.integers(len(NON_ROOT_TOKENS)))]
+    return rebuild(children, tokens)
+
+
+class GraphGA:
+    def __init__(self, config: GAConfig, seed: int, budget: int) -> None:
+        self.config = config
+        self.rng = np.random.default_rng([seed, 0x4741])  # "GA"
+        self.population: list[tuple[Proposal, float]] = []  # evaluated members of the current generation
+        self.queue: list[Proposal] = []  # children made but not yet evaluated
+        self.generation = 0
+        self.stream, self.k = run_stream(seed, "ga"), 0  # the first generation's designs
+
+    def _next_generation(self) -> None:
+        c = self.config
+        ranked = sorted(range(len(self.population)), key=lambda i: -self.population[i][1])  # stable
+        keep = c.population - max(1, int(c.cull_fraction * c.population))  # NGE's floor, at least one
+        self.population = [self.population[i] for i in ranked[:keep]]
+        for _ in range(c.population - keep):
+            for _ in range(MAX_TRIES):
+                parent = self.population[int(self.rng.integers(len(self.population)))][0]
+                child = mutate(parent.tree, self.rng, c)
+                if not self_colliding(child):
+                    self.queue.append(Proposal(child, None))
+                    break
+            else:
+                raise RuntimeError(f"GA: no buildable child in {MAX_TRIES} mutations")
+        self.generation += 1
+
+    def propose(self, env) -> Proposal:
+        if not self.queue:
+            if self.generation == 0 and len(self.population) < self.config.population:
+                proposal, self.k = random_grammar_design(self.stream, self.k, self.config.max_depth)
+                return proposal
+            self._next_generation()
+        return self.queue.pop(0)
+
+    def tell(self, proposal: Proposal, score: float) -> None:
+        self.population.append((proposal, score))

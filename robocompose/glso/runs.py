@@ -1,0 +1,287 @@
+"""GLSO search runs: seven methods on one objective and one budget; runs as step tables; resumable; fanned out.
+
+    from robocompose.glso.runs import GLSOConfig, RunSpec, run_search, run_all
+    steps = run_search(RunSpec("flat", "glso", seed=0), config, evaluation)     # one run -> step table
+    steps = run_all(config, evaluation, Path("data/glso"), executor)            # every (task, method, seed)
+
+The budget rule: a run is `budget` calls of the objective. A call is one MPPI episode of a complete
+design, or the invalid score a design that cannot be simulated gets (only GLSO proposes such designs:
+the grammar methods and the GA reject them before evaluation, as their originals do). Every method gets
+the same budget, the same evaluator settings and the same controller seed (`evaluation.seed`); a design
+seen again in a run costs a call and returns its cached score (evaluations are deterministic).
+
+Resumption: after every call the run's method state (its RNG, search tree, network, optimiser; pickled
+whole) and its rows are written atomically to the checkpoint, then its step table. A run killed at any
+point resumes from the last checkpoint and ends with the same table as an uninterrupted run (every
+column but the wall-clock `seconds`). The checkpoint key covers the run, the budget, the method's
+settings, the evaluator's settings hash, the VAE file and the code; a stale checkpoint is started over.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import pickle
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from robocompose.evaluation.cache import EvaluationCache
+from robocompose.evaluation.evaluate import EvaluationConfig, evaluate, objective
+from robocompose.evaluation.executor import Executor
+from robocompose.glso import LATENT_METHODS, METHODS, best_designs
+from robocompose.glso.bo import BOConfig, LatentBO
+from robocompose.glso.designs import Proposal
+from robocompose.glso.ghs import GHSConfig, GraphHeuristicSearch
+from robocompose.glso.graph_ga import GAConfig, GraphGA
+from robocompose.glso.mcts import MCTSConfig, TreeSearch
+from robocompose.glso.random_search import RandomConfig, RandomSearch
+from robocompose.grammar.tree import DesignTree
+from robocompose.io import atomic_path, read_table, write_table
+from robocompose.io.errors import ArtifactError, check_field
+from robocompose.io.provenance import code_digest
+from robocompose.params import build_config
+from robocompose.tasks.terrains import get_task
+
+
+@dataclass(frozen=True)
+class GLSOConfig:
+    """The `glso:` section of params.yaml."""
+
+    tasks: list = field(default_factory=lambda: ["flat", "frozen_lake", "ridged", "wall"])
+    methods: list = field(default_factory=lambda: list(METHODS))
+    seeds: list = field(default_factory=lambda: [0, 1, 2])  # run seeds (thesis: 3)
+    budget: int = 550  # objective calls per run (GLSO: 50 random + 500 BO steps)
+    models: str = "models/vae_{variant}.pt"  # where the VAE of each latent method is ({variant}: full, ...)
+    bo: BOConfig = field(default_factory=BOConfig)
+    random: RandomConfig = field(default_factory=RandomConfig)
+    ga: GAConfig = field(default_factory=GAConfig)
+    mcts: MCTSConfig = field(default_factory=MCTSConfig)
+    ghs: GHSConfig = field(default_factory=GHSConfig)
+    workers: int = 0  # runs in parallel on local processes (0 = all cores); each run evaluates in its process
+    address: str = ""  # a running Dask scheduler (tcp://host:8786) to fan the runs out over; "" = local
+
+    def __post_init__(self) -> None:
+        for name, cls in (("bo", BOConfig), ("random", RandomConfig), ("ga", GAConfig), ("mcts", MCTSConfig),
+                          ("ghs", GHSConfig)):
+            if isinstance(getattr(self, name), dict):
+                object.__setattr__(self, name, build_config(cls, getattr(self, name), f"glso.{name}"))
+        unknown = [m for m in self.methods if m not in METHODS]
+        check_field(not unknown, "methods", f"some of {list(METHODS)}", unknown[:1])
+        for task in self.tasks:
+            get_task(task)
+        check_field(self.budget >= 1, "budget", "at least 1 objective call", self.budget)
+        check_field(bool(self.seeds), "seeds", "at least one run seed", self.seeds)
+        check_field("{variant}" in self.models, "models", "a path with {variant} in it", self.models)
+
+    def model_path(self, method: str) -> Path | None:
+        variant = LATENT_METHODS.get(method)
+        return None if variant is None else Path(self.models.format(variant=variant))
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    task: str
+    method: str
+    seed: int
+
+    @property
+    def name(self) -> str:
+        return f"{self.task}_{self.method}_seed{self.seed}"
+
+
+@dataclass
+class SearchEnv:
+    """What a method reads but does not own (never pickled with it): the task and the VAE (latent methods)."""
+
+    task: str
+    model: Any = None
+
+
+def make_method(spec: RunSpec, config: GLSOConfig, env: SearchEnv):
+    """The method object of a run, fresh (its state is everything the checkpoint pickles)."""
+    if spec.method in LATENT_METHODS:
+        return LatentBO(config.bo, spec.seed, config.budget, env.model.config.latent)
+    cls, settings = {"random": (RandomSearch, config.random), "ga": (GraphGA, config.ga),
+                     "mcts": (TreeSearch, config.mcts), "ghs": (GraphHeuristicSearch, config.ghs)}[spec.method]
+    return cls(settings, spec.seed, config.budget)
+
+
+def method_settings(spec: RunSpec, config: GLSOConfig) -> dict:
+    name = "bo" if spec.method in LATENT_METHODS else spec.method
+    return dataclasses.asdict(getattr(config, name))
+
+
+class Objective:
+    """The one objective of every method: one MPPI episode on the task through the evaluation cache."""
+
+    def __init__(self, task: str, evaluation: EvaluationConfig, cache: EvaluationCache | None = None):
+        self.task, self.evaluation = task, evaluation
+        self.cache = EvaluationCache() if cache is None else cache
+        self.settings_hash = evaluation.settings_hash(task)
+
+    def __call__(self, tree: DesignTree) -> dict:
+        """The evaluator's row {reward, status, sim_steps, seconds} of `tree` (cached if known)."""
+        key = (tree.design_id, self.task, self.settings_hash, self.evaluation.seed)
+        row = self.cache.get(key)
+        if row is None:
+            row = evaluate(tree, self.task, self.evaluation, self.evaluation.seed)
+            self.cache.put(key, **row)
+            self.cache.save()
+        return row
+
+
+def run_key(spec: RunSpec, config: GLSOConfig, evaluation: EvaluationConfig, model_path: Path | None) -> str:
+    """What a checkpoint must match to be resumed."""
+    model = hashlib.sha256(model_path.read_bytes()).hexdigest()[:16] if model_path else None
+    text = json.dumps([dataclasses.asdict(spec), config.budget, method_settings(spec, config),
+                       evaluation.settings_hash(spec.task), evaluation.seed, model,
+                       code_digest("robocompose.glso.runs")],
+                      sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def step_row(spec: RunSpec, step: int, proposal: Proposal, result: dict, score: float, repeat: bool,
+             best: float, seconds: float) -> dict:
+    from robocompose.latent.constraints import grammar_rules, is_derivable
+
+    tree = proposal.tree
+    rules = proposal.rules if proposal.rules is not None else (grammar_rules(tree) if is_derivable(tree) else ())
+    return {"step": step, "method": spec.method, "task": spec.task, "seed": spec.seed,
+            "design_id": tree.design_id, "rules": list(rules), "parents": list(tree.parents),
+            "tokens": list(tree.tokens), "latent": [] if proposal.z is None else proposal.z.tolist(),
+            "score": score, "reward": result["reward"], "status": result["status"], "repeat": repeat,
+            "best_so_far": best, "seconds": seconds}
+
+
+def run_search(spec: RunSpec, config: GLSOConfig, evaluation: EvaluationConfig,
+               objective_fn: Callable[[DesignTree], dict] | None = None, checkpoint: Path | None = None,
+               table: Path | None = None, on_step: Callable[[dict], None] | None = None,
+               model_path: Path | None = None) -> pd.DataFrame:
+    """One run of `config.budget` objective calls: its step table (resumed from `checkpoint` if it matches).
+
+    `objective_fn(tree)` returns an evaluator row {reward, status, ...} (default: the real evaluator through
+    `evaluation`'s cache); `on_step(row)` sees each new row after it is checkpointed; `model_path`
+    overrides the latent method's VAE file.
+    """
+    import torch
+    from threadpoolctl import threadpool_limits
+
+    # One thread for torch and BLAS: the networks and the GP are small, runs go in parallel, and the
+    # results do not depend on how many cores a worker happens to get.
+    torch.set_num_threads(1)
+    threadpool_limits(1)
+    check_field(spec.method in METHODS, "method", f"one of {list(METHODS)}", spec.method)
+    model_path = model_path or config.model_path(spec.method)
+    env = SearchEnv(get_task(spec.task).name)
+    if model_path is not None:
+        from robocompose.latent.train import load_model
+
+        env.model = load_model(model_path)
+    key = run_key(spec, config, evaluation, model_path)
+    method, rows = None, []
+    if checkpoint is not None and checkpoint.exists():
+        saved = pickle.loads(checkpoint.read_bytes())  # {key, state}: the state is unpickled only if the key
+        if saved["key"] == key:  # matches (an old checkpoint's classes may no longer exist)
+            method, rows = pickle.loads(saved["state"])
+    if method is None:
+        method = make_method(spec, config, env)
+    if objective_fn is None:
+        objective_fn = Objective(env.task, evaluation, evaluation.open_cache())
+    seen = {row["design_id"] for row in rows}
+    best = rows[-1]["best_so_far"] if rows else -np.inf
+    for step in range(len(rows), config.budget):
+        started = time.perf_counter()
+        proposal = method.propose(env)
+        result = objective_fn(proposal.tree)
+        score = objective(result)
+        method.tell(proposal, score)
+        best = max(best, score)
+        repeat = proposal.tree.design_id in seen
+        seen.add(proposal.tree.design_id)
+        rows.append(step_row(spec, step, proposal, result, score, repeat, best, time.perf_counter() - started))
+        if checkpoint is not None:
+            with atomic_path(checkpoint) as tmp:
+                tmp.write_bytes(pickle.dumps({"key": key, "state": pickle.dumps((method, rows))}))
+        if table is not None:
+            write_table(pd.DataFrame(rows), table, "glso_steps")
+        if on_step is not None:
+            on_step(rows[-1])
+    frame = pd.DataFrame(rows)
+    if table is not None:
+        write_table(frame, table, "glso_steps")
+    return frame
+
+
+@dataclass(frozen=True)
+class RunJob:
+    """One run as a picklable work item for the Executor."""
+
+    spec: RunSpec
+    config: GLSOConfig
+    evaluation: EvaluationConfig
+    out_dir: str
+
+
+def run_job(job: RunJob) -> str:
+    out = Path(job.out_dir)
+    table = out / "runs" / f"{job.spec.name}.parquet"
+    run_search(job.spec, job.config, job.evaluation, checkpoint=out / "checkpoints" / f"{job.spec.name}.pkl",
+               table=table)
+    return str(table)
+
+
+def run_specs(config: GLSOConfig) -> list[RunSpec]:
+    return [RunSpec(task, method, seed) for task in config.tasks for method in config.methods for seed in config.seeds]
+
+
+def run_all(config: GLSOConfig, evaluation: EvaluationConfig, out_dir: Path,
+            executor: Executor | None = None) -> pd.DataFrame:
+    """Every (task, method, seed) run, fanned out over `executor`; all step tables, concatenated in run order."""
+    from tqdm import tqdm
+
+    for method in config.methods:
+        path = config.model_path(method)
+        if path is not None and not path.exists():
+            raise ArtifactError(f"{path}: the VAE of method {method} is missing (dvc repro train_vae)")
+    jobs = [RunJob(spec, config, evaluation, str(out_dir)) for spec in run_specs(config)]
+    executor = executor or Executor(workers=1)
+    tables = list(tqdm(executor.imap(run_job, jobs), total=len(jobs), desc="glso runs", unit="run"))
+    return pd.concat([read_table(t, "glso_steps") for t in tables], ignore_index=True)
+
+
+def summarise(steps: pd.DataFrame) -> dict:
+    """Final best per (task, method) as mean, min and max over seeds, with the seed count and budget."""
+    final = steps.sort_values("step").groupby(["task", "method", "seed"], sort=False)["best_so_far"].last()
+    out: dict[str, dict] = {}
+    for (task, method), values in final.groupby(level=[0, 1], sort=False):
+        out.setdefault(task, {})[method] = {
+            "mean": round(float(values.mean()), 4), "min": round(float(values.min()), 4),
+            "max": round(float(values.max()), 4), "seeds": int(len(values)),
+            "budget": int(steps[(steps.task == task) & (steps.method == method)]["step"].max() + 1)}
+    return out
+
+
+def record_best(steps: pd.DataFrame, evaluation: EvaluationConfig, out_dir: Path,
+                executor: Executor | None = None, gif_size: tuple[int, int] = (320, 240)) -> pd.DataFrame:
+    """Replay each task's best design into out_dir/<task>.mcap and .gif; the rows replayed."""
+    from robocompose.evaluation.evaluate import EvalJob
+    from robocompose.evaluation.references import record_rollout
+
+    best = best_designs(steps)
+    jobs = [(EvalJob(DesignTree(tuple(row.parents), tuple(row.tokens)), row.task, evaluation, evaluation.seed),
+             gif_size) for row in best.itertuples()]
+    for row, (replay, recorder) in zip(best.itertuples(), (executor or Executor(workers=1)).map(record_rollout, jobs),
+                                       strict=True):
+        if replay["reward"] != row.reward:
+            raise RuntimeError(f"glso: the best design of {row.task} replayed to {replay['reward']}, its run scored "
+                               f"{row.reward} (the simulation is not deterministic here)")
+        recorder.write_mcap(out_dir / f"{row.task}.mcap")
+        recorder.write_gif(out_dir / f"{row.task}.gif")
+    return best

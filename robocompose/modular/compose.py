@@ -1,0 +1,135 @@
+"""`robocompose compose modular`: the k best distinct designs for a terrain from a trained EG-GAN generator.
+
+    robocompose compose modular --terrain-seed 1000 --k 10 [--max leg=2,wheel=0] [--model PATH] [--simulate]
+    robocompose compose modular --heightmap map.npy ...
+
+Prints one JSON object: `designs` (each: `design`, the port string `modular evaluate` takes, and `score`, the
+generator's probability of it for this terrain), ranked without simulating; `--simulate` adds each design's
+distance and status. Designs the fitness rule rejects and designs over a `--max` cap are never answered. With
+no `--model`, the generator shipped in the repository (trained by the default profile) is used.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+from robocompose.io.errors import InputError
+
+SHIPPED_MODEL = Path(__file__).resolve().parent / "pretrained" / "eggan.pt"
+MODULE_NAMES = {"none": "n", "leg": "l", "wheel": "w", "legwheel": "b", "leg-wheel": "b", "leg_wheel": "b"}
+MAX_DRAWS = 16  # batches of `--samples` draws tried before answering with fewer than k designs
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add `compose modular` to the `compose` command."""
+    modular = subparsers.add_parser("modular", help="modular robot designs for a terrain in milliseconds (EG-GAN)")
+    task = modular.add_mutually_exclusive_group(required=True)
+    task.add_argument("--terrain-seed", type=int, help="seed of a block terrain")
+    task.add_argument("--heightmap", type=Path, help="a .npy height map of shape (50, 20), metres, x by y")
+    modular.add_argument("--k", type=int, default=10, help="distinct designs to answer (default 10)")
+    modular.add_argument("--max", default="", help="caps per module type, e.g. leg=2,wheel=0 (none, leg, wheel, "
+                         "legwheel)")
+    modular.add_argument("--model", type=Path, help=f"generator file (default: the shipped {SHIPPED_MODEL.name})")
+    modular.add_argument("--samples", type=int, default=64, help="generator draws per batch (default 64)")
+    modular.add_argument("--seed", type=int, default=0, help="seed of the noise vectors")
+    modular.add_argument("--simulate", action="store_true", help="also simulate each design (distance, status)")
+    modular.add_argument("--params", type=Path, default=Path("params.yaml"),
+                         help="params file with a modular: section (default params.yaml; if absent, the defaults)")
+    modular.set_defaults(handler=_compose)
+
+    ship = subparsers.add_parser("ship-modular", help="copy a trained generator (float16) to the shipped default")
+    ship.add_argument("--from", dest="source", type=Path, default=Path("models/eggan_modular_crowding.pt"),
+                      help="generator of `dvc repro train_eggan_modular` (default: the EG-GAN-crowding one)")
+    ship.set_defaults(handler=_ship)
+
+
+def parse_caps(text: str) -> dict[str, int]:
+    """'leg=2,wheel=0' -> {'l': 2, 'w': 0}; a clear error naming the flag otherwise."""
+    caps: dict[str, int] = {}
+    for part in filter(None, (p.strip() for p in text.split(","))):
+        name, _, value = part.partition("=")
+        if name.strip().lower() not in MODULE_NAMES or not value.strip().isdigit():
+            raise InputError(f"--max {text!r}: expected NAME=COUNT pairs with NAME in "
+                             f"{sorted(set(MODULE_NAMES) - {'leg-wheel', 'leg_wheel'})} and COUNT >= 0")
+        caps[MODULE_NAMES[name.strip().lower()]] = int(value)
+    return caps
+
+
+def read_heightmap(path: Path):
+    """A (50, 20) finite float32 height map from a .npy file, or a clear error."""
+    import numpy as np
+
+    from robocompose.modular.terrain import GRID_X, GRID_Y
+
+    if not path.is_file():
+        raise FileNotFoundError(f"--heightmap {path}: no such file")
+    try:
+        heights = np.load(path, allow_pickle=False)
+    except Exception as err:  # not a .npy array: name the file
+        raise InputError(f"--heightmap {path}: not a .npy array ({err})") from None
+    if heights.shape != (GRID_X, GRID_Y):
+        raise InputError(f"--heightmap {path}: expected shape ({GRID_X}, {GRID_Y}) (x by y), found {heights.shape}")
+    if not np.issubdtype(heights.dtype, np.number) or not np.isfinite(heights).all():
+        raise InputError(f"--heightmap {path}: expected finite numbers (metres)")
+    return heights.astype(np.float32)
+
+
+def _ship(args: argparse.Namespace) -> None:
+    from robocompose.eggan.query import load_generator, save_generator
+    from robocompose.modular.eggan_problem import FitnessConfig, ModularEgganProblem
+    from robocompose.modular.evaluate import EvalSettings, FitnessRule
+    from robocompose.modular.params import ExperimentsConfig, ModularParams
+
+    problem = ModularEgganProblem(ModularParams(EvalSettings(), FitnessRule(), ExperimentsConfig()), FitnessConfig())
+    generator, info = load_generator(args.source, problem)
+    meta = {k: v for k, v in info.items() if k not in ("problem", "task_shape", "design_shape", "network",
+                                                         "model_code", "weights")}
+    save_generator(generator, problem, SHIPPED_MODEL, {**meta, "shipped_from": str(args.source)}, half=True)
+    print(json.dumps({"shipped": str(SHIPPED_MODEL), "from": str(args.source), "bytes": SHIPPED_MODEL.stat().st_size}))
+
+
+def _compose(args: argparse.Namespace) -> None:
+    import torch
+
+    from robocompose.eggan.query import generate, load_generator, rank_distinct
+    from robocompose.modular.cli import _params
+    from robocompose.modular.eggan_problem import FitnessConfig, ModularEgganProblem
+
+    if args.k < 1 or args.samples < 1:
+        raise InputError("--k and --samples: expected positive integers")
+    caps = parse_caps(args.max)
+    params = _params(args.params)
+    problem = ModularEgganProblem(params, FitnessConfig())
+    torch.set_num_threads(1)
+    started = time.perf_counter()
+    generator, info = load_generator(args.model or SHIPPED_MODEL, problem)
+    if args.heightmap is not None:
+        task, tensor = None, torch.from_numpy(read_heightmap(args.heightmap))
+    else:
+        task, tensor = args.terrain_seed, problem.encode_task(args.terrain_seed)
+    loaded = time.perf_counter()
+    ranked = []
+    for draw in range(1, MAX_DRAWS + 1):
+        sampled, output = generate(generator, problem, task, args.samples * draw, seed=args.seed, task_tensor=tensor)
+        allowed = [r for r in rank_distinct(problem, sampled, output, len(sampled.designs))
+                   if not params.fitness.skips(r.design) and all(r.design.count(m) <= c for m, c in caps.items())]
+        ranked = allowed[:args.k]
+        if len(ranked) == args.k:
+            break
+    query_ms = (time.perf_counter() - loaded) * 1000
+    designs = [{"design": r.design, "score": round(r.score, 6)} for r in ranked]
+    if args.simulate:
+        if task is None:
+            raise InputError("--simulate needs --terrain-seed (a height map alone does not define the blocks)")
+        from robocompose.modular.evaluate import evaluate_designs
+
+        for entry, result in zip(designs, evaluate_designs([d["design"] for d in designs], task, params.eval,
+                                                           params.fitness), strict=True):
+            entry["distance"], entry["status"] = result.distance, result.status
+    print(json.dumps({"terrain_seed": args.terrain_seed, "heightmap": str(args.heightmap) if args.heightmap else None,
+                      "k": args.k, "found": len(designs), "max": caps, "designs": designs,
+                      "model": str(args.model or SHIPPED_MODEL), "model_run_key": info.get("run_key"),
+                      "query_ms": round(query_ms, 2), "load_ms": round((loaded - started) * 1000, 2)}))

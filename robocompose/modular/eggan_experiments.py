@@ -1,0 +1,203 @@
+"""EG-GAN on modular robots: training the two variants, and the real-time test protocol of Table 5.1.
+
+Training (`train_variant`): Algorithm 1 on `ModularEgganProblem` with the variant's evolution (crowding:
+EG-GAN-crowding; ga: EG-GAN), resumable from its checkpoint; the generator is saved with its params, metrics
+and code provenance.
+
+Protocol (`realtime_table`), for every method that answers a query in real time (a `Proposer`: terrain ->
+candidate designs) on every held-out test terrain and query:
+- the method outputs `candidates` designs (EG-GAN: the most probable distinct designs among `samples` draws);
+- all of them are simulated (real evaluator, through the cache; on a terrain the exhaustive table covers, its
+  rollouts answer); max distance = the best valid one;
+- distinct solutions = the niching metric (delta 1 Hamming, epsilon 0.5 m) over the valid candidates (0 if none:
+  penalty scores are not distances);
+- EC: `ec_draws` random caps on one module type; the answer is the best satisfying valid candidate, else a
+  random valid satisfying design (modular `ec_answers`); the answer is simulated. Answers are valid designs,
+  so EC is a distance; a query whose candidates are all invalid is counted as a failure, not averaged;
+- regret = the terrain's exhaustive optimum minus max distance, where the exhaustive table has the terrain.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import torch
+
+from robocompose.eggan.fit2form import Fit2formConfig, train_fit2form
+from robocompose.eggan.query import generate, load_generator, rank_distinct, save_generator
+from robocompose.eggan.train import Trained, train
+from robocompose.evaluation.cache import EvaluationCache
+from robocompose.evaluation.executor import Executor
+from robocompose.modular.eggan_params import VARIANTS, EgganModularParams
+from robocompose.modular.eggan_problem import ModularEgganProblem
+from robocompose.modular.evaluate import Result, evaluate_designs
+from robocompose.modular.experiments import DELTA, EPSILON, _seed, ec_answers, emergency_constraints
+from robocompose.modular.params import ModularParams
+from robocompose.modular.problem import hamming
+from robocompose.params import build_config
+from robocompose.search.metrics import distinct_solutions
+
+# (problem, terrain seed, query seed, candidates) -> candidate designs, best first
+Proposer = Callable[[ModularEgganProblem, int, int, int], list[str]]
+
+
+def make_problem(modular: ModularParams, params: EgganModularParams, cache: EvaluationCache | None,
+                 executor: Executor | None, evaluate_calls: int | None = None) -> ModularEgganProblem:
+    """The training problem. `evaluate_calls`: how many evaluate calls the method's run makes; the real rounds
+    are then spaced so that every method spends the same budget evenly over its run (the default spacing
+    otherwise)."""
+    fitness = params.fitness
+    if evaluate_calls is not None:
+        rounds = max(1, math.ceil((fitness.budget - fitness.warmup) / fitness.real_per_round))
+        fitness = dataclasses.replace(fitness, real_every=max(1, evaluate_calls // rounds))
+    return ModularEgganProblem(modular, fitness, cache, executor, modular.experiments.mutation_rate,
+                               modular.experiments.crossover_rate)
+
+
+def train_variant(variant: str, modular: ModularParams, params: EgganModularParams, cache: EvaluationCache | None,
+                  executor: Executor | None, out: Path, progress: bool = False) -> tuple[Trained, dict]:
+    """Train one EG-GAN variant; writes out/eggan_modular_VARIANT.{pt,json,mcap,csv} and its checkpoint."""
+    if variant not in VARIANTS:
+        raise ValueError(f"variant {variant!r}: expected one of {sorted(VARIANTS)}")
+    config = dataclasses.replace(params.train, evolution=variant, evolution_steps=params.evolution_steps[variant])
+    # per iteration and task: X_gen, then one batch per crowding step / GA generation
+    problem = make_problem(modular, params, cache, executor,
+                           config.iterations * config.tasks * (1 + config.evolution_steps))
+    name = f"eggan_modular_{variant}"
+    started = time.perf_counter()
+    trained = train(problem, params.network, config, out / "checkpoints" / f"{name}.pt",
+                    Path("reports/plots") / f"{name}.csv", out / f"{name}.mcap", progress=progress)
+    metrics = {"method": VARIANTS[variant], "iterations": config.iterations, "batch": config.batch,
+               "tasks_per_iteration": config.tasks, "evolution": variant, "evolution_steps": config.evolution_steps,
+               "real_evaluations": problem.real_evaluations, "surrogate_heldout": problem.surrogate_error(),
+               "train_seconds_this_run": round(time.perf_counter() - started, 1),
+               "final": {k: v for k, v in trained.rows[-1].items()} if trained.rows else {}}
+    save_generator(trained.generator, problem, out / f"{name}.pt",
+                   {"run_key": trained.key, "settings_hash": modular.eval.settings_hash(),
+                    "train": dataclasses.asdict(config), "metrics": metrics})
+    return trained, metrics
+
+
+def generator_proposer(generator: torch.nn.Module, samples: int) -> Proposer:
+    """EG-GAN's answer: the most probable distinct designs among `samples` draws (more draws if too few)."""
+
+    def propose(problem: ModularEgganProblem, terrain_seed: int, query_seed: int, candidates: int) -> list[str]:
+        tensor = problem.encode_task(terrain_seed)
+        ranked = []
+        for chunk in range(16):  # a sharp generator may need more than one batch for `candidates` distinct designs
+            sampled, output = generate(generator, problem, terrain_seed, samples * (chunk + 1), seed=query_seed,
+                                       task_tensor=tensor)
+            ranked = rank_distinct(problem, sampled, output, candidates)
+            if len(ranked) == candidates:
+                break
+        return [r.design for r in ranked]
+
+    return propose
+
+
+REALTIME_METHODS = {"fit2form": "Fit2form", "random": "Random sampling", "ga": "EG-GAN",
+                    "crowding": "EG-GAN-crowding"}  # Table 5.1's rows we run (DQN and MolGAN: not built)
+
+
+def realtime_proposers(problem: ModularEgganProblem, params: EgganModularParams, models: Path) -> dict[str, Proposer]:
+    """Every real-time method of Table 5.1 that has a trained model under `models` (random sampling always)."""
+    proposers: dict[str, Proposer] = {}
+    for method in REALTIME_METHODS:
+        path = models / f"eggan_modular_{method}.pt"
+        if method == "random":
+            proposers[method] = random_proposer
+        elif path.exists():
+            proposers[method] = generator_proposer(load_generator(path, problem)[0], params.protocol.samples)
+        else:
+            raise FileNotFoundError(f"{path}: no trained {REALTIME_METHODS[method]} model (run train_eggan_modular)")
+    return proposers
+
+
+def train_fit2form_baseline(modular: ModularParams, params: EgganModularParams, cache: EvaluationCache | None,
+                            executor: Executor | None, out: Path, progress: bool = False) -> dict:
+    """Fit2form on the same problem and budget of real rollouts; writes out/eggan_modular_fit2form.{pt,json}."""
+    config = build_config(Fit2formConfig, params.baselines.get("fit2form", {}), "eggan_modular.baselines.fit2form")
+    problem = make_problem(modular, params, cache, executor, config.iterations * config.tasks)
+    started = time.perf_counter()
+    generator, rows = train_fit2form(problem, params.network, config, progress)
+    metrics = {"method": "Fit2form", "iterations": config.iterations, "real_evaluations": problem.real_evaluations,
+               "surrogate_heldout": problem.surrogate_error(), "train_seconds": round(time.perf_counter() - started, 1),
+               "final": rows[-1]}
+    save_generator(generator, problem, out / "eggan_modular_fit2form.pt",
+                   {"settings_hash": modular.eval.settings_hash(), "train": dataclasses.asdict(config),
+                    "metrics": metrics})
+    return metrics
+
+
+def random_proposer(problem: ModularEgganProblem, terrain_seed: int, query_seed: int, candidates: int) -> list[str]:
+    """Random sampling (thesis Table 5.1): `candidates` designs drawn uniformly (every port uniform)."""
+    rng = np.random.default_rng([query_seed, terrain_seed, 6007])
+    return ["".join("nlwb"[int(i)] for i in row) for row in rng.integers(4, size=(candidates, 6))]
+
+
+def realtime_table(proposers: dict[str, Proposer], problem: ModularEgganProblem, modular: ModularParams,
+                   params: EgganModularParams, truth: pd.DataFrame | None, cache: EvaluationCache | None,
+                   executor: Executor | None) -> pd.DataFrame:
+    """One row per method x test terrain x query (see the module docstring)."""
+    p = params.protocol
+    rule = modular.fitness
+    rows = []
+    for terrain_seed in p.test_terrains:
+        optimum, known = np.nan, None
+        if truth is not None and (truth.terrain_seed == terrain_seed).any():
+            table = truth[truth.terrain_seed == terrain_seed]
+            optimum = float(table.fitness.max())
+            known = {d: Result(None if pd.isna(x) else float(x), s, 0, 0.0)
+                     for d, x, s in zip(table.design, table.distance, table.status, strict=True)}
+
+        def simulate(designs: list[str], terrain_seed=terrain_seed, known=known) -> list[Result]:
+            """Real results: the exhaustive table's rollouts where it covers the terrain, else new rollouts."""
+            if known is not None:
+                return [known[d] for d in designs]
+            return evaluate_designs(designs, terrain_seed, modular.eval, rule, cache, executor)
+
+        for method, propose in proposers.items():
+            problem.encode_task(terrain_seed)  # the height map is the query's input: not part of its time
+            for query in range(p.queries):
+                query_seed = _seed(query, terrain_seed, 4999)
+                started = time.perf_counter()
+                candidates = propose(problem, terrain_seed, query_seed, p.candidates)
+                query_ms = (time.perf_counter() - started) * 1000
+                results = simulate(candidates)
+                fitness = np.array([rule.fitness(r) for r in results])
+                valid = np.array([r.distance is not None for r in results])
+                rng = np.random.default_rng([query_seed, terrain_seed, 7919])  # the same caps for every method
+                constraints = emergency_constraints(rng, p.ec_draws)
+                ok = [c for c, v in zip(candidates, valid, strict=True) if v]
+                answers = ec_answers(ok, fitness[valid], constraints, rng, valid=lambda d: not rule.skips(d))
+                ec = simulate(answers)
+                ec_ok = [r.distance for r in ec if r.distance is not None]
+                best = float(fitness[valid].max()) if valid.any() else np.nan
+                rows.append({
+                    "method": method, "terrain_seed": int(terrain_seed), "query": query,
+                    "candidates": len(candidates), "valid": int(valid.sum()),
+                    "best_design": candidates[int(np.argmax(np.where(valid, fitness, -np.inf)))] if valid.any()
+                    else "", "max_distance": best,
+                    "distinct": distinct_solutions(ok, fitness[valid], lambda a, b: float(hamming(a, b)), DELTA,
+                                                   EPSILON),
+                    "ec_distance": float(np.mean(ec_ok)) if ec_ok else np.nan,
+                    "ec_failures": len(ec) - len(ec_ok), "optimum": optimum, "regret": optimum - best,
+                    "query_ms": query_ms})
+    return pd.DataFrame(rows)
+
+
+def summarise(table: pd.DataFrame) -> pd.DataFrame:
+    """Per method: mean and std over terrains x queries of max distance, distinct, EC, regret; failure counts."""
+    grouped = table.groupby("method", sort=False)
+    out = grouped[["max_distance", "distinct", "ec_distance", "regret", "query_ms"]].agg(["mean", "std"])
+    out.columns = [f"{a}_{b}" for a, b in out.columns]
+    out["queries"] = grouped.size()
+    out["no_valid_candidate"] = grouped.max_distance.apply(lambda s: int(s.isna().sum()))
+    out["ec_failures"] = grouped.ec_failures.sum()
+    return out.reset_index()

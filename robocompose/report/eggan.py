@@ -1,0 +1,174 @@
+"""Report section for EG-GAN on modular robots (thesis ch. 4, 5.1): Table 5.1 (real-time methods), Table 5.2's
+EG-GAN-crowding row beside the GA runs, the training budgets and surrogate error, the training curves, and
+Fig. 5.1 (two test terrains, the generator's top designs, a random constraint and the designs that survive it).
+
+Built from `train_eggan_modular` (reports/metrics/eggan_modular.json, reports/plots/eggan_modular_*.csv, the
+generators) and `modular_realtime` (data/modular/realtime.parquet); every distance is a pybullet rollout.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pandas as pd
+
+from robocompose.io import read_table
+
+# Thesis Table 5.1 (learned controller): max distance (m), distinct solutions, max distance under EC (m).
+THESIS_TABLE_5_1 = {"Fit2form": ("4.03 ± 0.91", "1.2 ± 0.2", "2.55 ± 1.31"),
+                    "DQN based": ("4.31 ± 0.26", "2.7 ± 0.9", "3.10 ± 0.92"),
+                    "MolGAN": ("3.82 ± 0.55", "1.8 ± 0.3", "2.93 ± 1.00"),
+                    "Random sampling": ("0.72 ± 0.64", "-", "0.63 ± 0.69"),
+                    "EG-GAN": ("5.10 ± 0.42", "2.2 ± 0.7", "3.77 ± 1.18"),
+                    "EG-GAN-crowding": ("5.73 ± 0.22", "5.8 ± 1.5", "5.36 ± 0.52")}
+# Thesis, hand-crafted controller ("effect of the controller"): max distance (m).
+THESIS_HANDCRAFTED = {"Fit2form": "3.81 ± 1.22", "Random sampling": "0.86 ± 0.81", "EG-GAN-crowding": "4.96 ± 0.45"}
+THESIS_QUERY_MIN = 0.003  # EG-GAN-crowding's runtime in Table 5.2
+NAMES = {"fit2form": "Fit2form", "random": "Random sampling", "ga": "EG-GAN", "crowding": "EG-GAN-crowding"}
+
+
+def _ms(values: pd.Series, digits: int = 2) -> str:
+    values = values.dropna()
+    return f"{values.mean():.{digits}f} ± {values.std(ddof=0):.{digits}f}" if len(values) else "n/a"
+
+
+def section(reports_dir: Path, data_dir: Path) -> str:
+    realtime_path = Path(data_dir) / "modular" / "realtime.parquet"
+    metrics_path = Path(reports_dir) / "metrics" / "eggan_modular.json"
+    title = "## EG-GAN: modular robots for a terrain in real time (thesis ch. 4, 5.1; Tables 5.1, 5.2)"
+    if not realtime_path.exists() or not metrics_path.exists():
+        return (f"{title}\n\nNot run yet: missing {realtime_path} or {metrics_path} (stages `train_eggan_modular`, "
+                "`modular_realtime`).\n")
+    table = read_table(realtime_path, "modular_realtime")
+    metrics = json.loads(metrics_path.read_text())
+    seeds = ", ".join(map(str, sorted(table.terrain_seed.unique())))
+    lines = [title, "",
+             "Trained on terrain seeds disjoint from the test terrains; tested on "
+             f"{table.terrain_seed.nunique()} held-out terrains ({seeds})"
+             f" x {table['query'].nunique()} queries per method (thesis: 10 x 20). Every method outputs "
+             f"{int(table.candidates.max())} candidates per query, all simulated (pybullet, hand-crafted gait); "
+             "max distance = the best valid candidate; distinct = niching metric (delta 1 Hamming, epsilon 0.5 m) "
+             "over the candidates; EC = the best candidate satisfying a random cap on one module type (else a random "
+             "valid satisfying design), simulated; regret = the terrain's exhaustive optimum minus max distance "
+             "(only where the exhaustive table covers the terrain). Thesis columns: its learned controller; the "
+             "hand-crafted column is the thesis's experiment with a controller like ours.", "",
+             "### Table 5.1: real-time methods", "",
+             "| method | max distance (m) | distinct | EC distance (m) | regret (m) | no valid candidate / EC failures "
+             "| real rollouts in training | thesis distance | thesis distinct | thesis EC | thesis hand-crafted |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for method, name in NAMES.items():
+        group = table[table.method == method]
+        if group.empty:
+            continue
+        spent = metrics.get(method, {}).get("real_evaluations", "-" if method == "random" else "n/a")
+        thesis = THESIS_TABLE_5_1[name]
+        lines.append(f"| {name} | {_ms(group.max_distance)} | {_ms(group.distinct, 1)} | {_ms(group.ec_distance)} | "
+                     f"{_ms(group.regret)} | {int(group.max_distance.isna().sum())} / {int(group.ec_failures.sum())} | "
+                     f"{spent} | {thesis[0]} | {thesis[1]} | {thesis[2]} | {THESIS_HANDCRAFTED.get(name, '-')} |")
+    for name in ("DQN based", "MolGAN"):
+        thesis = THESIS_TABLE_5_1[name]
+        lines.append(f"| {name} | not built | | | | | | {thesis[0]} | {thesis[1]} | {thesis[2]} | - |")
+    lines += ["", _verdict(table), ""]
+    lines += _training_lines(metrics)
+    lines += _table_5_2(table, data_dir)
+    generator_path = Path("models/eggan_modular_crowding.pt")
+    if generator_path.exists() and Path("params.yaml").exists():
+        figures = Path(reports_dir) / "figures"
+        figures.mkdir(parents=True, exist_ok=True)
+        lines += ["", "### Fig. 5.1: generated designs and emergency constraints", "",
+                  _figure_5_1(generator_path, sorted(table.terrain_seed.unique())[:2], figures / "eggan_fig5_1.png"),
+                  "", "![Fig. 5.1](figures/eggan_fig5_1.png)", "",
+                  "Top: two test terrains (height maps). Below: EG-GAN-crowding's four most probable designs for each "
+                  "(one query, 64 samples), a random emergency constraint, and the designs of the ten candidates "
+                  "that survive it (ports front-left, mid-left, back-left, back-right, mid-right, front-right; "
+                  "n none, l leg, w wheel, b leg-wheel)."]
+    return "\n".join(lines) + "\n"
+
+
+def _figure_5_1(generator_path: Path, terrains: list[int], path: Path) -> str:
+    """Draw Fig. 5.1 and return a one-line caption with the terrains and constraints used."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from robocompose.eggan.query import generate, load_generator, rank_distinct
+    from robocompose.modular.eggan_problem import FitnessConfig, ModularEgganProblem
+    from robocompose.modular.experiments import emergency_constraints, satisfies
+    from robocompose.modular.params import load_modular_params
+
+    params = load_modular_params("params.yaml")
+    problem = ModularEgganProblem(params, FitnessConfig())
+    generator, _ = load_generator(generator_path, problem)
+    names = {"l": "legs", "w": "wheels", "b": "leg-wheels"}
+    fig, axes = plt.subplots(2, len(terrains), figsize=(6 * len(terrains), 6), squeeze=False)
+    used = []
+    for k, seed in enumerate(terrains):
+        heights = problem.encode_task(int(seed)).numpy()
+        axes[0, k].imshow(heights.T, origin="lower", extent=[-1, 9, -2, 2], cmap="copper")
+        axes[0, k].set_title(f"test terrain {seed} (max block {heights.max() * 100:.1f} cm)")
+        ranked = rank_distinct(problem, *generate(generator, problem, int(seed), 64, seed=0), 10)
+        valid = [r.design for r in ranked if not params.fitness.skips(r.design)]
+        constraint = emergency_constraints(np.random.default_rng([int(seed), 51]), 1)[0]
+        survivors = [d for d in valid if satisfies(d, constraint)]
+        used.append(f"terrain {seed}: at most {constraint[1]} {names[constraint[0]]}")
+        text = ("top designs: " + ", ".join(valid[:4]) + f"\n\nconstraint: at most {constraint[1]} "
+                f"{names[constraint[0]]}\nsurviving: " + (", ".join(survivors[:4]) or "none (a random valid design)"))
+        axes[1, k].text(0.02, 0.5, text, family="monospace", fontsize=11, va="center", wrap=True)
+        axes[1, k].axis("off")
+    fig.tight_layout()
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+    return "Constraints drawn: " + "; ".join(used) + "."
+
+
+def _verdict(table: pd.DataFrame) -> str:
+    means = table.groupby("method")[["max_distance", "distinct"]].mean()
+    if not {"crowding", "random", "ga"} <= set(means.index):
+        return ""
+    beats = means.max_distance["crowding"] > means.max_distance["random"]
+    diverse = means.distinct["crowding"] > means.distinct["ga"]
+    return (f"EG-GAN-crowding {'beats' if beats else 'does not beat'} random sampling on max distance "
+            f"({means.max_distance['crowding']:.2f} vs {means.max_distance['random']:.2f} m) and "
+            f"{'has' if diverse else 'does not have'} more distinct solutions than EG-GAN "
+            f"({means.distinct['crowding']:.1f} vs {means.distinct['ga']:.1f}).")
+
+
+def _training_lines(metrics: dict) -> list[str]:
+    lines = ["### Training (surrogate fitness, real rollouts)", "",
+             "| method | iterations | real rollouts | surrogate held-out MAE (m) | RMSE (m) | Spearman | held-out "
+             "rollouts | real distance std (m) |", "|---|---|---|---|---|---|---|---|"]
+    for method, m in metrics.items():
+        s = {"mae": float("nan"), "rmse": float("nan"), "spearman": float("nan"), "real_std": float("nan"),
+             **m.get("surrogate_heldout", {})}
+        lines.append(f"| {m.get('method', method)} | {m.get('iterations')} | {m.get('real_evaluations')} | "
+                     f"{s['mae']:.2f} | {s['rmse']:.2f} | {s['spearman']:.2f} | {s.get('heldout')} | "
+                     f"{s['real_std']:.2f} |")
+    lines += ["", "Training fitness: a real rollout where one was made, else the surrogate fitted on the real "
+              "rollouts (every fifth held out of the fit; the error above is on those). Curves: "
+              "`reports/plots/eggan_modular_{crowding,ga}.csv` (DVC plots) and `models/eggan_modular_*.mcap`.", ""]
+    return lines
+
+
+def _table_5_2(table: pd.DataFrame, data_dir: Path) -> list[str]:
+    runs_path = Path(data_dir) / "modular" / "runs.parquet"
+    crowding = table[table.method == "crowding"]
+    lines = ["### Table 5.2: EG-GAN-crowding beside the GA runs", "",
+             "| method | max distance (m) | distinct | runtime | test terrains |", "|---|---|---|---|---|"]
+    if runs_path.exists():
+        runs = read_table(runs_path, "modular_runs")
+        for method, name in (("ga20", "GA-20"), ("ga50", "GA-50"), ("crowding", "GA-crowding")):
+            group = runs[runs.method == method]
+            if len(group):
+                lines.append(f"| {name} | {_ms(group.best_distance)} | {_ms(group.distinct, 1)} | "
+                             f"{int(group.evaluations.mean())} rollouts (see the modular section's runtimes) | "
+                             f"{', '.join(map(str, sorted(group.terrain_seed.unique())))} |")
+    if len(crowding):
+        lines.append(f"| EG-GAN-crowding | {_ms(crowding.max_distance)} | {_ms(crowding.distinct, 1)} | "
+                     f"{crowding.query_ms.median():.1f} ms per query (median; thesis {THESIS_QUERY_MIN} min) | "
+                     f"{', '.join(map(str, sorted(crowding.terrain_seed.unique())))} |")
+    lines += ["", "The GA rows search each test terrain from scratch (their runtime is simulation); EG-GAN-crowding's "
+              "query is one generator pass (its candidates' simulation for the table is not part of the query)."]
+    return lines

@@ -1,0 +1,134 @@
+"""Report section for the GLSO search (thesis 8): Figs. 8.1 and 8.2 (best so far vs evaluations), the final
+best per method and task, the thesis's claims beside ours, and each task's best design (Fig. 7.2).
+
+Built from the `glso` stage's outputs (data/glso/steps.parquet, data/glso/rollouts/); every score is the
+real evaluator's (MPPI in pybullet at the profile's settings), the same for every method.
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from robocompose.glso import FIG_8_1, FIG_8_2, best_designs
+from robocompose.io import read_table
+
+LABELS = {"glso": "GLSO", "glso_nopred": "GLSO_nopred", "glso_nogram": "GLSO_nogram", "random": "Random",
+          "ga": "GA", "mcts": "MCTS", "ghs": "GHS"}
+
+
+def curves(steps: pd.DataFrame) -> pd.DataFrame:
+    """Best so far after each evaluation: mean, min and max over seeds, per (task, method, evaluations)."""
+    frame = steps.assign(evaluations=steps["step"] + 1)
+    return (frame.groupby(["task", "method", "evaluations"])["best_so_far"]
+            .agg(["mean", "min", "max"]).reset_index())
+
+
+def _plot(stats: pd.DataFrame, tasks: list[str], methods: tuple[str, ...], title: str, path: Path) -> None:
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(tasks), figsize=(4.2 * len(tasks), 3.4), squeeze=False)
+    for ax, task in zip(axes[0], tasks, strict=True):
+        for method in methods:
+            s = stats[(stats.task == task) & (stats.method == method)]
+            if len(s):
+                line, = ax.plot(s["evaluations"], s["mean"], label=LABELS[method])
+                ax.fill_between(s["evaluations"], s["min"], s["max"], color=line.get_color(), alpha=0.2)
+        ax.set_title(task)
+        ax.set_xlabel("evaluations")
+        ax.set_ylabel("best reward so far")
+    axes[0][0].legend(fontsize=8)
+    fig.suptitle(title)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _final_table(final: pd.DataFrame, tasks: list[str], methods: list[str]) -> list[str]:
+    lines = ["| method | " + " | ".join(tasks) + " |", "|---|" + "---|" * len(tasks)]
+    for method in methods:
+        cells = []
+        for task in tasks:
+            v = final[(final.task == task) & (final.method == method)]["best_so_far"]
+            cells.append(f"{v.mean():.3f} [{v.min():.3f}, {v.max():.3f}] (n={len(v)})" if len(v) else "-")
+        lines.append(f"| {LABELS[method]} | " + " | ".join(cells) + " |")
+    return lines
+
+
+def claims(final: pd.DataFrame, tasks: list[str]) -> list[str]:
+    """The thesis's two claims, checked on the mean final best over seeds, per task."""
+    mean = final.groupby(["task", "method"])["best_so_far"].mean()
+    out = []
+    for task in tasks:
+        m = mean[task]
+        baselines = [x for x in FIG_8_1 if x in m.index and x != "glso"]
+        if "glso" in m.index and baselines:
+            winner = max(["glso", *baselines], key=lambda x: m[x])
+            held = winner == "glso"
+            out.append(f"- {task}: GLSO best of Fig. 8.1: **{'holds' if held else 'does not hold'}** "
+                       f"(GLSO {m['glso']:.3f}; best other {LABELS[max(baselines, key=m.get)]} "
+                       f"{max(m[b] for b in baselines):.3f}).")
+        ablations = [x for x in ("glso_nopred", "glso_nogram") if x in m.index]
+        if "glso" in m.index and ablations:
+            held = len(ablations) == 2 and all(m[x] < m["glso"] for x in ablations)
+            verdict = "holds" if held else "does not hold"
+            out.append(f"- {task}: both ablations worse than GLSO: **{verdict}** ("
+                       + "; ".join(f"{LABELS[x]} {m[x]:.3f}" for x in ablations) + ").")
+    return out
+
+
+def section(reports_dir: Path, data_dir: Path) -> str:
+    title = "## GLSO search: latent BO against random, GA, MCTS and GHS (thesis 8)"
+    steps_path = Path(data_dir) / "glso" / "steps.parquet"
+    if not steps_path.exists():
+        return f"{title}\n\nNot run yet: missing {steps_path} (stage `glso`).\n"
+    steps = read_table(steps_path, "glso_steps")
+    tasks = list(dict.fromkeys(steps["task"]))
+    methods = [m for m in LABELS if m in set(steps["method"])]
+    figures = Path(reports_dir) / "figures"
+    stats = curves(steps)
+    _plot(stats, tasks, FIG_8_1, "Fig. 8.1: mean best so far over seeds, band = min-max", figures / "glso_fig8_1.png")
+    _plot(stats, tasks, FIG_8_2, "Fig. 8.2: GLSO and its ablations", figures / "glso_fig8_2.png")
+    final = steps.sort_values("step").groupby(["task", "method", "seed"], as_index=False).last()
+    budget = int(steps["step"].max() + 1)
+    seeds = sorted(set(steps["seed"]))
+    share = steps.groupby("method").agg(repeats=("repeat", "mean"),
+                                        invalid=("status", lambda s: float(np.mean(s != "ok"))))
+    lines = [title, "",
+             f"Every method had the same budget of **{budget} objective calls** per run (a call = one MPPI episode, "
+             "or the invalid score of a design that cannot be simulated; a design seen again costs a call and "
+             f"returns its cached score), the same evaluator and controller seed; seeds {seeds}, tasks {tasks}. "
+             "The thesis: 500 evaluations per method and task, 3 seeds, all four tasks; it reports curves only "
+             "(no numbers).", "",
+             "![Fig. 8.1](figures/glso_fig8_1.png)", "", "![Fig. 8.2](figures/glso_fig8_2.png)", "",
+             "Final best reward per method and task: mean [min, max] over seeds:", "",
+             *_final_table(final, tasks, methods), "",
+             "The thesis's claims at this scale (mean final best over seeds):", "", *claims(final, tasks), "",
+             "Share of calls that were repeats / not simulated (invalid score) per method: "
+             + "; ".join(f"{LABELS[m]} {share.loc[m, 'repeats']:.0%} / {share.loc[m, 'invalid']:.0%}"
+                         for m in methods) + "."]
+    lines += _best_designs(steps, Path(data_dir) / "glso" / "rollouts", figures)
+    return "\n".join(lines) + "\n"
+
+
+def _best_designs(steps: pd.DataFrame, rollouts: Path, figures: Path) -> list[str]:
+    """Fig. 7.2: a picture of each task's best design, and its rollout GIF."""
+    from robocompose.grammar.tree import DesignTree
+    from robocompose.sim.render import render_design
+
+    lines = ["", "Fig. 7.2: the best design found on each task (any method; MCAP logs for Foxglove beside the GIFs "
+             "in `data/glso/rollouts/`):", ""]
+    for row in best_designs(steps).itertuples():
+        picture = figures / f"glso_best_{row.task}.png"
+        render_design(DesignTree(tuple(row.parents), tuple(row.tokens)), picture, width=320, height=240)
+        caption = f"{row.task}: {LABELS[row.method]} seed {row.seed}, reward {row.score:.3f}, design {row.design_id}"
+        lines.append(f"![{caption}](figures/{picture.name})")
+        gif = rollouts / f"{row.task}.gif"
+        if gif.exists():
+            shutil.copyfile(gif, figures / f"glso_rollout_{row.task}.gif")
+            lines.append(f"![{row.task} rollout](figures/glso_rollout_{row.task}.gif)")
+    return lines

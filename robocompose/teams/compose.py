@@ -1,0 +1,78 @@
+"""`robocompose compose teams`: the front of a trained EG-GAN generator for a label chip, in real time.
+
+    robocompose compose teams --chip LABELS.png [--regions K] [--budget 30] [--model PATH]
+
+Prints the front (allocations with both objectives, measured by the ergodic optimiser, and its hypervolume) or,
+with `--budget`, the best allocation within it, as JSON. With no `--model`, the generator shipped in the
+repository (trained by the default profile) is used.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from robocompose.arguments import input_file, non_negative_int, positive_int
+from robocompose.io.errors import InputError
+
+SHIPPED_MODEL = "models/shipped/teams_generator.pt"  # the default profile's generator, in the repository
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add `compose teams` to the `compose` command."""
+    compose = subparsers.add_parser(
+        "teams", help="allocations for a label chip from the trained EG-GAN generator: the front (or the best "
+        "allocation within --budget) as JSON, every cost measured by the ergodic optimiser")
+    compose.add_argument("--chip", type=input_file("a DroneDeploy label PNG"), required=True,
+                         help="a DroneDeploy-format label PNG (its first 300 x 300 chip without IGNORE pixels)")
+    compose.add_argument("--regions", type=positive_int, default=None, help="regions K (default and only choice: the "
+                         "generator's K)")
+    compose.add_argument("--budget", type=int, default=None,
+                         help="deployment budget (robots, 1..60): print the front's best allocation within it")
+    compose.add_argument("--model", type=input_file("a teams generator (.pt)"), default=None,
+                         help=f"a generator file of the teams_eggan stage (default: the shipped {SHIPPED_MODEL})")
+    compose.add_argument("--seed", type=non_negative_int, default=0, help="seed of the noise and of the robots' starts")
+    compose.set_defaults(handler=_compose)
+
+
+def _compose(args: argparse.Namespace) -> None:
+    import time
+
+    import torch
+
+    from robocompose.io.provenance import ROOT
+    from robocompose.teams.cli import first_chip
+    from robocompose.teams.decompose import DecomposeConfig, decompose_chip
+    from robocompose.teams.eggan_problem import query_front
+    from robocompose.teams.ergodic import CoverageConfig
+    from robocompose.teams.generative import load_generator
+
+    torch.set_num_threads(1)
+    generator, saved = load_generator(args.model or ROOT / SHIPPED_MODEL)
+    k = saved["n_regions"]
+    if args.regions is not None and args.regions != k:
+        raise InputError(f"--regions {args.regions}: the generator was trained for K = {k} regions (its task "
+                         f"is the K x 4 feature matrix); use --regions {k} or another --model")
+    coverage = CoverageConfig(**saved["params"]["coverage"])
+    bank = coverage.robots_per_species * 3
+    if args.budget is not None and not 1 <= args.budget <= bank:
+        raise InputError(f"--budget {args.budget}: expected a number of robots in 1..{bank} (the bank)")
+    chip = first_chip(args.chip)
+    started = time.perf_counter()
+    decomposition = decompose_chip(chip, DecomposeConfig(**{**saved["params"]["decompose"], "n_regions": k}))
+    decomposition_ms = 1000 * (time.perf_counter() - started)
+    query = query_front(generator, chip, decomposition, coverage, saved["params"]["eggan"]["samples"], args.seed)
+    front = [{"deployment_cost": int(deploy), "coverage_cost": float(cost), "counts": counts.tolist()}
+             for (cost, deploy), counts in zip(query.front, query.counts, strict=True)]
+    out = {"chip": chip.chip_id, "regions": k, "hypervolume": query.hypervolume,
+           "generator_ms": round(1000 * query.generator_seconds, 3), "decomposition_ms": round(decomposition_ms, 1)}
+    if args.budget is None:
+        out["front"] = front
+    else:
+        within = [point for point in front if point["deployment_cost"] <= args.budget]
+        if not within:
+            raise InputError(f"--budget {args.budget}: no allocation of the front deploys that few robots "
+                             f"(fewest: {front[0]['deployment_cost']})")
+        out["budget"] = args.budget
+        out["allocation"] = min(within, key=lambda point: point["coverage_cost"])
+    print(json.dumps(out))

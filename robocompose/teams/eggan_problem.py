@@ -1,0 +1,217 @@
+"""Team formation as an EG-GAN problem (thesis 5.2), and the front of a query.
+
+Task: a training chip; its tensor is the K x 4 terrain-feature matrix of its regions (rows: terrain
+shares of a region), flattened, so the generator is the thesis's MLP on (z, task).
+Design: a K x O allocation, entry (i, j) = the fraction of species j sent to region i. The generator
+gives (K + 1) x O logits; per species, the first K give the split over the regions (a softmax) and
+the last the deployed share s = sigmoid(logit), so fraction (i, j) = s_j * split_ij and a design can
+deploy anywhere from no robot to the whole bank (the group's code split every robot over the regions,
+always deploying all of them). This is the factorisation NSGA-II's initial population uses (a share of
+each species, split over the regions), and an untrained generator deploys about half the bank with a
+spread over z (a softmax over K regions + a depot row would start at K / (K + 1) of the bank and stay
+there: we measured every allocation of 100 iterations above 50 robots). The design is continuous (the
+output is the design), so the trainer uses the GAN loss of eq. 4.1 and the discriminator sees the
+(K + 1) x O matrix [fractions; 1 - s] (the last row: what stays in the depot).
+Counts: species.allocation_to_counts, as for NSGA-II.
+Objectives, both minimised: coverage cost (ergodic.py) and deployment cost (robots deployed).
+Evolution-guided data creation: `steps` NSGA-II generations (nsga2.nsga2_generation: rank, crowding,
+roulette-wheel selection, the thesis's crossover and mutation, elitist survival) on the generated
+batch, genomes = the K x O fractions.
+
+Fitness: the ergodic trajectory optimiser itself. A team's plan depends only on its region and its
+counts (ergodic.ChipCoverage.deploy), and the coverage cost is a sum over teams, so every team cost is
+cached per (chip, region, team counts) and an allocation costs the sum of its teams' entries; the
+cache is part of the problem's state, so a resumed training sees the same values.
+
+The front of a query (`query_front`): the trained generator on one task (robocompose.eggan.query's
+`generate`), `samples` noise vectors -> allocations -> both objectives measured by the optimiser -> the
+non-dominated set and its hypervolume.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import time
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+
+import numpy as np
+import torch
+
+from robocompose.eggan.networks import Generator
+from robocompose.eggan.problem import Objective, Sampled
+from robocompose.eggan.query import generate
+from robocompose.io.provenance import code_digest
+from robocompose.teams.chips import Chip
+from robocompose.teams.decompose import Decomposition, terrain_features
+from robocompose.teams.ergodic import ChipCoverage, CoverageConfig, allocation_id
+from robocompose.teams.evaluator import AllocationEvaluator, chip_coverage
+from robocompose.teams.nsga2 import AllocationProblem, hypervolume, non_dominated, nsga2_generation
+from robocompose.teams.species import SPECIES, allocation_to_counts, deployment_cost
+
+
+@dataclass(frozen=True)
+class EvolutionConfig:
+    crossover_probability: float = 0.5  # NSGA-II single-point arithmetic crossover (thesis 0.5)
+    mutation_rate: float = 0.1  # NSGA-II per-gene uniform mutation (thesis 0.1)
+
+
+def task_features(chip: Chip, decomposition: Decomposition) -> np.ndarray:
+    """(K, 4) terrain shares of a chip's regions: the task."""
+    return terrain_features(chip.terrain, decomposition.raster(chip.terrain), decomposition.n_regions)
+
+
+def normalised_fractions(fractions: np.ndarray) -> np.ndarray:
+    """(..., K, O) fractions with every species column scaled to sum <= 1 (as allocation_to_counts does)."""
+    fractions = np.clip(np.asarray(fractions, dtype=np.float64), 0.0, None)
+    return fractions / np.maximum(fractions.sum(-2, keepdims=True), 1.0)
+
+
+def with_depot_row(fractions: np.ndarray) -> np.ndarray:
+    """(B, K, O) fractions -> (B, K + 1, O): the last row is the share of each species kept back."""
+    fractions = normalised_fractions(fractions)
+    return np.concatenate([fractions, 1.0 - fractions.sum(-2, keepdims=True)], axis=-2)
+
+
+DESIGN_HEAD = "share-split"  # the generator-output -> design map above (stored in generator files)
+
+
+class TeamsProblem:
+    """The teams EG-GAN problem on a set of training chips (see the module docstring)."""
+
+    name = "teams"
+    discrete = False
+    objectives = (Objective("coverage_cost", maximise=False), Objective("deployment_cost", maximise=False))
+    evolution_methods = ("nsga2",)
+
+    def __init__(self, chips: Sequence[tuple[Chip, Decomposition]], coverage: CoverageConfig,
+                 evolution: EvolutionConfig = EvolutionConfig(), seed: int = 0):
+        if not chips:
+            raise ValueError("teams EG-GAN: no training chips")
+        self.chips = list(chips)
+        self.coverage, self.evolution, self.seed = coverage, evolution, seed
+        self.n_regions = self.chips[0][1].n_regions
+        self.n_species = len(SPECIES)
+        self.task_shape = (self.n_regions * 4,)
+        self.design_shape = (self.n_regions + 1, self.n_species)
+        self.features = [task_features(chip, decomposition) for chip, decomposition in self.chips]
+        self._coverage: dict[int, ChipCoverage] = {}  # built on first use (phi of every region)
+        self.team_cost: dict[tuple[int, int, tuple[int, ...]], float] = {}  # (chip, region, counts) -> cost
+        self.team_optimisations = 0
+
+    # ---- the EG-GAN interface ----------------------------------------------------------------------
+    def sample_task(self, rng: np.random.Generator) -> int:
+        return int(rng.integers(len(self.chips)))
+
+    def encode_task(self, task: int) -> torch.Tensor:
+        return torch.as_tensor(self.features[task].ravel(), dtype=torch.float32)  # (K*4,)
+
+    def design_head(self, logits: torch.Tensor) -> torch.Tensor:
+        split = torch.softmax(logits[:, :-1], dim=1)  # (B, K, O): each species' split over the regions
+        share = torch.sigmoid(logits[:, -1:])  # (B, 1, O): each species' deployed share
+        return torch.cat([split * share, 1.0 - share], dim=1)  # (B, K+1, O), columns sum to 1
+
+    def sample_designs(self, output: torch.Tensor, generator: torch.Generator | None) -> Sampled:
+        designs = list(output[:, :self.n_regions].detach().double().numpy())  # B (K, O) fractions
+        return Sampled(designs, output, None)
+
+    def design_tensor(self, designs: Sequence[np.ndarray]) -> torch.Tensor:
+        return torch.as_tensor(with_depot_row(np.stack(designs)), dtype=torch.float32)
+
+    def evaluate(self, task: int, designs: Sequence[np.ndarray]) -> np.ndarray:
+        counts = allocation_to_counts(np.stack(designs), self.coverage.robots_per_species)
+        return self.objectives_of_counts(task, counts)
+
+    def evolve(self, task: int, designs: list[np.ndarray], objectives: np.ndarray, method: str, steps: int,
+               rng: np.random.Generator) -> tuple[list[np.ndarray], np.ndarray]:
+        if method != "nsga2":
+            raise ValueError(f"evolution method {method!r}: the teams problem supports {list(self.evolution_methods)}")
+        problem = AllocationProblem(self.n_regions, self.n_species, self.coverage.robots_per_species,
+                                    lambda counts: self.objectives_of_counts(task, counts))
+        genomes = np.stack(designs).reshape(len(designs), -1)  # (B, K*O)
+        for _ in range(steps):
+            genomes, objectives = nsga2_generation(genomes, objectives, problem,
+                                                   self.evolution.crossover_probability,
+                                                   self.evolution.mutation_rate, rng)
+        return list(genomes.reshape(-1, self.n_regions, self.n_species)), objectives
+
+    def design_id(self, design: np.ndarray) -> str:
+        return allocation_id(allocation_to_counts(design, self.coverage.robots_per_species))
+
+    @property
+    def real_evaluations(self) -> int:
+        """Team trajectory optimisations run so far (cache misses)."""
+        return self.team_optimisations
+
+    def key(self) -> str:
+        chips = [(chip.chip_id, hashlib.sha1(chip.classes.tobytes()).hexdigest()[:12],
+                  decomposition.centres.round(12).tolist(), decomposition.terrain_weight)
+                 for chip, decomposition in self.chips]
+        text = json.dumps([asdict(self.coverage), asdict(self.evolution), self.seed, chips,
+                           code_digest(__name__)])  # this module's import closure: the whole fitness
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+    def state_dict(self) -> dict:
+        return {"team_cost": sorted(self.team_cost.items()), "team_optimisations": self.team_optimisations}
+
+    def load_state_dict(self, state: dict) -> None:
+        self.team_cost = {(chip, region, tuple(counts)): cost for (chip, region, counts), cost in state["team_cost"]}
+        self.team_optimisations = state["team_optimisations"]
+
+    # ---- fitness from the optimiser, cached per team -------------------------------------------------
+    def chip_coverage(self, task: int) -> ChipCoverage:
+        if task not in self._coverage:
+            chip, decomposition = self.chips[task]
+            self._coverage[task] = chip_coverage(chip, decomposition, self.coverage)
+        return self._coverage[task]
+
+    def objectives_of_counts(self, task: int, counts: np.ndarray) -> np.ndarray:
+        """(B, 2) [coverage cost, deployment cost] of (B, K, O) counts on training chip `task`."""
+        counts = np.asarray(counts, dtype=np.int64)
+        keys = [[(task, region, tuple(int(n) for n in team)) for region, team in enumerate(allocation)]
+                for allocation in counts]
+        missing = sorted({key for row in keys for key in row if key not in self.team_cost and sum(key[2])})
+        if missing:
+            single = np.zeros((len(missing), self.n_regions, self.n_species), dtype=np.int64)
+            for b, (_, region, team) in enumerate(missing):
+                single[b, region] = team
+            costs, _, _ = self.chip_coverage(task).evaluate_teams(single, self.seed)  # (U, K)
+            for b, key in enumerate(missing):
+                self.team_cost[key] = float(costs[b, key[1]])
+            self.team_optimisations += len(missing)
+        coverage = [sum(self._team_cost(key) for key in row) for row in keys]
+        return np.stack([np.array(coverage), deployment_cost(counts).astype(np.float64)], axis=-1)
+
+    def _team_cost(self, key: tuple[int, int, tuple[int, ...]]) -> float:
+        if sum(key[2]):
+            return self.team_cost[key]
+        return self.chip_coverage(key[0]).empty_team_costs()[key[1]]
+
+
+# ---- the front of a query ----------------------------------------------------------------------------
+
+@dataclass
+class QueryFront:
+    front: np.ndarray  # (F, 2) non-dominated [coverage cost, deployment cost], by deployment cost
+    counts: np.ndarray  # (F, K, O) their allocations
+    hypervolume: float
+    generator_seconds: float  # wall time of the generator's part (noise, forward pass, rounding)
+    distinct: int  # distinct allocations among the samples
+
+
+def query_front(generator: Generator, chip: Chip, decomposition: Decomposition, coverage: CoverageConfig,
+                samples: int, seed: int, evaluator: AllocationEvaluator | None = None) -> QueryFront:
+    """The front of one query: `samples` noise vectors -> allocations -> objectives measured by the
+    ergodic optimiser (robots' starts seeded by `seed`) -> the non-dominated set."""
+    problem = TeamsProblem([(chip, decomposition)], coverage)  # the task: this chip's features
+    started = time.perf_counter()
+    sampled, _ = generate(generator, problem, 0, samples, seed)
+    counts = allocation_to_counts(np.stack(sampled.designs), coverage.robots_per_species)  # (S, K, O)
+    seconds = time.perf_counter() - started
+    distinct = np.unique(counts.reshape(len(counts), -1), axis=0).reshape(-1, *counts.shape[1:])
+    evaluate = evaluator or AllocationEvaluator(chip_coverage(chip, decomposition, coverage), chip.chip_id, seed)
+    objectives = evaluate(distinct)
+    keep = non_dominated(objectives)
+    keep = keep[np.argsort(objectives[keep, 1], kind="stable")]
+    return QueryFront(objectives[keep], distinct[keep], hypervolume(objectives[keep]), seconds, len(distinct))

@@ -1,0 +1,58 @@
+"""DVC stage `teams_eggan`: EG-GAN for teams (thesis 5.2) trained on the training chips, queried on the
+held-out chips (Tables 5.4, 5.5 and Figs. 5.3, 5.4).
+
+Writes models/teams_eggan.pt (the generator file), data/teams/eggan_{queries,fronts}.parquet,
+data/teams/coverage_examples.parquet, reports/metrics/teams_eggan.json, reports/plots/teams_eggan.csv;
+the checkpoint models/checkpoints/teams_eggan.pt lets a killed run resume; the generator's query wall
+times go to reports/timings.json (not tracked by DVC).
+"""
+
+import dataclasses
+from pathlib import Path
+
+import torch
+
+from robocompose.io import atomic_write_json, read_table, write_table
+from robocompose.report.timings import timed
+from robocompose.stage import run_stage
+from robocompose.teams.eggan_problem import EvolutionConfig
+from robocompose.teams.experiments import decomposed_chips
+from robocompose.teams.generative import coverage_examples, eggan_queries, save_generator, train_generator
+from robocompose.teams.params import load_teams_params
+
+FIGURE_CHIPS, FIGURE_BUDGET = 3, 30  # Fig. 5.4: three test chips at deployment budget 30
+
+
+def main() -> None:
+    params = load_teams_params("params.yaml")
+    torch.set_num_threads(params.threads)
+    regions = read_table("data/regions.parquet", "regions")
+    train_chips, test_chips = decomposed_chips(regions, "train"), decomposed_chips(regions, "test")
+    experiments = params.experiments
+    evolution = EvolutionConfig(experiments.crossover_probability, experiments.mutation_rate)
+    with timed("teams_eggan") as timing:
+        trained, problem = train_generator(train_chips, params.coverage, params.eggan, evolution, params.threads,
+                                           Path("models/checkpoints/teams_eggan.pt"),
+                                           Path("reports/plots/teams_eggan.csv"))
+        timing["training_seconds"] = round(timing.elapsed(), 1)
+        queried = test_chips[:max(experiments.table_5_4_chips, experiments.table_5_5_chips)]
+        queries, fronts, timing["queries"] = eggan_queries(trained.generator, queried, params.coverage,
+                                                           params.eggan.samples, experiments.seeds)
+        write_table(queries, "data/teams/eggan_queries.parquet", "teams_eggan_queries")
+        write_table(fronts, "data/teams/eggan_fronts.parquet", "teams_eggan_fronts")
+        write_table(coverage_examples(queried[:FIGURE_CHIPS], fronts, params.coverage, FIGURE_BUDGET,
+                                      experiments.seeds[0]),
+                    "data/teams/coverage_examples.parquet", "teams_coverage_examples")
+        metrics = {"train_chips": len(train_chips), "test_chips": len(queried), "iterations": params.eggan.iterations,
+                   "team_optimisations": problem.team_optimisations,
+                   "mean_hypervolume": round(float(queries.hypervolume.mean()), 4),
+                   "final_pop_coverage_best": round(trained.rows[-1]["pop_coverage_cost_best"], 5)}
+        settings = {name: dataclasses.asdict(getattr(params, name))
+                    for name in ("chips", "decompose", "coverage", "eggan")}
+        settings["evolution"] = dataclasses.asdict(evolution)
+        save_generator(trained, problem.n_regions, settings, metrics, Path("models/teams_eggan.pt"))
+        atomic_write_json("reports/metrics/teams_eggan.json", metrics)
+
+
+if __name__ == "__main__":
+    run_stage(main)

@@ -1,0 +1,40 @@
+"""Fixtures of the GLSO search tests: tiny untrained VAEs and a cheap deterministic objective.
+
+The fake objective stands in for MPPI where a test is about the search algorithm (budget, resumption,
+bookkeeping), not physics; one test in test_runs.py goes through the real evaluator at a tiny setting."""
+
+from pathlib import Path
+
+import pytest
+import torch
+
+from robocompose.glso.runs import GLSOConfig
+from robocompose.latent.model import GraphVAE, VAEConfig
+from robocompose.latent.train import save_model
+
+
+def fake_objective(tree) -> dict:
+    """A deterministic score that prefers many joints on few links; a quarter of the designs (by id)
+    "self-collide" so that the invalid score is exercised."""
+    if tree.design_id[-1] in "0123":
+        return {"reward": None, "status": "self_collision", "sim_steps": 0, "seconds": 0.0}
+    return {"reward": 4.0 + 0.05 * tree.n_joints - 0.01 * tree.n_links, "status": "ok", "sim_steps": 1,
+            "seconds": 0.0}
+
+
+@pytest.fixture(scope="session")
+def tiny_models(tmp_path_factory) -> str:
+    """models/vae_{variant}.pt for the three variants: untrained tiny VAEs (decoding still gives complete designs)."""
+    root = tmp_path_factory.mktemp("models")
+    for seed, (variant, predictor, constraints) in enumerate(
+            [("full", True, "grammar"), ("nopred", False, "grammar"), ("nogram", True, "tree")]):
+        torch.manual_seed(seed)
+        save_model(GraphVAE(VAEConfig(hidden=8, latent=3, predictor=predictor, constraints=constraints,
+                                      max_nodes=20)), root / f"vae_{variant}.pt")
+    return str(Path(root) / "vae_{variant}.pt")
+
+
+@pytest.fixture
+def small_config(tiny_models) -> GLSOConfig:
+    return GLSOConfig(tasks=["flat"], seeds=[0], budget=9, models=tiny_models, bo={"init": 3},
+                      ga={"population": 4}, ghs={"num_samples": 3, "opt_iter": 2})

@@ -1,0 +1,49 @@
+import math
+
+import numpy as np
+import torch
+
+from robocompose.glso.ghs import N_FEATURES, GHSConfig, GraphHeuristicSearch, collate, exp_decay, features
+from robocompose.grammar.derivation import derive
+from tests.conftest import FLAT_REFERENCE
+
+
+def test_epsilon_schedule_runs_from_one_to_about_0_13_over_the_budget():
+    assert exp_decay(1.0, 0.1, 0.3, 0, 500) == 1.0
+    assert math.isclose(exp_decay(1.0, 0.1, 0.3, 500, 500), 0.1 + 0.9 * math.exp(-1 / 0.3))
+    assert 0.13 < exp_decay(1.0, 0.1, 0.3, 500, 500) < 0.135
+
+
+def test_features_describe_nodes_and_the_joints_into_them():
+    graph = derive(tuple(int(r) for r in FLAT_REFERENCE.split(","))).graph
+    x = features(graph)
+    assert x.shape == (len(graph.nodes), N_FEATURES)
+    assert (x[:, 0] == 1).all()  # a complete design: every node is a terminal link
+    x_batch, adj, mask = collate([graph, derive((0,), require_complete=False).graph])
+    assert mask.sum(1).tolist() == [len(graph.nodes), 3.0]  # rule 0: head, body, tail
+    assert torch.allclose(adj.sum(2)[0], torch.ones(len(graph.nodes)))  # mean aggregation
+
+
+def test_v_hat_is_the_best_reward_below_each_state_and_training_fits_it():
+    search = GraphHeuristicSearch(GHSConfig(num_samples=2, opt_iter=25, lr=1e-2), seed=0, budget=8)
+    first = search.propose(None)
+    search.tell(first, 5.0)
+    second = search.propose(None)
+    search.tell(second, 3.0)
+    start = first.info[0]
+    assert search.v_hat[start] == 5.0  # both derivations start at the start graph: the max is kept
+    assert all(search.v_hat[s] == 5.0 for s in first.info)
+    assert len(search.pool) == len(set(search.pool))
+    before = np.mean([(search.predict([s])[0] - search.v_hat[s]) ** 2 for s in search.pool])
+    for _ in range(4):
+        search.tell(second, 3.0)
+    after = np.mean([(search.predict([s])[0] - search.v_hat[s]) ** 2 for s in search.pool])
+    assert after < before
+
+
+def test_the_proposed_design_is_the_sample_with_the_highest_prediction():
+    search = GraphHeuristicSearch(GHSConfig(num_samples=4), seed=2, budget=100)
+    search.rng = np.random.default_rng(0)
+    search.config = GHSConfig(num_samples=4, eps_sample_start=0.0, eps_sample_end=0.0)  # always 4 samples
+    proposal = search.propose(None)
+    assert proposal.tree.design_id == derive(proposal.rules).tree.design_id

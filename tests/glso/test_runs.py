@@ -1,0 +1,124 @@
+import dataclasses
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from robocompose.evaluation.cache import EvaluationCache
+from robocompose.evaluation.evaluate import INVALID_SCORE, EvaluationConfig, objective
+from robocompose.glso import METHODS
+from robocompose.glso.designs import self_colliding
+from robocompose.glso.runs import GLSOConfig, Objective, RunSpec, run_search, summarise
+from robocompose.grammar.tree import DesignTree
+from robocompose.io import read_table
+from tests.glso.conftest import fake_objective
+
+EVALUATION = EvaluationConfig()
+TINY = EvaluationConfig(mppi={"samples": 2, "first_samples": 2, "horizon": 2, "episode": 2}, cache="")
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_every_method_spends_exactly_the_budget_with_a_non_decreasing_best(method, small_config, tmp_path):
+    steps = run_search(RunSpec("flat", method, 0), small_config, EVALUATION, objective_fn=fake_objective,
+                       table=tmp_path / "steps.parquet")
+    assert list(steps["step"]) == list(range(small_config.budget))
+    assert (np.diff(steps["best_so_far"]) >= 0).all()
+    assert steps["best_so_far"].iloc[-1] == steps["score"].max()
+    assert list(steps["score"]) == [objective(fake_objective_row(r)) for r in steps.itertuples()]
+    first_seen = ~steps["design_id"].duplicated()
+    assert list(steps["repeat"]) == list(~first_seen)
+    on_disk = read_table(tmp_path / "steps.parquet", "glso_steps")
+    assert list(on_disk["design_id"]) == list(steps["design_id"]) and list(on_disk["score"]) == list(steps["score"])
+
+
+def fake_objective_row(row) -> dict:
+    return fake_objective(DesignTree(tuple(row.parents), tuple(row.tokens)))
+
+
+def test_latent_methods_record_their_latent_points_and_grammar_methods_their_rules(small_config):
+    glso = run_search(RunSpec("flat", "glso", 0), small_config, EVALUATION, objective_fn=fake_objective)
+    assert all(len(z) == 3 and max(abs(v) for v in z) <= 3.0 for z in glso["latent"])
+    mcts = run_search(RunSpec("flat", "mcts", 0), small_config, EVALUATION, objective_fn=fake_objective)
+    assert all(len(z) == 0 for z in mcts["latent"]) and all(len(r) > 0 for r in mcts["rules"])
+    for row in mcts.itertuples():  # grammar methods redraw designs that cannot be simulated (pybullet's verdict)
+        assert not self_colliding(DesignTree(tuple(row.parents), tuple(row.tokens)))
+
+
+def test_a_design_that_cannot_be_simulated_costs_a_call_and_scores_the_invalid_score(small_config):
+    steps = run_search(RunSpec("flat", "random", 0), dataclasses.replace(small_config, budget=12), EVALUATION,
+                       objective_fn=fake_objective)  # a quarter of the designs "self-collide"
+    invalid = steps[steps["status"] == "self_collision"]
+    assert len(steps) == 12 and len(invalid) > 0
+    assert (invalid["score"] == INVALID_SCORE["self_collision"]).all() and invalid["reward"].isna().all()
+
+
+def test_runs_are_reproducible_and_seeds_differ(small_config):
+    a, b, c = (run_search(RunSpec("flat", "random", s), small_config, EVALUATION, objective_fn=fake_objective)
+               for s in (0, 0, 1))
+    assert a.drop(columns="seconds").equals(b.drop(columns="seconds"))
+    assert list(a["design_id"]) != list(c["design_id"])
+
+
+def test_objective_goes_through_the_real_evaluator_and_its_cache(tmp_path):
+    from robocompose.grammar.derivation import derive, parse_rules
+    from tests.conftest import FLAT_REFERENCE
+
+    evaluation = TINY
+    cache = EvaluationCache(tmp_path / "cache.parquet")
+    fn = Objective("flat", evaluation, cache)
+    tree = derive(parse_rules(FLAT_REFERENCE)).tree
+    row = fn(tree)
+    assert row["status"] == "ok" and row["sim_steps"] > 0
+    again = Objective("flat", evaluation, EvaluationCache(tmp_path / "cache.parquet"))  # saved to the file
+    assert again.cache.get((tree.design_id, "flat", evaluation.settings_hash("flat"), 0)) == row
+    assert again(tree) == row
+
+
+def test_summary_takes_the_final_best_over_seeds():
+    steps = pd.DataFrame({"task": ["flat"] * 4, "method": ["ga"] * 4, "seed": [0, 0, 1, 1], "step": [0, 1, 0, 1],
+                          "best_so_far": [4.0, 4.5, 4.1, 4.2]})
+    assert summarise(steps) == {"flat": {"ga": {"mean": 4.35, "min": 4.2, "max": 4.5, "seeds": 2, "budget": 2}}}
+
+
+@pytest.mark.parametrize("values, message", [
+    ({"methods": ["bogus"]}, "methods: expected some of"),
+    ({"tasks": ["moon"]}, "moon"),
+    ({"budget": 0}, "budget: expected at least 1"),
+    ({"bo": {"xi": "big"}}, "glso.bo.xi"),
+])
+def test_bad_config_names_the_field(values, message):
+    with pytest.raises((ValueError, KeyError), match=message):
+        GLSOConfig(**values)
+
+
+def test_run_all_fans_the_runs_out_resumes_them_and_replays_each_tasks_best(tiny_models, tmp_path):
+    from robocompose.evaluation.executor import Executor
+    from robocompose.glso.runs import record_best, run_all
+
+    config = GLSOConfig(tasks=["flat"], methods=["random", "mcts"], seeds=[0], budget=2, models=tiny_models)
+    evaluation = dataclasses.replace(TINY, cache=str(tmp_path / "cache.parquet"))
+    with Executor(workers=2) as executor:
+        steps = run_all(config, evaluation, tmp_path / "glso", executor)
+        assert sorted(steps.groupby(["method", "seed"]).size().items()) == [(("mcts", 0), 2), (("random", 0), 2)]
+        assert set(steps["status"]) == {"ok"} and steps["reward"].notna().all()
+        again = run_all(config, evaluation, tmp_path / "glso", executor)  # every run answered by its checkpoint
+        assert again.drop(columns="seconds").equals(steps.drop(columns="seconds"))
+        best = record_best(steps, evaluation, tmp_path / "rollouts", executor)
+    assert float(best["score"].iloc[0]) == steps["score"].max()
+    assert (tmp_path / "rollouts" / "flat.mcap").stat().st_size > 0 and (tmp_path / "rollouts" / "flat.gif").exists()
+
+
+def test_runs_on_a_dask_cluster_match_local_processes(tiny_models, tmp_path):
+    from dask.distributed import LocalCluster
+
+    from robocompose.evaluation.executor import Executor
+    from robocompose.glso.runs import run_all
+
+    config = GLSOConfig(tasks=["flat"], methods=["random", "ghs"], seeds=[0], budget=2, models=tiny_models,
+                        ghs={"num_samples": 2, "opt_iter": 2})
+    with Executor(workers=2) as executor:
+        local = run_all(config, TINY, tmp_path / "local", executor)
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
+                      silence_logs=40) as cluster, Executor(address=cluster.scheduler_address) as executor:
+        remote = run_all(config, TINY, tmp_path / "dask", executor)
+    assert remote.drop(columns="seconds").equals(local.drop(columns="seconds"))

@@ -1,0 +1,91 @@
+"""`robocompose compose modular`: k distinct valid designs as JSON, caps, bad inputs, the shipped generator."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import torch
+
+from robocompose.cli import main
+from robocompose.eggan.networks import Generator, NetworkConfig
+from robocompose.eggan.query import load_generator, model_code_digest, save_generator
+from robocompose.modular.compose import SHIPPED_MODEL, parse_caps
+from robocompose.modular.eggan_problem import FitnessConfig, ModularEgganProblem
+from robocompose.modular.evaluate import EvalSettings, FitnessRule
+from robocompose.modular.params import ExperimentsConfig, ModularParams
+
+PARAMS = ModularParams(EvalSettings(), FitnessRule(), ExperimentsConfig())
+TINY = """
+modular:
+  eval: {control_steps: 3, settle_steps: 10}
+  workers: 1
+  cache: ""
+"""
+
+
+@pytest.fixture
+def model(tmp_path):
+    torch.manual_seed(0)
+    problem = ModularEgganProblem(PARAMS, FitnessConfig())
+    generator = Generator(problem.task_shape, problem.design_shape, NetworkConfig(latent=8, hidden=16)).eval()
+    return save_generator(generator, problem, tmp_path / "g.pt", {"run_key": "test"})
+
+
+def test_compose_prints_k_distinct_valid_designs_within_the_caps(tmp_path, model, capsys):
+    params = tmp_path / "params.yaml"
+    params.write_text(TINY)
+    code = main(["compose", "modular", "--terrain-seed", "1000", "--k", "5", "--max", "leg=1,wheel=2",
+                 "--model", str(model), "--params", str(params)])
+    out = json.loads(capsys.readouterr().out)
+    designs = [d["design"] for d in out["designs"]]
+    assert code == 0 and len(designs) == len(set(designs)) == 5
+    scores = [d["score"] for d in out["designs"]]
+    assert scores == sorted(scores, reverse=True) and all(s > 0 for s in scores)
+    for design in designs:
+        assert design.count("l") <= 1 and design.count("w") <= 2 and not PARAMS.fitness.skips(design)
+
+
+def test_compose_simulate_adds_distances(tmp_path, model, capsys):
+    params = tmp_path / "params.yaml"
+    params.write_text(TINY)
+    assert main(["compose", "modular", "--terrain-seed", "3", "--k", "2", "--model", str(model), "--simulate",
+                 "--params", str(params)]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert all(d["status"] in ("ok", "flipped", "left_course", "stalled") for d in out["designs"])
+
+
+@pytest.mark.parametrize("heights, message", [(np.zeros((20, 50)), "expected shape"),
+                                              (np.full((50, 20), np.nan), "finite")])
+def test_a_bad_heightmap_exits_2_with_a_clear_line(tmp_path, model, capsys, heights, message):
+    path = tmp_path / "map.npy"
+    np.save(path, heights)
+    assert main(["compose", "modular", "--heightmap", str(path), "--model", str(model)]) == 2
+    err = capsys.readouterr().err
+    assert message in err and str(path) in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_heightmap_query_works(tmp_path, model, capsys):
+    path = tmp_path / "map.npy"
+    np.save(path, np.zeros((50, 20)))
+    assert main(["compose", "modular", "--heightmap", str(path), "--k", "3", "--model", str(model)]) == 0
+    assert len(json.loads(capsys.readouterr().out)["designs"]) == 3
+
+
+def test_bad_caps_and_foreign_model(tmp_path):
+    with pytest.raises(ValueError, match="--max"):
+        parse_caps("arm=2")
+    assert parse_caps("leg=2, legwheel=0") == {"l": 2, "b": 0}
+    junk = tmp_path / "junk.pt"
+    junk.write_bytes(b"not a model")
+    with pytest.raises(ValueError, match="not an EG-GAN generator"):
+        load_generator(junk, ModularEgganProblem(PARAMS, FitnessConfig()))
+
+
+def test_the_shipped_generator_matches_the_current_model_code():
+    info = json.loads(SHIPPED_MODEL.with_suffix(".json").read_text())
+    assert info["model_code"] == model_code_digest(), "retrain: the network code changed since the model was shipped"
+    generator, saved = load_generator(SHIPPED_MODEL, ModularEgganProblem(PARAMS, FitnessConfig()))
+    assert saved == info and info["problem"] == "modular" and "metrics" in info
+    assert SHIPPED_MODEL.stat().st_size < 2_000_000  # small enough for the repository

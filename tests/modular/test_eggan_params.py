@@ -1,0 +1,27 @@
+"""The eggan_modular: params section: the profiles parse; bad fields are named."""
+
+import pytest
+import yaml
+
+from robocompose.modular.eggan_params import build_eggan_modular_params, load_eggan_modular_params
+
+
+def test_default_profile_parses():
+    params = load_eggan_modular_params("profiles/default.yaml")
+    assert params.train.batch == params.train.tasks * 8 and params.protocol.candidates == 10
+    assert len(params.protocol.test_terrains) >= 4 and params.protocol.queries >= 20
+    seeds = range(params.fitness.train_seed_base, params.fitness.train_seed_base + params.fitness.train_terrains)
+    assert not set(params.protocol.test_terrains) & set(seeds)  # test terrains are never trained on
+
+
+@pytest.mark.parametrize("section, message", [
+    ({"evolution_steps": {"crowding": 0, "ga": 1}}, "evolution_steps"),
+    ({"train": {"batch": 30, "tasks": 8}}, "even number of noise vectors"),
+    ({"protocol": {"test_terrains": []}}, "test_terrains"),
+    ({"fitness": {"surrogate": {"steps": 0}}}, "surrogate.steps"),
+    ({"colour": 1}, "colour"),
+])
+def test_bad_fields_are_named(section, message):
+    base = yaml.safe_load(open("profiles/default.yaml"))["eggan_modular"]
+    with pytest.raises(ValueError, match=message):
+        build_eggan_modular_params({**base, **section}, "params.yaml: eggan_modular")

@@ -1,0 +1,81 @@
+"""The modular problem on the EG-GAN interface: tensors, the real-rollout budget, the surrogate, resume state.
+
+The simulator is replaced by a fake rollout (distance = 1 m per wheel, minus the terrain's mean block height x 10)
+so these tests check the plug-in's bookkeeping; the rollout itself is tested in test_evaluate.py.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+import torch
+
+from robocompose.eggan.networks import NetworkConfig
+from robocompose.eggan.surrogate import SurrogateConfig
+from robocompose.eggan.train import TrainConfig, train
+from robocompose.modular import eggan_problem
+from robocompose.modular.eggan_problem import FitnessConfig, ModularEgganProblem
+from robocompose.modular.evaluate import EvalSettings, FitnessRule, Result
+from robocompose.modular.params import ExperimentsConfig, ModularParams
+
+PARAMS = ModularParams(EvalSettings(control_steps=10), FitnessRule(), ExperimentsConfig())
+FITNESS = FitnessConfig(train_terrains=12, warmup=20, warmup_terrains=4, budget=30, real_every=6, real_per_round=4,
+                        surrogate=SurrogateConfig(steps=20, hidden=16))
+
+
+@pytest.fixture
+def fake_rollouts(monkeypatch):
+    calls = []
+
+    def fake(designs, terrain_seed, settings, rule, cache=None, executor=None, save_every=0):
+        calls.append((terrain_seed, list(designs)))
+        return [Result(None, "invalid", 0, 0.0) if rule.skips(d) else Result(float(d.count("w")) - terrain_seed % 3,
+                                                                                "ok", 10, 0.01) for d in designs]
+
+    monkeypatch.setattr(eggan_problem, "evaluate_designs", fake)
+    return calls
+
+
+def test_design_tensor_and_sampling_round_trip():
+    problem = ModularEgganProblem(PARAMS, FITNESS)
+    designs = ["wwwwww", "lnblwb"]
+    tensor = problem.design_tensor(designs)  # (2, 6, 4) one-hot
+    assert tensor.shape == (2, 6, 4) and torch.equal(tensor.sum(-1), torch.ones(2, 6))
+    sampled = problem.sample_designs(tensor, torch.Generator().manual_seed(0))  # a one-hot output is certain
+    assert sampled.designs == designs
+    assert torch.allclose(sampled.log_prob, torch.zeros(2))
+    assert problem.encode_task(20_003).shape == (50, 20)
+
+
+def test_budget_real_values_and_penalties(fake_rollouts):
+    problem = ModularEgganProblem(PARAMS, FITNESS)
+    trained = train(problem, NetworkConfig(latent=8, hidden=16),
+                    TrainConfig(iterations=6, batch=16, tasks=2, samples=4, evolution_steps=1, log_every=3,
+                                checkpoint_every=3))
+    simulated = sum(len(d) for _, d in fake_rollouts)
+    # warm-up + rounds (a round simulates only designs of its batch without a real value), capped by the budget
+    assert FITNESS.warmup + FITNESS.real_per_round < problem.real_evaluations == simulated <= FITNESS.budget
+    assert trained.rows[-1]["real_evaluations"] == problem.real_evaluations
+    for (seed, design), value in problem.real.items():  # a simulated pair is answered with its real value
+        assert problem.evaluate(seed, [design])[0, 0] == value == design.count("w") - seed % 3
+    assert problem.evaluate(20_000, ["nnnnnn"])[0, 0] == PARAMS.fitness.penalty  # rejected designs: the penalty
+    error = problem.surrogate_error()
+    assert error["heldout"] == len(problem.real) // 5 and error["mae"] >= 0
+
+
+def test_state_round_trip_and_key(fake_rollouts):
+    problem = ModularEgganProblem(PARAMS, FITNESS)
+    problem.evaluate(20_001, ["wwwwww", "llllll"])
+    copy = ModularEgganProblem(PARAMS, FITNESS)
+    copy.load_state_dict(problem.state_dict())
+    designs = ["wlwlwl", "bbbbbb", "wwwnww"]
+    assert np.array_equal(copy.evaluate(20_002, designs), problem.evaluate(20_002, designs))
+    other = ModularEgganProblem(PARAMS, dataclasses.replace(FITNESS, budget=31))
+    assert other.key() != problem.key()
+
+
+def test_bad_fitness_config():
+    with pytest.raises(ValueError, match="warmup"):
+        FitnessConfig(warmup=50, budget=40)

@@ -1,0 +1,105 @@
+import json
+
+import pandas as pd
+import pytest
+
+from robocompose.evaluation.cache import EvaluationCache
+from robocompose.modular.evaluate import EvalSettings, FitnessRule
+from robocompose.modular.truth import (
+    canonical,
+    exhaustive_terrain,
+    mirror,
+    read_committed,
+    terrain_criterion,
+    truth_summary,
+    truth_tables,
+    write_committed,
+)
+
+TINY = EvalSettings(control_steps=3, settle_steps=10)
+RULE = FitnessRule()
+SUBSET = ["llllll", "wwwwww", "bbbbbb", "lwlwlw", "nnnnnn", "lnllnl", "wlwwlw", "bwbbwb"]
+
+
+def test_exhaustive_terrain_simulates_the_valid_designs_and_summarises_the_optimum():
+    cache = EvaluationCache()
+    table = exhaustive_terrain(1007, TINY, RULE, cache, None, designs=SUBSET)
+    assert list(table.design) == sorted(SUBSET) and (table.terrain_seed == 1007).all()
+    invalid = table.set_index("design").loc["nnnnnn"]
+    assert invalid.status == "invalid" and invalid.sim_steps == 0 and invalid.seconds == 0 and invalid.fitness == -10
+    assert len(cache) == len(SUBSET) - 1 and (table.seconds[table.sim_steps > 0] > 0).all()
+    summary = truth_summary(table, epsilon=0.5).iloc[0]
+    assert summary.optimum == table.fitness.max()
+    assert summary.near_optimal == int((table.fitness >= table.fitness.max() - 0.5).sum())
+
+
+def test_a_committed_table_is_used_only_under_the_settings_rule_and_physics_it_was_measured_with(tmp_path):
+    table = exhaustive_terrain(1007, TINY, RULE, EvaluationCache(), None, designs=SUBSET)
+    path = write_committed(table, TINY, RULE, seconds=1.0, directory=tmp_path)
+    assert path.name == "blocks-1007.parquet"
+    pd.testing.assert_frame_equal(read_committed(1007, TINY, RULE, tmp_path), table)
+    assert read_committed(1007, EvalSettings(control_steps=4, settle_steps=10), RULE, tmp_path) is None
+    assert read_committed(1007, TINY, FitnessRule(penalty=-5.0), tmp_path) is None
+    assert read_committed(1008, TINY, RULE, tmp_path) is None
+    record = json.loads(path.with_suffix(".json").read_text())
+    path.with_suffix(".json").write_text(json.dumps({**record, "physics_digest": "0" * 16}))
+    assert read_committed(1007, TINY, RULE, tmp_path) is None  # other robot / terrain / gait code
+
+
+def test_truth_tables_read_committed_terrains_and_simulate_the_others(tmp_path, monkeypatch):
+    monkeypatch.setattr("robocompose.modular.truth.all_designs", lambda: SUBSET)
+    committed = exhaustive_terrain(1007, TINY, RULE, EvaluationCache(), None)
+    committed.loc[committed.design == "llllll", "distance"] = 99.0  # marks the committed copy
+    write_committed(committed, TINY, RULE, seconds=1.0, directory=tmp_path)
+    table, sources = truth_tables([1007, 1008], TINY, RULE, EvaluationCache(), None, tmp_path)
+    assert sources == {1007: "committed", 1008: "simulated"}
+    assert table.set_index(["terrain_seed", "design"]).loc[(1007, "llllll"), "distance"] == 99.0
+    assert sorted(table.terrain_seed.unique()) == [1007, 1008] and len(table) == 2 * len(SUBSET)
+
+
+def test_a_committed_table_holds_one_terrain(tmp_path):
+    two = pd.concat([exhaustive_terrain(s, TINY, RULE, EvaluationCache(), None, designs=["nnnnnn"])
+                     for s in (1, 2)])
+    with pytest.raises(ValueError, match="one terrain"):
+        write_committed(two, TINY, RULE, 1.0, tmp_path)
+
+
+def test_mirror_swaps_left_and_right_ports():
+    assert mirror("lwbnnn") == "nnnbwl" and mirror(mirror("lwbnln")) == "lwbnln"
+    assert canonical("nnnbwl") == canonical("lwbnnn") == "lwbnnn"
+
+
+def _table(distances: dict[int, dict[str, float | None]]) -> pd.DataFrame:
+    rows = []
+    for seed, by_design in distances.items():
+        for design, distance in by_design.items():
+            rows.append({"terrain_seed": seed, "design": design, "distance": distance,
+                         "fitness": -10.0 if distance is None else distance})
+    return pd.DataFrame(rows)
+
+
+def test_terrain_criterion_counts_optima_up_to_mirror_and_the_regret_of_the_best_average_design():
+    table = _table({
+        1: {"wwwwww": 4.0, "llllll": 1.0, "lwwwww": 3.0, "wwwwwl": 2.0, "bbbbbb": 9.0},
+        2: {"wwwwww": 1.0, "llllll": 3.0, "lwwwww": 2.0, "wwwwwl": 2.5, "bbbbbb": None},  # bbbbbb unstable
+        3: {"wwwwww": 4.0, "llllll": 2.0, "lwwwww": 1.0, "wwwwwl": 5.0, "bbbbbb": 9.0},
+    })
+    per_terrain, totals = terrain_criterion(table)
+    assert list(per_terrain.optimum_design) == ["bbbbbb", "llllll", "bbbbbb"]
+    # bbbbbb has no distance on terrain 2, so it is never averaged: the best on average is wwwwwl (9.5 / 3).
+    assert totals["average_design"] == "wwwwwl" and list(per_terrain.regret) == [7.0, 0.5, 4.0]
+    assert totals["distinct_optima"] == 2 and totals["mean_optimum"] == pytest.approx(7.0)
+    assert totals["regret_ratio"] == pytest.approx((11.5 / 3) / 7.0)
+    mirrored = _table({1: {"lwwwww": 2.0, "wwwwwl": 1.0}, 2: {"lwwwww": 1.0, "wwwwwl": 2.0}})
+    assert terrain_criterion(mirrored)[1]["distinct_optima"] == 1  # each other's mirror image
+
+
+
+def test_the_physics_digest_ignores_error_types_imports_and_layout_but_not_code():
+    from robocompose.modular.truth import _rollout_code
+
+    base = 'import math\n\ndef f(x):\n    """Doc."""\n    if x < 0:\n        raise ValueError("no")\n    return 2 * x\n'
+    same = ('from errors import InputError\nimport math\n\n\ndef f(x):  # comment\n    if x < 0:\n'
+            '        raise InputError(f"negative {x}")\n    return 2 * x\n')
+    other = base.replace("2 * x", "3 * x")
+    assert _rollout_code(base) == _rollout_code(same) != _rollout_code(other)

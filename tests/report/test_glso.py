@@ -1,0 +1,44 @@
+import pandas as pd
+
+from robocompose.report.glso import claims, curves, section
+
+
+def _steps(best: dict[tuple[str, int], list[float]]) -> pd.DataFrame:
+    rows = []
+    for (method, seed), values in best.items():
+        for step, v in enumerate(values):
+            rows.append({"task": "flat", "method": method, "seed": seed, "step": step, "best_so_far": v})
+    return pd.DataFrame(rows)
+
+
+def test_curves_are_mean_min_max_over_seeds_per_evaluation_count():
+    stats = curves(_steps({("glso", 0): [4.0, 4.5], ("glso", 1): [4.2, 4.3]}))
+    last = stats[stats.evaluations == 2].iloc[0]
+    assert (last["mean"], last["min"], last["max"]) == (4.4, 4.3, 4.5)
+
+
+def test_claims_say_plainly_whether_they_hold():
+    final = _steps({("glso", 0): [4.5], ("random", 0): [4.6], ("glso_nopred", 0): [4.1], ("glso_nogram", 0): [4.0]})
+    text = "\n".join(claims(final, ["flat"]))
+    assert "GLSO best of Fig. 8.1: **does not hold**" in text and "Random 4.600" in text
+    assert "both ablations worse than GLSO: **holds**" in text
+
+
+def test_section_without_runs_says_which_stage_to_run(tmp_path):
+    assert "stage `glso`" in section(tmp_path, tmp_path)
+
+
+def test_section_draws_both_figures_the_table_and_the_best_design(tmp_path):
+    from robocompose.evaluation.evaluate import EvaluationConfig
+    from robocompose.glso.runs import GLSOConfig, RunSpec, run_search
+    from robocompose.io import write_table
+    from tests.glso.conftest import fake_objective
+
+    config = GLSOConfig(tasks=["flat"], budget=4, ga={"population": 3})
+    steps = pd.concat([run_search(RunSpec("flat", m, s), config, EvaluationConfig(), objective_fn=fake_objective)
+                       for m in ("random", "mcts", "ga") for s in (0, 1)], ignore_index=True)
+    write_table(steps, tmp_path / "data" / "glso" / "steps.parquet", "glso_steps")
+    text = section(tmp_path / "reports", tmp_path / "data")
+    for figure in ("glso_fig8_1.png", "glso_fig8_2.png", "glso_best_flat.png"):
+        assert (tmp_path / "reports" / "figures" / figure).stat().st_size > 0 and figure in text
+    assert "budget of **4 objective calls**" in text and "| MCTS |" in text and "(n=2)" in text

@@ -1,0 +1,86 @@
+import numpy as np
+import pytest
+import torch
+
+from robocompose.eggan.networks import NetworkConfig
+from robocompose.eggan.train import TrainConfig, train
+from robocompose.teams.chips import synthetic_chip
+from robocompose.teams.decompose import DecomposeConfig, decompose_chip
+from robocompose.teams.eggan_problem import TeamsProblem, query_front, with_depot_row
+from robocompose.teams.ergodic import CoverageConfig
+from robocompose.teams.evaluator import chip_coverage
+from robocompose.teams.nsga2 import hypervolume, non_dominated
+
+TINY = CoverageConfig(iterations=3, n_observations=5)
+NETWORK = NetworkConfig(latent=4, hidden=16)
+
+
+@pytest.fixture(scope="module")
+def chips():
+    chips = [synthetic_chip(5, index, size=40) for index in range(2)]
+    return [(chip, decompose_chip(chip, DecomposeConfig(n_regions=3))) for chip in chips]
+
+
+def test_designs_are_fractions_with_a_depot_row(chips):
+    problem = TeamsProblem(chips, TINY)
+    assert problem.task_shape == (12,) and problem.design_shape == (4, 3)
+    output = problem.design_head(torch.randn(5, 4, 3))
+    torch.testing.assert_close(output.sum(1), torch.ones(5, 3))
+    sampled = problem.sample_designs(output, None)
+    assert sampled.log_prob is None and sampled.tensor is output and sampled.designs[0].shape == (3, 3)
+    torch.testing.assert_close(problem.design_tensor(sampled.designs), output, atol=1e-6, rtol=0)
+    neutral = problem.design_head(torch.zeros(1, 4, 3))  # untrained: half of each species, split evenly
+    torch.testing.assert_close(neutral[0], torch.tensor([[1 / 6] * 3] * 3 + [[0.5] * 3]))
+    over = with_depot_row(np.full((1, 3, 3), 0.6))  # asks for 180% of each species: scaled to all of it
+    np.testing.assert_allclose(over[0, :3], 1 / 3) and np.testing.assert_allclose(over[0, 3], 0, atol=1e-12)
+
+
+def test_objectives_are_the_optimisers_costs_cached_per_team(chips):
+    problem = TeamsProblem(chips, TINY, seed=2)
+    counts = np.array([[[1, 0, 0], [0, 2, 0], [0, 0, 0]], [[1, 0, 0], [3, 0, 1], [0, 1, 0]]])
+    objectives = problem.objectives_of_counts(1, counts)
+    assert problem.team_optimisations == 4  # (r0: 1 ground) is shared, empty teams cost no optimisation
+    direct, _, _ = chip_coverage(*chips[1], TINY).evaluate(counts, seed=2)
+    np.testing.assert_allclose(objectives[:, 0], direct, rtol=1e-5)
+    assert objectives[:, 1].tolist() == [3, 6]
+    problem.objectives_of_counts(1, counts[::-1])
+    assert problem.team_optimisations == 4
+
+
+def test_evolution_does_not_lose_hypervolume_and_keeps_the_batch_size(chips):
+    problem = TeamsProblem(chips, TINY)
+    rng = np.random.default_rng(0)
+    designs = list(rng.dirichlet(np.ones(4), size=(8, 3)).transpose(0, 2, 1)[:, :3])  # 8 (K, O) fractions
+    objectives = problem.evaluate(0, designs)
+    evolved, evolved_objectives = problem.evolve(0, designs, objectives, "nsga2", 2, rng)
+    assert len(evolved) == 8 and evolved_objectives.shape == (8, 2)
+    np.testing.assert_allclose(problem.evaluate(0, evolved), evolved_objectives)
+    assert hypervolume(evolved_objectives, (10.0, 60.0)) >= hypervolume(objectives, (10.0, 60.0))
+    with pytest.raises(ValueError, match="supports \\['nsga2'\\]"):
+        problem.evolve(0, designs, objectives, "crowding", 1, rng)
+
+
+def test_a_killed_training_resumes_to_the_same_checkpoint(chips, tmp_path):
+    config = TrainConfig(iterations=4, batch=8, tasks=2, evolution="nsga2", log_every=1, checkpoint_every=2,
+                         lr_generator=1e-3, lr_discriminator=1e-3)
+    whole = train(TeamsProblem(chips, TINY), NETWORK, config, tmp_path / "whole.pt")
+    path = tmp_path / "killed.pt"
+    train(TeamsProblem(chips, TINY), NETWORK, TrainConfig(**{**config.__dict__, "iterations": 2}), path)
+    resumed_problem = TeamsProblem(chips, TINY)
+    resumed = train(resumed_problem, NETWORK, config, path)  # picks up at iteration 2
+    assert resumed_problem.team_optimisations == whole.rows[-1]["real_evaluations"]
+    for name, tensor in whole.generator.state_dict().items():
+        assert torch.equal(tensor, resumed.generator.state_dict()[name]), name
+    assert whole.rows == resumed.rows
+
+
+def test_query_front_is_measured_and_non_dominated(chips):
+    trained = train(TeamsProblem(chips, TINY), NETWORK,
+                    TrainConfig(iterations=2, batch=8, tasks=2, evolution="nsga2", log_every=1, checkpoint_every=2))
+    chip, decomposition = chips[1]
+    query = query_front(trained.generator, chip, decomposition, TINY, samples=32, seed=0)
+    assert 1 <= len(query.front) <= query.distinct <= 32
+    assert non_dominated(query.front).tolist() == list(range(len(query.front)))
+    measured, _, _ = chip_coverage(chip, decomposition, TINY).evaluate(query.counts, seed=0)
+    np.testing.assert_allclose(query.front[:, 0], measured, rtol=1e-5)
+    assert query.hypervolume == hypervolume(query.front) and query.generator_seconds > 0

@@ -1,0 +1,48 @@
+import dataclasses
+
+import pytest
+import torch
+
+from robocompose.eggan.networks import NetworkConfig
+from robocompose.eggan.train import TrainConfig, train
+from robocompose.io.provenance import ROOT
+from robocompose.teams.chips import synthetic_chip
+from robocompose.teams.compose import SHIPPED_MODEL
+from robocompose.teams.decompose import DecomposeConfig, decompose_chip
+from robocompose.teams.eggan_problem import TeamsProblem
+from robocompose.teams.ergodic import CoverageConfig
+from robocompose.teams.generative import load_generator, model_code_digest, save_generator
+from robocompose.teams.params import load_teams_params
+
+
+def test_generator_file_round_trips_weights_settings_and_metrics(tmp_path):
+    chips = [synthetic_chip(6, 0, size=40)]
+    problem = TeamsProblem([(chips[0], decompose_chip(chips[0], DecomposeConfig(n_regions=3)))],
+                           CoverageConfig(iterations=2, n_observations=4))
+    trained = train(problem, NetworkConfig(latent=4, hidden=8),
+                    TrainConfig(iterations=1, batch=4, tasks=1, evolution="nsga2", log_every=1, checkpoint_every=1))
+    save_generator(trained, 3, {"coverage": {"iterations": 2}}, {"mean_hypervolume": 1.5}, tmp_path / "g.pt")
+    generator, saved = load_generator(tmp_path / "g.pt")
+    for name, tensor in trained.generator.state_dict().items():
+        assert torch.equal(tensor, generator.state_dict()[name])
+    assert saved["params"] == {"coverage": {"iterations": 2}} and saved["metrics"]["mean_hypervolume"] == 1.5
+    assert saved["code_digest"] == model_code_digest() and not generator.training
+    with pytest.raises(FileNotFoundError, match="no such generator file"):
+        load_generator(tmp_path / "missing.pt")
+    torch.save({"weights": 1}, tmp_path / "other.pt")
+    with pytest.raises(ValueError, match="not a teams generator file"):
+        load_generator(tmp_path / "other.pt")
+    old_head = torch.load(tmp_path / "g.pt", weights_only=False) | {"design_head": "softmax-depot"}
+    torch.save(old_head, tmp_path / "old.pt")
+    with pytest.raises(ValueError, match="trained with design head 'softmax-depot'.*retrain"):
+        load_generator(tmp_path / "old.pt")
+
+
+def test_the_shipped_generator_is_the_default_profiles_and_matches_the_model_code():
+    _, saved = load_generator(ROOT / SHIPPED_MODEL)
+    assert saved["code_digest"] == model_code_digest(), "retrain and ship: the network code changed"
+    default = load_teams_params(ROOT / "profiles" / "default.yaml")
+    for name in ("chips", "decompose", "coverage", "eggan"):
+        assert saved["params"][name] == dataclasses.asdict(getattr(default, name)), name
+    assert saved["n_regions"] == default.decompose.n_regions
+    assert (ROOT / SHIPPED_MODEL).stat().st_size < 1_000_000  # a small file in the repository

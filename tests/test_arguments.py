@@ -1,0 +1,55 @@
+import argparse
+
+import pytest
+
+from robocompose.arguments import (
+    check_output_file,
+    input_file,
+    int_at_least,
+    non_negative_int,
+    output_directory,
+    output_file,
+)
+from robocompose.io.errors import InputError
+
+
+def test_integers_are_checked_against_their_minimum():
+    assert non_negative_int("0") == 0 and int_at_least(2)("2") == 2
+    for parse, text, message in [(non_negative_int, "-1", "expected an integer >= 0, found -1"),
+                                 (int_at_least(2), "1", "expected an integer >= 2, found 1"),
+                                 (non_negative_int, "1.5", "expected an integer, found '1.5'")]:
+        with pytest.raises(argparse.ArgumentTypeError, match=message.replace(".", r"\.")):
+            parse(text)
+
+
+def test_output_file_needs_the_format_extension_and_a_file_name(tmp_path):
+    assert check_output_file(tmp_path / "new" / "x.PNG", ".png", "PNG") == tmp_path / "new" / "x.PNG"
+    with pytest.raises(InputError, match=r"x\.jpg: expected a \.png file name \(it is written as PNG\)"):
+        check_output_file(tmp_path / "x.jpg", ".png", "PNG")
+    (tmp_path / "d.png").mkdir()
+    with pytest.raises(InputError, match="is a directory"):
+        check_output_file(tmp_path / "d.png", ".png", "PNG")
+    (tmp_path / "file").write_text("")
+    with pytest.raises(InputError, match="is not a directory"):
+        check_output_file(tmp_path / "file" / "x.png", ".png", "PNG")
+    with pytest.raises(argparse.ArgumentTypeError, match="expected a .mcap file name"):
+        output_file(".mcap", "MCAP")(str(tmp_path / "x.json"))
+    assert not (tmp_path / "new").exists()  # checking creates nothing
+
+
+def test_input_file_must_exist_and_be_a_file(tmp_path):
+    parse = input_file("a trained VAE")
+    with pytest.raises(argparse.ArgumentTypeError, match="none.pt: no such file, expected a trained VAE"):
+        parse(str(tmp_path / "none.pt"))
+    with pytest.raises(argparse.ArgumentTypeError, match="a directory, expected a trained VAE"):
+        parse(str(tmp_path))
+    (tmp_path / "m.pt").write_bytes(b"x")
+    assert parse(str(tmp_path / "m.pt")) == tmp_path / "m.pt"
+
+
+def test_output_directory_may_be_new_but_not_a_file(tmp_path):
+    assert output_directory(str(tmp_path / "new" / "dir")) == tmp_path / "new" / "dir"
+    (tmp_path / "file").write_text("")
+    for text in (tmp_path / "file", tmp_path / "file" / "sub"):
+        with pytest.raises(argparse.ArgumentTypeError, match="file is a file, expected a directory"):
+            output_directory(str(text))

@@ -1,0 +1,31 @@
+"""The `robocompose` entry: bad input is one line and exit code 2; a bug is not hidden."""
+
+import pytest
+
+from robocompose.cli import main
+
+
+def test_profile_outside_the_repository_says_where_to_run_it(tmp_path, monkeypatch, cli_error):
+    monkeypatch.chdir(tmp_path)
+    line = cli_error(["profile", "default"], "run `robocompose profile` in the repository's root folder")
+    assert line.startswith("robocompose: error: ") and not (tmp_path / "params.yaml").exists()
+
+
+def test_unknown_profile_lists_the_known_ones(tmp_path, monkeypatch, cli_error):
+    (tmp_path / "profiles").mkdir()
+    (tmp_path / "profiles" / "default.yaml").write_text("enumerate: {n: 3}\n")
+    monkeypatch.chdir(tmp_path)
+    cli_error(["profile", "huge"], "profiles/huge.yaml: no such profile; known profiles: ['default']")
+
+
+def test_argparse_errors_exit_2_too(cli_error):
+    cli_error(["no-such-command"], "invalid choice")
+
+
+def test_only_input_errors_become_a_message(monkeypatch):
+    def broken(args):
+        raise KeyError("a bug")
+
+    monkeypatch.setattr("robocompose.params.write_profile", broken)
+    with pytest.raises(KeyError):
+        main(["profile", "default"])
