@@ -296,6 +296,12 @@ def choose_default(summary: pd.DataFrame, tasks: list[str], min_spearman: float 
         if ok:
             passing.append((float(by_task.loc[tasks[0], "sim_steps_per_eval"]), rung))
     passing.sort()
+    thesis = summary[summary["rung"] == THESIS].set_index("task")
+    measured = [f"{t}: {int(thesis.loc[t, 'n_scored']) if t in thesis.index else 0} of "
+                f"{int(summary['n_designs'].iloc[0]) if len(summary) else 0}" for t in tasks]
+    if not passing and not all(t in thesis.index and bool(thesis.loc[t, "complete"]) for t in tasks):
+        return {"rung": "", "passing": [], "reason": "the table is not complete (designs with a thesis-setting score, "
+                                                     + ", ".join(measured) + ")"}
     if passing:
         return {"rung": passing[0][1], "passing": [r for _, r in passing],
                 "reason": f"cheapest rung with Spearman >= {min_spearman} and the thesis-best design in its top "

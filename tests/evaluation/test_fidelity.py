@@ -69,7 +69,8 @@ def test_summary_and_choice():
     assert summary.loc["s16_h8_e48", "random_max"] - summary.loc["s16_h8_e48", "random_min"] == pytest.approx(1.0)
     choice = choose_default(summary.reset_index(), ["flat"])
     assert choice["rung"] == "s16_h8_e48" and choice["passing"] == ["s16_h8_e48", "s32_h8_e48"]
-    assert choose_default(summary.reset_index(), ["flat", "ridged"])["rung"] == ""  # ridged not measured
+    unmeasured = choose_default(summary.reset_index(), ["flat", "ridged"])  # ridged not measured
+    assert unmeasured["rung"] == "" and "flat: 6 of 6, ridged: 0 of 6" in unmeasured["reason"]
 
 
 def test_measure_order_takes_references_then_the_other_kinds_in_turn():
