@@ -175,7 +175,7 @@ def realtime_table(proposers: dict[str, Proposer], problem: ModularEgganProblem,
                 rng = np.random.default_rng([query_seed, terrain_seed, 7919])  # the same caps for every method
                 constraints = emergency_constraints(rng, p.ec_draws)
                 ok = [c for c, v in zip(candidates, valid, strict=True) if v]
-                answers = ec_answers(ok, fitness[valid], constraints, rng, feasible=lambda d: not rule.skips(d))
+                answers = ec_answers(ok, fitness[valid], constraints, rng, valid=lambda d: not rule.skips(d))
                 ec = simulate(answers)
                 ec_ok = [r.distance for r in ec if r.distance is not None]
                 best = float(fitness[valid].max()) if valid.any() else np.nan
