@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 import pandas as pd
 
 from robocompose.control.mppi import MPPIConfig, run_episode
-from robocompose.evaluation.cache import EVAL_KEY_COLUMNS, EvaluationCache
+from robocompose.evaluation.cache import EVAL_KEY_COLUMNS, INFRASTRUCTURE, EvaluationCache
 from robocompose.evaluation.executor import Executor, evaluate_many
 from robocompose.grammar.tree import DesignTree
 from robocompose.io.errors import InputError
@@ -83,7 +83,8 @@ def simulation_digest(task: str) -> str:
     """16 hex digits of what shapes a result on `task` besides the controller settings, design and seed: the
     task, the physics, the result-shaping constants and the source of the modules that compute it."""
     return settings_digest({"task": get_task(task), "physics": PhysicsSettings(),
-                            "constants": constants_of(*RESULT_MODULES), "code": code_digest(*RESULT_MODULES)})
+                            "constants": constants_of(*RESULT_MODULES),
+                            "code": code_digest(*RESULT_MODULES, exclude=INFRASTRUCTURE)})
 
 
 def objective(row: dict) -> float:

@@ -82,10 +82,15 @@ def import_closure(*entries: str | Path) -> tuple[Path, ...]:
 
 
 @functools.cache
-def code_digest(*modules: str) -> str:
-    """SHA-256 (16 hex digits) over the path and bytes of every file in the modules' import closure."""
+def code_digest(*modules: str, exclude: tuple[str, ...] = ()) -> str:
+    """SHA-256 (16 hex digits) over the path and bytes of every file in the modules' import closure, but for
+    the modules (and packages) named in `exclude`: code that stores or ships a result without shaping it."""
+    skip = [module_path(name).parent if module_path(name).name == "__init__.py" else module_path(name)
+            for name in exclude]
     digest = hashlib.sha256()
     for path in import_closure(*modules):
+        if any(path == s or s in path.parents for s in skip if s.is_dir()) or path in skip:
+            continue
         digest.update(path.relative_to(ROOT).as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
     return digest.hexdigest()[:16]
 

@@ -26,7 +26,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from robocompose.evaluation.cache import EvaluationCache
+from robocompose.evaluation.cache import INFRASTRUCTURE, EvaluationCache
 from robocompose.evaluation.executor import Executor, evaluate_many
 from robocompose.io.errors import InputError
 from robocompose.io.provenance import code_digest, constants_of, settings_digest
@@ -75,7 +75,8 @@ class EvalSettings:
         controller = make_controller(self.controller)
         return settings_digest({"settings": asdict(self), "physics": self.physics(),
                                 "gait": getattr(controller, "gait", None), "controller": type(controller).__name__,
-                                "constants": constants_of(*RESULT_MODULES), "code": code_digest(*RESULT_MODULES)})
+                                "constants": constants_of(*RESULT_MODULES),
+                                "code": code_digest(*RESULT_MODULES, exclude=INFRASTRUCTURE)})
 
     @property
     def sim_steps(self) -> int:

@@ -101,7 +101,7 @@ def test_settings_hash_covers_gait_gravity_damping_and_code(monkeypatch):
             for f in dataclasses.fields(physics.PhysicsSettings)))
         assert SHORT.settings_hash() != before
         monkeypatch.undo()
-    monkeypatch.setattr(modular_evaluate, "code_digest", lambda *modules: "changed-source")
+    monkeypatch.setattr(modular_evaluate, "code_digest", lambda *modules, **exclude: "changed-source")
     assert SHORT.settings_hash() != before
 
 
