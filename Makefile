@@ -12,7 +12,7 @@ export PREFECT_SERVER_EPHEMERAL_STARTUP_TIMEOUT_SECONDS := 120
 export MPLBACKEND := Agg
 export PATH := $(CURDIR)/$(BIN):$(PATH)
 
-.PHONY: setup run test bench lint profile
+.PHONY: setup run test test-slow bench lint profile
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -27,9 +27,13 @@ setup: $(STAMP)
 run: setup
 	$(BIN)/dvc repro
 
+# `make test`: lint and the suite without the tests marked slow (kills, real servers); `make test-slow`: those.
 test: setup
 	$(BIN)/ruff check robocompose stages flows tests benchmarks
-	$(BIN)/python -m pytest -q -ra
+	$(BIN)/python -m pytest -q -ra -m "not slow"
+
+test-slow: setup
+	$(BIN)/python -m pytest -q -ra -m slow
 
 bench: setup
 	$(BIN)/python -m benchmarks
