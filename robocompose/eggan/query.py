@@ -79,10 +79,11 @@ def save_generator(generator: Generator, problem: EgganProblem, path: str | Path
     info = {"problem": problem.name, "task_shape": list(problem.task_shape),
             "design_shape": list(problem.design_shape), "network": asdict(generator.config),
             "model_code": model_code_digest(), "weights": "float16" if half else "float32", **meta}
-    with atomic_path(path) as tmp:
-        state = {k: v.half() if half and v.is_floating_point() else v.clone()
-                 for k, v in generator.state_dict().items()}
-        torch.save({"info": info, "state": state}, tmp)
+    state = {k: v.half() if half and v.is_floating_point() else v.clone() for k, v in generator.state_dict().items()}
+    # through a file handle: torch.save names the archive after a path it is given (the random temporary name),
+    # which would make the same weights differ in bytes
+    with atomic_path(path) as tmp, open(tmp, "wb") as handle:
+        torch.save({"info": info, "state": state}, handle)
     atomic_write_json(path.with_suffix(".json"), info)
     return path
 
