@@ -11,8 +11,10 @@ methods differ only in how it is trained. Every iteration t (one generator step)
 2. `n_critic` critic steps, each on fresh real designs (paired with the iteration's tasks) and fresh generated
    ones: minimise mean C(x_gen, T) - mean C(x_real, T) + gp_weight * mean_x^ (||grad_x^ C(x^, T)|| - 1)^2 over
    the interpolates x^ = e x_real + (1 - e) x_gen, e ~ U(0, 1) per design, the gradient taken with respect to
-   the design tensor only (the task is the condition). The critic has no batch normalisation (it would couple
-   the designs of a batch and void the per-design penalty; MolGAN's critic has none either);
+   the design tensor only (the task is the condition) and its norm over the whole design, as WGAN-GP has it
+   (MolGAN's code penalises the norm of each row of its tensors separately and averages). The critic has no
+   batch normalisation (it would couple the designs of a batch and void the per-design penalty; MolGAN's critic
+   has none either);
 3. generator step on fresh draws x: their fitness is asked from the problem (`problem.evaluate`: the same
    learned-fitness model and budget of real rollouts as Fit2form and EG-GAN), and with L_WGAN = -mean C(x, T),
    L_RL = -mean R(x, T) the loss is lam * L_WGAN + (1 - lam) * alpha * L_RL, alpha = |L_WGAN / L_RL| without
