@@ -7,6 +7,7 @@ variants), their checkpoints
 Real rollouts go through the shared evaluation cache; a killed run resumes from its checkpoints.
 """
 
+from functools import partial
 from pathlib import Path
 
 from robocompose.evaluation.cache import EvaluationCache
@@ -22,16 +23,16 @@ from robocompose.stage import run_stage
 def main() -> None:
     modular, params = load_modular_params("params.yaml"), load_eggan_modular_params("params.yaml")
     cache = EvaluationCache(modular.cache or None)
+    trainers = {**{variant: partial(train_variant, variant) for variant in VARIANTS},
+                "fit2form": train_fit2form_baseline, "molgan": train_molgan_baseline}
     metrics = {}
     with timed("train_eggan_modular") as timing, Executor(modular.workers, modular.address or None) as executor:
-        for variant in VARIANTS:
-            _, metrics[variant] = train_variant(variant, modular, params, cache, executor, Path("models"),
-                                                progress=True)
-        metrics["fit2form"] = train_fit2form_baseline(modular, params, cache, executor, Path("models"), progress=True)
-        metrics["molgan"] = train_molgan_baseline(modular, params, cache, executor, Path("models"), progress=True)
+        for method, train_method in trainers.items():
+            started = timing.elapsed()
+            metrics[method] = train_method(modular, params, cache, executor, Path("models"), progress=True)
+            timing.setdefault("train_seconds", {})[method] = round(timing.elapsed() - started, 1)
         timing["real_evaluations"] = {v: m["real_evaluations"] for v, m in metrics.items()}
     atomic_write_json("reports/metrics/eggan_modular.json", metrics)
-
 
 if __name__ == "__main__":
     run_stage(main)
