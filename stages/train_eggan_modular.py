@@ -1,7 +1,7 @@
-"""DVC stage `train_eggan_modular`: EG-GAN-crowding, EG-GAN and the Fit2form baseline on modular robots
+"""DVC stage `train_eggan_modular`: EG-GAN-crowding, EG-GAN and the Fit2form and DQN baselines on modular robots
 (thesis ch. 4, 5.1), each on the same problem and budget of real rollouts.
 
-params (modular, eggan_modular) -> models/eggan_modular_{crowding,ga,fit2form}.{pt,json} (+ .mcap for the EG-GAN
+params (modular, eggan_modular) -> models/eggan_modular_{crowding,ga,fit2form,dqn}.{pt,json} (+ .mcap for the EG-GAN
 variants), their checkpoints
 (models/checkpoints/, persistent), reports/plots/eggan_modular_*.csv, reports/metrics/eggan_modular.json.
 Real rollouts go through the shared evaluation cache; a killed run resumes from its checkpoints.
@@ -12,7 +12,7 @@ from pathlib import Path
 from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.executor import Executor
 from robocompose.io import atomic_write_json
-from robocompose.modular.eggan_experiments import train_fit2form_baseline, train_variant
+from robocompose.modular.eggan_experiments import train_dqn_baseline, train_fit2form_baseline, train_variant
 from robocompose.modular.eggan_params import VARIANTS, load_eggan_modular_params
 from robocompose.modular.params import load_modular_params
 from robocompose.report.timings import timed
@@ -28,6 +28,7 @@ def main() -> None:
             _, metrics[variant] = train_variant(variant, modular, params, cache, executor, Path("models"),
                                                 progress=True)
         metrics["fit2form"] = train_fit2form_baseline(modular, params, cache, executor, Path("models"), progress=True)
+        metrics["dqn"] = train_dqn_baseline(modular, params, cache, executor, Path("models"), progress=True)
         timing["real_evaluations"] = {v: m["real_evaluations"] for v, m in metrics.items()}
     atomic_write_json("reports/metrics/eggan_modular.json", metrics)
 
