@@ -49,6 +49,7 @@ from torch import nn
 
 from robocompose.eggan.networks import NetworkConfig, TaskEncoder
 from robocompose.eggan.problem import Design, SequentialProblem, Task, check_problem, decision_groups_of
+from robocompose.eggan.storage import load_torch, save_torch
 from robocompose.eggan.train import iteration_streams
 from robocompose.io.errors import InputError
 
@@ -273,11 +274,11 @@ def best_designs(net: QNetwork, problem: SequentialProblem, task: Task, k: int) 
     return [(design, sign * value) for design, (_, value) in zip(designs, found, strict=True)]
 
 
-# --- the Q-network as a file: weights, sizes and provenance ---
+# --- the Q-network as a file: weights, sizes and provenance (behind the checksum header of `eggan.storage`) ---
 
 def save_dqn(net: QNetwork, problem: SequentialProblem, path: str | Path, meta: dict) -> Path:
     """Write the Q-network's weights and sizes to `path` (torch) and `meta` + provenance beside it (`.json`)."""
-    from robocompose.io import atomic_path, atomic_write_json
+    from robocompose.io import atomic_write_json
     from robocompose.io.provenance import code_digest
 
     path = Path(path)
@@ -285,8 +286,7 @@ def save_dqn(net: QNetwork, problem: SequentialProblem, path: str | Path, meta: 
             "decision_groups": [list(group) for group in decision_groups_of(problem)],
             "network": asdict(net.network), "hidden": net.hidden, "layers": net.layers,
             "model_code": code_digest(__name__), **meta}
-    with atomic_path(path) as tmp, open(tmp, "wb") as file:  # a file object: torch names the archive "archive",
-        torch.save({"info": info, "state": net.state_dict()}, file)  # not after the random temporary name
+    save_torch({"info": info, "state": net.state_dict()}, path)
     atomic_write_json(path.with_suffix(".json"), info)
     return path
 
@@ -295,17 +295,16 @@ def load_dqn(path: str | Path, problem: SequentialProblem) -> tuple[QNetwork, di
     """A saved Q-network for `problem`, in eval mode, and its info; a clear error if it does not fit."""
     path = Path(path)
     if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such DQN file")
+        raise InputError(f"{path}: no such DQN file")
+    saved = load_torch(path)  # the checksum first (ArtifactError naming the file): a cut file never reaches torch
     try:
-        saved = torch.load(path, map_location="cpu", weights_only=True)
         info = saved["info"]
-        groups = [list(group) for group in decision_groups_of(problem)]
-        fits = (info["problem"], info["task_shape"], info["design_shape"], info["decision_groups"]) == (
-            problem.name, list(problem.task_shape), list(problem.design_shape), groups)
-    except Exception as err:  # a corrupt or foreign file: name it
-        raise ValueError(f"{path}: not a DQN file ({err})") from None
-    if not fits:
-        raise ValueError(f"{path}: a DQN for {info['problem']} {info['task_shape']} -> {info['design_shape']} "
+        found = (info["problem"], info["task_shape"], info["design_shape"], info["decision_groups"])
+    except (KeyError, TypeError) as err:  # a checked file of another kind
+        raise InputError(f"{path}: not a DQN file (no {err})") from None
+    groups = [list(group) for group in decision_groups_of(problem)]
+    if found != (problem.name, list(problem.task_shape), list(problem.design_shape), groups):
+        raise InputError(f"{path}: a DQN for {info['problem']} {info['task_shape']} -> {info['design_shape']} "
                          f"(decisions {info['decision_groups']}), not for {problem.name} {list(problem.task_shape)} "
                          f"-> {list(problem.design_shape)} (decisions {groups})")
     net = QNetwork(problem.task_shape, len(groups), problem.design_shape[1], NetworkConfig(**info["network"]),

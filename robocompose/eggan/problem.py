@@ -25,6 +25,8 @@ Conventions
 - `evaluate(task, designs)` -> `(B, K)` float64, one column per entry of `objectives`; each objective says
   whether it is maximised. A problem may answer from a cache or a learned surrogate; it counts the real
   evaluations it spends in `real_evaluations` (the report's training budget).
+- `random_designs(rng, n)`: n designs drawn uniformly from the problem's valid designs (the conditional MolGAN
+  baseline's "real" data, thesis 5.1); only the baselines that need it call it.
 - `key()`, `state_dict()`, `load_state_dict()`: what enters the trainer's checkpoint key, and the mutable
   state (a surrogate, counters) a checkpoint must hold for a resumed run to continue bit for bit.
 - `evolve(task, designs, objectives, method, steps, rng)`: the evolution-guided data creation on a
@@ -112,6 +114,10 @@ class EgganProblem(Protocol):
     def evolve(self, task: Task, designs: list[Design], objectives: np.ndarray, method: str, steps: int,
                rng: np.random.Generator) -> tuple[list[Design], np.ndarray]:
         """X_pop and its (B, K) objectives: `steps` steps of evolution `method` on the generated batch."""
+        ...
+
+    def random_designs(self, rng: np.random.Generator, n: int) -> list[Design]:
+        """n designs drawn uniformly (with replacement) from the valid designs (MolGAN's real data)."""
         ...
 
     def design_id(self, design: Design) -> str:

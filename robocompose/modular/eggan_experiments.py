@@ -31,8 +31,9 @@ import torch
 
 from robocompose.eggan.dqn import DQNConfig, best_designs, load_dqn, save_dqn, train_dqn
 from robocompose.eggan.fit2form import Fit2formConfig, train_fit2form
+from robocompose.eggan.molgan import MolganConfig, train_molgan
 from robocompose.eggan.query import generate, load_generator, rank_distinct, save_generator
-from robocompose.eggan.train import Trained, train
+from robocompose.eggan.train import train
 from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.executor import Executor
 from robocompose.modular.eggan_params import VARIANTS, EgganModularParams
@@ -62,8 +63,9 @@ def make_problem(modular: ModularParams, params: EgganModularParams, cache: Eval
 
 
 def train_variant(variant: str, modular: ModularParams, params: EgganModularParams, cache: EvaluationCache | None,
-                  executor: Executor | None, out: Path, progress: bool = False) -> tuple[Trained, dict]:
-    """Train one EG-GAN variant; writes out/eggan_modular_VARIANT.{pt,json,mcap,csv} and its checkpoint."""
+                  executor: Executor | None, out: Path, progress: bool = False) -> dict:
+    """Train one EG-GAN variant; writes out/eggan_modular_VARIANT.{pt,json,mcap,csv} and its checkpoint; returns
+    its metrics (no wall times: they go to reports/timings.json, so that the files stay byte-reproducible)."""
     if variant not in VARIANTS:
         raise ValueError(f"variant {variant!r}: expected one of {sorted(VARIANTS)}")
     config = dataclasses.replace(params.train, evolution=variant, evolution_steps=params.evolution_steps[variant])
@@ -71,18 +73,16 @@ def train_variant(variant: str, modular: ModularParams, params: EgganModularPara
     problem = make_problem(modular, params, cache, executor,
                            config.iterations * config.tasks * (1 + config.evolution_steps))
     name = f"eggan_modular_{variant}"
-    started = time.perf_counter()
     trained = train(problem, params.network, config, out / "checkpoints" / f"{name}.pt",
                     Path("reports/plots") / f"{name}.csv", out / f"{name}.mcap", progress=progress)
     metrics = {"method": VARIANTS[variant], "iterations": config.iterations, "batch": config.batch,
                "tasks_per_iteration": config.tasks, "evolution": variant, "evolution_steps": config.evolution_steps,
                "real_evaluations": problem.real_evaluations, "surrogate_heldout": problem.surrogate_error(),
-               "train_seconds_this_run": round(time.perf_counter() - started, 1),
                "final": {k: v for k, v in trained.rows[-1].items()} if trained.rows else {}}
     save_generator(trained.generator, problem, out / f"{name}.pt",
                    {"run_key": trained.key, "settings_hash": modular.eval.settings_hash(),
                     "train": dataclasses.asdict(config), "metrics": metrics})
-    return trained, metrics
+    return metrics
 
 
 def generator_proposer(generator: torch.nn.Module, samples: int) -> Proposer:
@@ -112,8 +112,8 @@ def dqn_proposer(net: torch.nn.Module) -> Proposer:
     return propose
 
 
-REALTIME_METHODS = {"fit2form": "Fit2form", "dqn": "DQN", "random": "Random sampling", "ga": "EG-GAN",
-                    "crowding": "EG-GAN-crowding"}  # Table 5.1's rows we run (MolGAN: not built)
+REALTIME_METHODS = {"fit2form": "Fit2form", "dqn": "DQN", "molgan": "MolGAN", "random": "Random sampling",
+                    "ga": "EG-GAN", "crowding": "EG-GAN-crowding"}  # Table 5.1's rows, in its order
 
 
 def realtime_proposers(problem: ModularEgganProblem, params: EgganModularParams, models: Path) -> dict[str, Proposer]:
@@ -137,11 +137,9 @@ def train_fit2form_baseline(modular: ModularParams, params: EgganModularParams, 
     """Fit2form on the same problem and budget of real rollouts; writes out/eggan_modular_fit2form.{pt,json}."""
     config = build_config(Fit2formConfig, params.baselines.get("fit2form", {}), "eggan_modular.baselines.fit2form")
     problem = make_problem(modular, params, cache, executor, config.iterations * config.tasks)
-    started = time.perf_counter()
     generator, rows = train_fit2form(problem, params.network, config, progress)
     metrics = {"method": "Fit2form", "iterations": config.iterations, "real_evaluations": problem.real_evaluations,
-               "surrogate_heldout": problem.surrogate_error(), "train_seconds": round(time.perf_counter() - started, 1),
-               "final": rows[-1]}
+               "surrogate_heldout": problem.surrogate_error(), "final": rows[-1]}
     save_generator(generator, problem, out / "eggan_modular_fit2form.pt",
                    {"settings_hash": modular.eval.settings_hash(), "train": dataclasses.asdict(config),
                     "metrics": metrics})
@@ -153,14 +151,28 @@ def train_dqn_baseline(modular: ModularParams, params: EgganModularParams, cache
     """Whitman's DQN on the same problem and budget of real rollouts; writes out/eggan_modular_dqn.{pt,json}."""
     config = build_config(DQNConfig, params.baselines.get("dqn", {}), "eggan_modular.baselines.dqn")
     problem = make_problem(modular, params, cache, executor, config.iterations * config.tasks)
-    started = time.perf_counter()
     net, rows = train_dqn(problem, params.network, config, progress)
     metrics = {"method": "DQN", "iterations": config.iterations, "episodes": rows[-1]["episodes"],
                "real_evaluations": problem.real_evaluations, "surrogate_heldout": problem.surrogate_error(),
                "final": rows[-1]}
     save_dqn(net, problem, out / "eggan_modular_dqn.pt",
              {"settings_hash": modular.eval.settings_hash(), "train": dataclasses.asdict(config), "metrics": metrics})
-    return {**metrics, "train_seconds": round(time.perf_counter() - started, 1)}  # wall time: not in the model file
+    return metrics
+
+
+def train_molgan_baseline(modular: ModularParams, params: EgganModularParams, cache: EvaluationCache | None,
+                          executor: Executor | None, out: Path, progress: bool = False) -> dict:
+    """Conditional MolGAN on the same problem and budget of real rollouts; writes out/eggan_modular_molgan.{pt,json}."""
+    config = build_config(MolganConfig, params.baselines.get("molgan", {}), "eggan_modular.baselines.molgan")
+    problem = make_problem(modular, params, cache, executor, config.iterations * config.tasks)
+    generator, rows = train_molgan(problem, params.network, config, progress)
+    metrics = {"method": "MolGAN", "iterations": config.iterations, "lam": config.lam,
+               "real_evaluations": problem.real_evaluations, "surrogate_heldout": problem.surrogate_error(),
+               "final": rows[-1]}
+    save_generator(generator, problem, out / "eggan_modular_molgan.pt",
+                   {"settings_hash": modular.eval.settings_hash(), "train": dataclasses.asdict(config),
+                    "metrics": metrics})
+    return metrics
 
 
 def random_proposer(problem: ModularEgganProblem, terrain_seed: int, query_seed: int, candidates: int) -> list[str]:

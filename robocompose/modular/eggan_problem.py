@@ -106,6 +106,7 @@ class ModularEgganProblem:
         self.real: dict[tuple[int, str], float] = {}  # (terrain seed, design) -> real fitness, in rollout order
         self.spent = 0  # real rollouts asked for (cache hits included: the budget counts them)
         self.calls = 0  # evaluate calls answered
+        self._valid: list[str] | None = None  # the designs the fitness rule simulates (computed once)
 
     # --- the EG-GAN interface ---
 
@@ -160,6 +161,10 @@ class ModularEgganProblem:
                                                       steps, rng, self.crossover_rate, self.mutation_rate)
         return population, fitness[:, None]
 
+    def random_designs(self, rng: np.random.Generator, n: int) -> list[str]:
+        valid = self._valid_designs()
+        return [valid[i] for i in rng.integers(len(valid), size=n)]
+
     def design_id(self, design: str) -> str:
         return design
 
@@ -194,12 +199,18 @@ class ModularEgganProblem:
         self.spent += len(designs)
         return values
 
+    def _valid_designs(self) -> list[str]:
+        """The designs the fitness rule simulates (not scored by the penalty), in `all_designs` order."""
+        if self._valid is None:
+            self._valid = [d for d in all_designs() if not self.modular.fitness.skips(d)]
+        return self._valid
+
     def _warm_up(self) -> None:
         if self.real:
             return
         f = self.fitness
         rng = np.random.default_rng([f.seed, 3301])
-        valid = [d for d in all_designs() if not self.modular.fitness.skips(d)]
+        valid = self._valid_designs()
         terrains = f.train_seed_base + rng.choice(f.train_terrains, size=f.warmup_terrains, replace=False)
         picks = rng.choice(len(valid), size=f.warmup, replace=f.warmup > len(valid))
         for k, terrain_seed in enumerate(terrains):
