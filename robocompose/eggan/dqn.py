@@ -49,7 +49,7 @@ from torch import nn
 
 from robocompose.eggan.networks import NetworkConfig, TaskEncoder
 from robocompose.eggan.problem import Design, SequentialProblem, Task, check_problem, decision_groups_of
-from robocompose.eggan.storage import load_torch, save_torch
+from robocompose.eggan.storage import load_model, save_model
 from robocompose.eggan.train import iteration_streams
 from robocompose.io.errors import InputError
 
@@ -278,36 +278,25 @@ def best_designs(net: QNetwork, problem: SequentialProblem, task: Task, k: int) 
 
 def save_dqn(net: QNetwork, problem: SequentialProblem, path: str | Path, meta: dict) -> Path:
     """Write the Q-network's weights and sizes to `path` (torch) and `meta` + provenance beside it (`.json`)."""
-    from robocompose.io import atomic_write_json
     from robocompose.io.provenance import code_digest
 
-    path = Path(path)
     info = {"problem": problem.name, "task_shape": list(net.task_shape), "design_shape": list(problem.design_shape),
             "decision_groups": [list(group) for group in decision_groups_of(problem)],
             "network": asdict(net.network), "hidden": net.hidden, "layers": net.layers,
             "model_code": code_digest(__name__), **meta}
-    save_torch({"info": info, "state": net.state_dict()}, path)
-    atomic_write_json(path.with_suffix(".json"), info)
-    return path
+    return save_model(info, net.state_dict(), path)
 
 
 def load_dqn(path: str | Path, problem: SequentialProblem) -> tuple[QNetwork, dict]:
     """A saved Q-network for `problem`, in eval mode, and its info; a clear error if it does not fit."""
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: no such DQN file")
-    saved = load_torch(path)  # the checksum first (ArtifactError naming the file): a cut file never reaches torch
-    try:
-        info = saved["info"]
-        found = (info["problem"], info["task_shape"], info["design_shape"], info["decision_groups"])
-    except (KeyError, TypeError) as err:  # a checked file of another kind
-        raise InputError(f"{path}: not a DQN file (no {err})") from None
+    info, state = load_model(path, "a DQN")
     groups = [list(group) for group in decision_groups_of(problem)]
+    found = tuple(info.get(key) for key in ("problem", "task_shape", "design_shape", "decision_groups"))
     if found != (problem.name, list(problem.task_shape), list(problem.design_shape), groups):
-        raise InputError(f"{path}: a DQN for {info['problem']} {info['task_shape']} -> {info['design_shape']} "
-                         f"(decisions {info['decision_groups']}), not for {problem.name} {list(problem.task_shape)} "
-                         f"-> {list(problem.design_shape)} (decisions {groups})")
+        raise InputError(f"{path}: a DQN for {found[0]} {found[1]} -> {found[2]} (decisions {found[3]}), not for "
+                         f"{problem.name} {list(problem.task_shape)} -> {list(problem.design_shape)} "
+                         f"(decisions {groups})")
     net = QNetwork(problem.task_shape, len(groups), problem.design_shape[1], NetworkConfig(**info["network"]),
                    info["hidden"], info["layers"])
-    net.load_state_dict(saved["state"])
+    net.load_state_dict(state)
     return net.eval(), info

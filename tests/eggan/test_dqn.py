@@ -20,7 +20,7 @@ from robocompose.eggan.dqn import (
 )
 from robocompose.eggan.networks import NetworkConfig
 from robocompose.eggan.problem import decision_groups_of
-from robocompose.io.errors import InputError
+from robocompose.io.errors import ArtifactError, InputError
 from robocompose.params import build_config
 
 from .conftest import CHOICES, PORTS, MatchProblem
@@ -110,5 +110,11 @@ def test_same_config_same_model_bytes_and_the_file_round_trips(tmp_path):
     assert info["decision_groups"] == [[0, 5], [1, 4], [2, 3]] and info["hidden"] == TINY.hidden
     task = problem.sample_task(np.random.default_rng(5))
     assert best_designs(loaded, problem, task, 64) == best_designs(nets[0], problem, task, 64)
-    with pytest.raises(ValueError, match="not for match"):
+    with pytest.raises(InputError, match="not for match"):
         load_dqn(paths[0], MatchProblem())  # other decisions (one per port): refused
+    cut = tmp_path / "cut.pt"
+    cut.write_bytes(paths[0].read_bytes()[:-10])
+    with pytest.raises(ArtifactError, match="cut.pt"):
+        load_dqn(cut, problem)
+    with pytest.raises(InputError, match="no such file"):
+        load_dqn(tmp_path / "missing.pt", problem)
