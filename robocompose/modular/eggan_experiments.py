@@ -29,6 +29,7 @@ import numpy as np
 import pandas as pd
 import torch
 
+from robocompose.eggan.dqn import DQNConfig, best_designs, load_dqn, save_dqn, train_dqn
 from robocompose.eggan.fit2form import Fit2formConfig, train_fit2form
 from robocompose.eggan.molgan import MolganConfig, train_molgan
 from robocompose.eggan.query import generate, load_generator, rank_distinct, save_generator
@@ -101,8 +102,18 @@ def generator_proposer(generator: torch.nn.Module, samples: int) -> Proposer:
     return propose
 
 
-REALTIME_METHODS = {"fit2form": "Fit2form", "molgan": "MolGAN", "random": "Random sampling", "ga": "EG-GAN",
-                    "crowding": "EG-GAN-crowding"}  # Table 5.1's rows we run (DQN: not built)
+def dqn_proposer(net: torch.nn.Module) -> Proposer:
+    """Whitman's DQN's answer: its greedy design, then the designs a best-first search on its Q reaches next
+    (`robocompose.eggan.dqn.best_designs`); the same candidates for every query of a terrain (no randomness)."""
+
+    def propose(problem: ModularEgganProblem, terrain_seed: int, query_seed: int, candidates: int) -> list[str]:
+        return [design for design, _ in best_designs(net, problem, terrain_seed, candidates)]
+
+    return propose
+
+
+REALTIME_METHODS = {"fit2form": "Fit2form", "dqn": "DQN", "molgan": "MolGAN", "random": "Random sampling",
+                    "ga": "EG-GAN", "crowding": "EG-GAN-crowding"}  # Table 5.1's rows, in its order
 
 
 def realtime_proposers(problem: ModularEgganProblem, params: EgganModularParams, models: Path) -> dict[str, Proposer]:
@@ -112,6 +123,8 @@ def realtime_proposers(problem: ModularEgganProblem, params: EgganModularParams,
         path = models / f"eggan_modular_{method}.pt"
         if method == "random":
             proposers[method] = random_proposer
+        elif method == "dqn" and path.exists():
+            proposers[method] = dqn_proposer(load_dqn(path, problem)[0])
         elif path.exists():
             proposers[method] = generator_proposer(load_generator(path, problem)[0], params.protocol.samples)
         else:
@@ -130,6 +143,20 @@ def train_fit2form_baseline(modular: ModularParams, params: EgganModularParams, 
     save_generator(generator, problem, out / "eggan_modular_fit2form.pt",
                    {"settings_hash": modular.eval.settings_hash(), "train": dataclasses.asdict(config),
                     "metrics": metrics})
+    return metrics
+
+
+def train_dqn_baseline(modular: ModularParams, params: EgganModularParams, cache: EvaluationCache | None,
+                       executor: Executor | None, out: Path, progress: bool = False) -> dict:
+    """Whitman's DQN on the same problem and budget of real rollouts; writes out/eggan_modular_dqn.{pt,json}."""
+    config = build_config(DQNConfig, params.baselines.get("dqn", {}), "eggan_modular.baselines.dqn")
+    problem = make_problem(modular, params, cache, executor, config.iterations * config.tasks)
+    net, rows = train_dqn(problem, params.network, config, progress)
+    metrics = {"method": "DQN", "iterations": config.iterations, "episodes": rows[-1]["episodes"],
+               "real_evaluations": problem.real_evaluations, "surrogate_heldout": problem.surrogate_error(),
+               "final": rows[-1]}
+    save_dqn(net, problem, out / "eggan_modular_dqn.pt",
+             {"settings_hash": modular.eval.settings_hash(), "train": dataclasses.asdict(config), "metrics": metrics})
     return metrics
 
 

@@ -93,6 +93,9 @@ class ModularEgganProblem:
     discrete = True
     objectives = (Objective("distance", maximise=True),)
     evolution_methods = ("crowding", "ga")
+    # Mirrored port pairs (front-left/front-right, mid-left/mid-right, back-left/back-right): a sequential
+    # designer (Whitman's DQN) makes one module choice per pair, so its designs are left-right symmetric.
+    decision_groups = ((0, 5), (1, 4), (2, 3))
 
     def __init__(self, modular: ModularParams, fitness: FitnessConfig, cache: EvaluationCache | None = None,
                  executor: Executor | None = None, mutation_rate: float = 1 / 6, crossover_rate: float = 0.9):
@@ -121,12 +124,15 @@ class ModularEgganProblem:
 
     def sample_designs(self, output: torch.Tensor, generator: torch.Generator | None) -> Sampled:
         picks, log_prob = sample_rows(output, generator)  # (B, 6), (B,)
-        return Sampled([index_to_design(row) for row in picks.numpy()], one_hot_rows(picks, len(MODULE_LETTERS)),
+        return Sampled(self.designs_from_choices(picks.numpy()), one_hot_rows(picks, len(MODULE_LETTERS)),
                        log_prob)
 
     def design_tensor(self, designs: Sequence[str]) -> torch.Tensor:
         return one_hot_rows(np.array([design_to_index(d) for d in designs]).reshape(-1, N_PORTS),
                             len(MODULE_LETTERS))
+
+    def designs_from_choices(self, choices: np.ndarray) -> list[str]:
+        return [index_to_design(row) for row in np.asarray(choices)]  # (B, 6) module indices -> port strings
 
     def evaluate(self, task: int, designs: Sequence[str]) -> np.ndarray:
         """(B, 1): the rule's penalty, else a real rollout's fitness if one was made, else the surrogate's."""

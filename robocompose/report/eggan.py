@@ -25,7 +25,7 @@ THESIS_TABLE_5_1 = {"Fit2form": ("4.03 ± 0.91", "1.2 ± 0.2", "2.55 ± 1.31"),
 # Thesis, hand-crafted controller ("effect of the controller"): max distance (m).
 THESIS_HANDCRAFTED = {"Fit2form": "3.81 ± 1.22", "Random sampling": "0.86 ± 0.81", "EG-GAN-crowding": "4.96 ± 0.45"}
 THESIS_QUERY_MIN = 0.003  # EG-GAN-crowding's runtime in Table 5.2
-NAMES = {"fit2form": "Fit2form", "molgan": "MolGAN", "random": "Random sampling", "ga": "EG-GAN",
+NAMES = {"fit2form": "Fit2form", "dqn": "DQN based", "molgan": "MolGAN", "random": "Random sampling", "ga": "EG-GAN",
          "crowding": "EG-GAN-crowding"}
 
 
@@ -67,9 +67,6 @@ def section(reports_dir: Path, data_dir: Path) -> str:
         lines.append(f"| {name} | {_ms(group.max_distance)} | {_ms(group.distinct, 1)} | {_ms(group.ec_distance)} | "
                      f"{_ms(group.regret)} | {int(group.max_distance.isna().sum())} / {int(group.ec_failures.sum())} | "
                      f"{spent} | {thesis[0]} | {thesis[1]} | {thesis[2]} | {THESIS_HANDCRAFTED.get(name, '-')} |")
-    for name in ("DQN based",):
-        thesis = THESIS_TABLE_5_1[name]
-        lines.append(f"| {name} | not built | | | | | | {thesis[0]} | {thesis[1]} | {thesis[2]} | - |")
     lines += ["", _verdict(table), ""]
     lines += _training_lines(metrics)
     lines += _table_5_2(table, reports_dir, data_dir)

@@ -1,8 +1,11 @@
+import json
+
 import pytest
 import torch
 
-from robocompose.eggan.storage import load_torch, save_torch
+from robocompose.eggan.storage import load_model, load_torch, save_model, save_torch
 from robocompose.io import ArtifactError
+from robocompose.io.errors import InputError
 
 
 def test_round_trip_and_the_bytes_do_not_depend_on_the_file_name(tmp_path):
@@ -31,3 +34,15 @@ def test_only_tensors_and_plain_data_load_by_default(tmp_path):
     with pytest.raises(Exception, match="Weights only load failed"):
         load_torch(path)
     assert isinstance(load_torch(path, weights_only=False)["f"], torch.nn.Linear)
+
+
+def test_a_model_file_holds_info_and_state_and_a_file_of_another_kind_is_refused(tmp_path):
+    path = save_model({"problem": "toy", "hidden": 4}, {"w": torch.ones(2)}, tmp_path / "model.pt")
+    info, state = load_model(path, "a toy model")
+    assert info == json.loads((tmp_path / "model.json").read_text()) == {"problem": "toy", "hidden": 4}
+    assert torch.equal(state["w"], torch.ones(2))
+    other = save_torch({"weights": torch.ones(2)}, tmp_path / "other.pt")  # checked, but not a model file
+    with pytest.raises(InputError, match=f"{other}: not a toy model file"):
+        load_model(other, "a toy model")
+    with pytest.raises(InputError, match="no such file"):
+        load_model(tmp_path / "missing.pt", "a toy model")
