@@ -1,5 +1,6 @@
 """`robocompose modular ...`: evaluate one modular design on a block terrain; run a GA baseline on one terrain;
-measure one terrain's exhaustive table.
+measure one terrain's exhaustive table; probe candidate terrain distributions; the terrain criterion of a
+directory of exhaustive tables.
 
 Settings come from the `modular:` section of `--params` (default: params.yaml if there is one, else the
 dataclass defaults: the default profile's episode on the reference's course); a file named with `--params` must
@@ -12,7 +13,7 @@ import argparse
 import json
 from pathlib import Path
 
-from robocompose.arguments import non_negative_int, output_directory, output_file
+from robocompose.arguments import input_file, non_negative_int, output_directory, output_file
 
 VARIANTS = ("ga20", "ga50", "crowding", "random")
 
@@ -54,6 +55,26 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                             help="evaluation processes (default: params; 0 = all cores)")
     _add_params_argument(exhaustive)
     exhaustive.set_defaults(handler=_exhaustive)
+
+    probe = commands.add_parser(
+        "probe", help="a fixed set of designs on seeded terrains under candidate terrain distributions; writes "
+        "the rows and the terrain criterion per candidate as CSV (resumes through the cache)")
+    probe.add_argument("--candidates", type=input_file("candidates YAML"), required=True,
+                       help="YAML mapping: distribution name -> overrides of the params' eval.terrain fields")
+    probe.add_argument("--terrain-seeds", type=non_negative_int, nargs="+", required=True)
+    probe.add_argument("--out", type=output_file(".csv", "CSV"), required=True,
+                       help="the probe's rows; the criterion per candidate goes beside it (<name>_criterion.csv)")
+    probe.add_argument("--workers", type=non_negative_int,
+                       help="evaluation processes (default: params; 0 = all cores)")
+    _add_params_argument(probe)
+    probe.set_defaults(handler=_probe)
+
+    criterion = commands.add_parser(
+        "criterion", help="the terrain criterion (distinct optima up to mirror, regret of the best-on-average "
+        "design) of the exhaustive tables in a directory; prints JSON")
+    criterion.add_argument("--dir", type=Path, default=None,
+                           help="a directory of blocks-<seed>.parquet tables (default reports/modular/exhaustive)")
+    criterion.set_defaults(handler=_criterion)
 
 
 def _add_params_argument(parser: argparse.ArgumentParser) -> None:
@@ -120,3 +141,34 @@ def _exhaustive(args: argparse.Namespace) -> None:
     best = truth_summary(read_table(path, "modular_exhaustive"), params.experiments.near_optimal).iloc[0]
     print(json.dumps({"terrain_seed": args.terrain_seed, "table": str(path), "optimum": best.optimum,
                       "best_design": best.best_design, "near_optimal": int(best.near_optimal)}))
+
+
+def _probe(args: argparse.Namespace) -> None:
+    from robocompose.evaluation.cache import EvaluationCache
+    from robocompose.evaluation.executor import Executor
+    from robocompose.io import atomic_write_text
+    from robocompose.modular.terrain_study import candidate_settings, criteria, probe_table, rounded
+    from robocompose.params import read_params
+
+    params = _params(args.params)
+    candidates = candidate_settings(params.eval, read_params(args.candidates), str(args.candidates))
+    workers = params.workers if args.workers is None else args.workers
+    cache = EvaluationCache(params.cache or None)
+
+    def write(table) -> None:
+        atomic_write_text(args.out, rounded(table).to_csv(index=False))
+        atomic_write_text(args.out.with_name(f"{args.out.stem}_criterion.csv"),
+                          rounded(criteria(table)).to_csv(index=False))
+
+    with Executor(workers=workers, address=params.address or None) as executor:
+        table = probe_table(candidates, args.terrain_seeds, params.fitness, cache, executor, on_piece=write)
+    for row in criteria(table).to_dict("records"):
+        print(json.dumps(row))
+
+
+def _criterion(args: argparse.Namespace) -> None:
+    from robocompose.modular.terrain_study import directory_criterion
+    from robocompose.modular.truth import COMMITTED_DIR
+
+    per_terrain, totals = directory_criterion(args.dir or COMMITTED_DIR)
+    print(json.dumps({**totals, "per_terrain": per_terrain.to_dict("records")}))
