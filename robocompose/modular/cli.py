@@ -64,6 +64,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     probe.add_argument("--terrain-seeds", type=non_negative_int, nargs="+", required=True)
     probe.add_argument("--out", type=output_file(".csv", "CSV"), required=True,
                        help="the probe's rows; the criterion per candidate goes beside it (<name>_criterion.csv)")
+    probe.add_argument("--designs", nargs="+", default=None,
+                       help="port strings to probe (default: terrain_study.PROBE_DESIGNS, 20 designs)")
     probe.add_argument("--workers", type=non_negative_int,
                        help="evaluation processes (default: params; 0 = all cores)")
     _add_params_argument(probe)
@@ -147,11 +149,13 @@ def _probe(args: argparse.Namespace) -> None:
     from robocompose.evaluation.cache import EvaluationCache
     from robocompose.evaluation.executor import Executor
     from robocompose.io import atomic_write_text
-    from robocompose.modular.terrain_study import candidate_settings, criteria, probe_table, rounded
+    from robocompose.modular.robot import parse_design
+    from robocompose.modular.terrain_study import PROBE_DESIGNS, candidate_settings, criteria, probe_table, rounded
     from robocompose.params import read_params
 
     params = _params(args.params)
     candidates = candidate_settings(params.eval, read_params(args.candidates), str(args.candidates))
+    designs = [parse_design(d) for d in args.designs] if args.designs else list(PROBE_DESIGNS)
     workers = params.workers if args.workers is None else args.workers
     cache = EvaluationCache(params.cache or None)
 
@@ -161,7 +165,8 @@ def _probe(args: argparse.Namespace) -> None:
                           rounded(criteria(table)).to_csv(index=False))
 
     with Executor(workers=workers, address=params.address or None) as executor:
-        table = probe_table(candidates, args.terrain_seeds, params.fitness, cache, executor, on_piece=write)
+        table = probe_table(candidates, args.terrain_seeds, params.fitness, cache, executor, designs,
+                            on_piece=write)
     for row in criteria(table).to_dict("records"):
         print(json.dumps(row))
 
