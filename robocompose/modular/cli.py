@@ -47,10 +47,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     ga.set_defaults(handler=_ga)
 
     exhaustive = commands.add_parser(
-        "exhaustive", help="every design on one terrain, kept under reports/modular/exhaustive/ (resumes)")
-    exhaustive.add_argument("--terrain-seed", type=non_negative_int, required=True)
+        "exhaustive", help="every design on each terrain, a table per terrain kept under "
+        "reports/modular/exhaustive/ (resumes: terrains whose table is there are skipped, a terrain half done "
+        "resumes from the cache)")
+    exhaustive.add_argument("--terrain-seed", type=non_negative_int, nargs="+", required=True,
+                            help="one or more terrain seeds, measured in this order")
     exhaustive.add_argument("--out-dir", type=output_directory, default=None,
                             help="where the table and its provenance record go (default reports/modular/exhaustive)")
+    exhaustive.add_argument("--candidates", type=input_file("candidates YAML"),
+                            help="with --distribution: a YAML of candidate terrain distributions (as for probe)")
+    exhaustive.add_argument("--distribution", help="measure under this candidate of --candidates instead of the "
+                            "params' terrain")
     exhaustive.add_argument("--workers", type=non_negative_int,
                             help="evaluation processes (default: params; 0 = all cores)")
     _add_params_argument(exhaustive)
@@ -132,18 +139,40 @@ def _exhaustive(args: argparse.Namespace) -> None:
     from robocompose.evaluation.cache import EvaluationCache
     from robocompose.evaluation.executor import Executor
     from robocompose.io import read_table
-    from robocompose.modular.truth import COMMITTED_DIR, measure_committed, truth_summary
+    from robocompose.io.errors import InputError
+    from robocompose.modular.terrain_study import candidate_settings
+    from robocompose.modular.truth import (
+        COMMITTED_DIR,
+        committed_path,
+        measure_committed,
+        read_committed,
+        truth_summary,
+    )
+    from robocompose.params import read_params
 
     params = _params(args.params)
+    settings = params.eval
+    if (args.candidates is None) != (args.distribution is None):
+        raise InputError("--candidates and --distribution: expected both (a candidate terrain) or neither")
+    if args.distribution is not None:
+        document = read_params(args.candidates)
+        if args.distribution not in document:
+            raise InputError(f"--distribution {args.distribution!r}: not in {args.candidates} (expected one of "
+                             f"{sorted(document)})")
+        settings = candidate_settings(settings, {args.distribution: document[args.distribution]},
+                                      str(args.candidates))[args.distribution]
+    directory = args.out_dir or COMMITTED_DIR
     workers = params.workers if args.workers is None else args.workers
     cache = EvaluationCache(params.cache or None)
     with Executor(workers=workers, address=params.address or None) as executor:
-        path = measure_committed(args.terrain_seed, params.eval, params.fitness, cache, executor,
-                                 args.out_dir or COMMITTED_DIR)
-    best = truth_summary(read_table(path, "modular_exhaustive"), params.experiments.near_optimal).iloc[0]
-    print(json.dumps({"terrain_seed": args.terrain_seed, "table": str(path), "optimum": best.optimum,
-                      "best_design": best.best_design, "near_optimal": int(best.near_optimal)}))
-
+        for seed in args.terrain_seed:
+            kept = read_committed(seed, settings, params.fitness, directory) is not None
+            path = (committed_path(seed, directory) if kept
+                    else measure_committed(seed, settings, params.fitness, cache, executor, directory))
+            best = truth_summary(read_table(path, "modular_exhaustive"), params.experiments.near_optimal).iloc[0]
+            print(json.dumps({"terrain_seed": seed, "table": str(path), "source": "kept" if kept else "measured",
+                              "optimum": best.optimum, "best_design": best.best_design,
+                              "near_optimal": int(best.near_optimal)}), flush=True)
 
 def _probe(args: argparse.Namespace) -> None:
     from robocompose.evaluation.cache import EvaluationCache

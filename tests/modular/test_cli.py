@@ -79,6 +79,26 @@ def test_exhaustive_commits_one_terrains_table_with_its_provenance(tmp_path, cap
 
 
 
+
+def test_exhaustive_measures_a_candidate_distribution_and_skips_terrains_already_kept(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr("robocompose.modular.truth.all_designs", lambda: ["wwwwww", "nnnnnn"])
+    params, candidates = tmp_path / "params.yaml", tmp_path / "candidates.yaml"
+    params.write_text(TINY)
+    candidates.write_text("tall: {max_height_range: [0.3, 0.4]}\n")
+    flags = ["modular", "exhaustive", "--terrain-seed", "4", "5", "--out-dir", str(tmp_path / "tall"),
+             "--params", str(params), "--candidates", str(candidates), "--distribution", "tall"]
+    assert main(flags) == 0
+    assert [json.loads(line)["source"] for line in capsys.readouterr().out.splitlines()] == ["measured"] * 2
+    record = json.loads((tmp_path / "tall" / "blocks-5.json").read_text())
+    assert record["settings"]["terrain"]["max_height_range"] == [0.3, 0.4]
+    assert main(flags[:5] + ["6"] + flags[5:]) == 0  # 4 and 5 are kept, 6 is measured
+    assert [json.loads(line)["source"] for line in capsys.readouterr().out.splitlines()] == [
+        "kept", "kept", "measured"]
+    assert main(flags[:-2]) == 2
+    assert "expected both" in capsys.readouterr().err
+    assert main(flags[:-1] + ["short"]) == 2
+    assert "not in" in capsys.readouterr().err
+
 def test_probe_writes_rows_and_criterion_and_criterion_reads_a_table_directory(tmp_path, capsys, monkeypatch):
     monkeypatch.setattr("robocompose.modular.truth.all_designs", lambda: ["wwwwww", "llllll"])
     params, candidates = tmp_path / "params.yaml", tmp_path / "candidates.yaml"
