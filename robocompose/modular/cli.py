@@ -40,10 +40,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "population 50), random (random sampling)")
     ga.add_argument("--terrain-seed", type=non_negative_int, required=True)
     ga.add_argument("--seed", type=non_negative_int, default=0, help="seed of the search")
-    ga.add_argument("--workers", type=non_negative_int, help="evaluation processes (default: params; 0 = all cores)")
     ga.add_argument("--address", help="a running Dask scheduler (tcp://host:8786) for the evaluations "
                     "(default: params' modular.address; \"\" = local processes)")
-    _add_params_argument(ga)
+    _add_evaluation_arguments(ga)
     ga.set_defaults(handler=_ga)
 
     exhaustive = commands.add_parser(
@@ -58,9 +57,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                             help="with --distribution: a YAML of candidate terrain distributions (as for probe)")
     exhaustive.add_argument("--distribution", help="measure under this candidate of --candidates instead of the "
                             "params' terrain")
-    exhaustive.add_argument("--workers", type=non_negative_int,
-                            help="evaluation processes (default: params; 0 = all cores)")
-    _add_params_argument(exhaustive)
+    _add_evaluation_arguments(exhaustive)
     exhaustive.set_defaults(handler=_exhaustive)
 
     probe = commands.add_parser(
@@ -68,14 +65,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "the rows and the terrain criterion per candidate as CSV (resumes through the cache)")
     probe.add_argument("--candidates", type=input_file("candidates YAML"), required=True,
                        help="YAML mapping: distribution name -> overrides of the params' eval.terrain fields")
-    probe.add_argument("--terrain-seeds", type=non_negative_int, nargs="+", required=True)
+    probe.add_argument("--terrain-seed", type=non_negative_int, nargs="+", required=True,
+                       help="the terrain seeds, probed in this order")
     probe.add_argument("--out", type=output_file(".csv", "CSV"), required=True,
                        help="the probe's rows; the criterion per candidate goes beside it (<name>_criterion.csv)")
     probe.add_argument("--designs", nargs="+", default=None,
                        help="port strings to probe (default: terrain_study.PROBE_DESIGNS, 20 designs)")
-    probe.add_argument("--workers", type=non_negative_int,
-                       help="evaluation processes (default: params; 0 = all cores)")
-    _add_params_argument(probe)
+    _add_evaluation_arguments(probe)
     probe.set_defaults(handler=_probe)
 
     criterion = commands.add_parser(
@@ -84,6 +80,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     criterion.add_argument("--dir", type=Path, default=None,
                            help="a directory of blocks-<seed>.parquet tables (default reports/modular/exhaustive)")
     criterion.set_defaults(handler=_criterion)
+
+
+def _add_evaluation_arguments(parser: argparse.ArgumentParser) -> None:
+    """--workers and --params of the commands that evaluate many designs."""
+    parser.add_argument("--workers", type=non_negative_int,
+                        help="evaluation processes (default: params; 0 = all cores)")
+    _add_params_argument(parser)
 
 
 def _add_params_argument(parser: argparse.ArgumentParser) -> None:
@@ -194,7 +197,7 @@ def _probe(args: argparse.Namespace) -> None:
                           rounded(criteria(table)).to_csv(index=False))
 
     with Executor(workers=workers, address=params.address or None) as executor:
-        table = probe_table(candidates, args.terrain_seeds, params.fitness, cache, executor, designs,
+        table = probe_table(candidates, args.terrain_seed, params.fitness, cache, executor, designs,
                             on_piece=write)
     for row in criteria(table).to_dict("records"):
         print(json.dumps(row))

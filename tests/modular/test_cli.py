@@ -104,7 +104,7 @@ def test_probe_writes_rows_and_criterion_and_criterion_reads_a_table_directory(t
     params, candidates = tmp_path / "params.yaml", tmp_path / "candidates.yaml"
     params.write_text(TINY)
     candidates.write_text("low: {max_height_range: [0.0, 0.01]}\ntall: {max_height_range: [0.2, 0.3]}\n")
-    assert main(["modular", "probe", "--candidates", str(candidates), "--terrain-seeds", "4", "5",
+    assert main(["modular", "probe", "--candidates", str(candidates), "--terrain-seed", "4", "5",
                  "--designs", "WWWWWW", "llllll", "--out", str(tmp_path / "probe.csv"), "--params", str(params)]) == 0
     printed = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
     assert [row["distribution"] for row in printed] == ["low", "tall"] and printed[0]["terrains"] == 2
@@ -125,7 +125,7 @@ def test_probe_rejects_an_unknown_terrain_field(tmp_path, capsys):
     params, candidates = tmp_path / "params.yaml", tmp_path / "candidates.yaml"
     params.write_text(TINY)
     candidates.write_text("tall: {height: 0.4}\n")
-    assert main(["modular", "probe", "--candidates", str(candidates), "--terrain-seeds", "4",
+    assert main(["modular", "probe", "--candidates", str(candidates), "--terrain-seed", "4",
                  "--out", str(tmp_path / "probe.csv"), "--params", str(params)]) == 2
     assert "tall.height: unknown terrain field" in capsys.readouterr().err
     assert not (tmp_path / "probe.csv").exists()
