@@ -192,7 +192,8 @@ def _probe(args: argparse.Namespace) -> None:
     cache = EvaluationCache(params.cache or None)
 
     def write(table) -> None:
-        atomic_write_text(args.out, rounded(table).to_csv(index=False))
+        rows = table.drop(columns="seconds")  # wall time of each rollout: not reproducible
+        atomic_write_text(args.out, rounded(rows).to_csv(index=False))
         atomic_write_text(args.out.with_name(f"{args.out.stem}_criterion.csv"),
                           rounded(criteria(table)).to_csv(index=False))
 
