@@ -41,8 +41,6 @@ PROBE_DESIGNS = (
     "wnwwww", "wbwwww", "wnbwnw", "wnwwnw", "bnbbnb", "bbbbwb", "bnbwnw", "bnbwww", "bbbbnb",
     "wbwwbw", "lwwwww", "bbwlww", "bblwnw", "lnllnl", "lbllbl", "blbblb", "wlwwlw",
 )
-REGRET_RATIO = 0.1  # the criterion: mean regret of the best-on-average design >= 10% of the mean optimum
-DISTINCT_OPTIMA = 3  # ... and >= 3 distinct optimal designs up to mirror symmetry
 
 
 def candidate_settings(settings: EvalSettings, overrides: Mapping[str, Mapping], where: str) -> dict[str, EvalSettings]:
@@ -84,16 +82,13 @@ def probe_table(candidates: Mapping[str, EvalSettings], terrain_seeds: Sequence[
 
 
 def criteria(table: pd.DataFrame) -> pd.DataFrame:
-    """Per distribution (column `distribution`; absent: one): the totals of `truth.terrain_criterion`, the
-    optimal designs per terrain, and whether the criterion holds."""
+    """Per distribution (column `distribution`; absent: one): the totals of `truth.terrain_criterion` (`holds`
+    among them) and the optimal designs per terrain."""
     groups = table.groupby("distribution", sort=False) if "distribution" in table else [("", table)]
     rows = []
     for name, group in groups:
         per_terrain, totals = terrain_criterion(group[["terrain_seed", "design", "distance"]])
-        rows.append({"distribution": name, **totals,
-                     "optimum_designs": " ".join(per_terrain.optimum_design),
-                     "holds": bool(totals["distinct_optima"] >= DISTINCT_OPTIMA
-                                   and totals["regret_ratio"] >= REGRET_RATIO)})
+        rows.append({"distribution": name, **totals, "optimum_designs": " ".join(per_terrain.optimum_design)})
     return pd.DataFrame(rows)
 
 
@@ -115,7 +110,6 @@ def directory_criterion(directory: str | Path) -> tuple[pd.DataFrame, dict]:
         raise InputError(f"{differing}: measured under other settings, fitness rule or physics than {paths[0].name}")
     table = pd.concat([read_table(p, "modular_exhaustive") for p in paths], ignore_index=True)
     per_terrain, totals = terrain_criterion(table)
-    totals["holds"] = bool(totals["distinct_optima"] >= DISTINCT_OPTIMA and totals["regret_ratio"] >= REGRET_RATIO)
     totals["physics_digest"] = records[0]["physics_digest"]
     totals["terrain"] = records[0]["settings"]["terrain"]
     return per_terrain, totals

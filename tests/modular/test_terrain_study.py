@@ -19,20 +19,20 @@ def _table(distances: dict[int, dict[str, float]]) -> pd.DataFrame:
                          for seed, by_design in distances.items() for design, distance in by_design.items()])
 
 
-# Smooth terrains (1, 2) favour wheels, rough ones (3, 4) leg-wheels or legs; "wbwwww" is the compromise.
-HAND_BUILT = _table({
-    1: {"wwwwww": 4.0, "bbbbbb": 3.0, "llllll": 1.0, "wbwwww": 3.6},
-    2: {"wwwwww": 4.0, "bbbbbb": 3.2, "llllll": 1.0, "wbwwww": 3.6},
-    3: {"wwwwww": 0.5, "bbbbbb": 3.0, "llllll": 1.5, "wbwwww": 2.6},
-    4: {"wwwwww": 0.5, "bbbbbb": 0.6, "llllll": 1.5, "wbwwww": 1.0},
-})
+# Smooth terrains favour wheels, rough ones leg-wheels or legs; "wbwwww" is the compromise. Four kinds, each twice
+# (the criterion asks for >= 8 terrains).
+KINDS = [{"wwwwww": 4.0, "bbbbbb": 3.0, "llllll": 1.0, "wbwwww": 3.6},
+         {"wwwwww": 4.0, "bbbbbb": 3.2, "llllll": 1.0, "wbwwww": 3.6},
+         {"wwwwww": 0.5, "bbbbbb": 3.0, "llllll": 1.5, "wbwwww": 2.6},
+         {"wwwwww": 0.5, "bbbbbb": 0.6, "llllll": 1.5, "wbwwww": 1.0}]
+HAND_BUILT = _table({seed: KINDS[(seed - 1) % 4] for seed in range(1, 9)})
 
 
 def test_criteria_count_distinct_optima_and_the_regret_of_the_best_average_design():
     row = criteria(HAND_BUILT).iloc[0]
     # means: wwwwww 2.25, bbbbbb 2.45, llllll 1.25, wbwwww 2.7 -> wbwwww; optima 4, 4, 3, 1.5 (mean 3.125)
-    assert row.average_design == "wbwwww" and row.optimum_designs == "wwwwww wwwwww bbbbbb llllll"
-    assert row.distinct_optima == 3 and row.mean_optimum == pytest.approx(3.125)
+    assert row.average_design == "wbwwww" and row.optimum_designs == " ".join(["wwwwww wwwwww bbbbbb llllll"] * 2)
+    assert row.terrains == 8 and row.distinct_optima == 3 and row.mean_optimum == pytest.approx(3.125)
     assert row.mean_regret == pytest.approx((0.4 + 0.4 + 0.4 + 0.5) / 4)
     assert row.regret_ratio == pytest.approx(0.425 / 3.125) and bool(row.holds)
     # Two distributions in one table are judged apart; on the second the wheels win everywhere.
@@ -43,10 +43,14 @@ def test_criteria_count_distinct_optima_and_the_regret_of_the_best_average_desig
     assert both.set_index("distribution").loc["flat", "distinct_optima"] == 1
 
 
-def test_criteria_fail_below_three_distinct_optima_even_with_a_large_regret():
-    two = HAND_BUILT[HAND_BUILT.terrain_seed != 4]
-    row = criteria(two).iloc[0]
+def test_criteria_fail_below_three_distinct_optima_or_eight_terrains_even_with_a_large_regret():
+    legs_never_best = HAND_BUILT.copy()
+    rough = (legs_never_best.terrain_seed % 4 == 0) & (legs_never_best.design == "bbbbbb")
+    legs_never_best.loc[rough, "distance"] = 2.0  # leg-wheels now beat the legs there
+    row = criteria(legs_never_best).iloc[0]
     assert row.distinct_optima == 2 and row.regret_ratio > 0.1 and not row.holds
+    row = criteria(HAND_BUILT[HAND_BUILT.terrain_seed <= 4]).iloc[0]
+    assert row.terrains == 4 and row.distinct_optima == 3 and row.regret_ratio > 0.1 and not row.holds
 
 
 def test_candidate_settings_override_terrain_fields_and_reject_unknown_ones():
