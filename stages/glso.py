@@ -22,7 +22,7 @@ def main() -> None:
     evaluation = load_section(EvaluationConfig, "evaluation")
     config = load_section(GLSOConfig, "glso")
     with timed("glso") as timing, Executor(workers=config.workers, address=config.address or None) as executor:
-        steps = run_all(config, evaluation, OUT, executor)
+        steps, timing["run_seconds"] = run_all(config, evaluation, OUT, executor)
         timing["runs"] = int(steps.groupby(["task", "method", "seed"]).ngroups)
         timing["objective_calls"] = len(steps)
         write_table(steps, OUT / "steps.parquet", "glso_steps")

@@ -25,8 +25,8 @@ def main() -> None:
     cache = EvaluationCache(modular.cache or None)
     with timed("modular_realtime") as timing, Executor(modular.workers, modular.address or None) as executor:
         problem = make_problem(modular, params, cache, executor)
-        table = realtime_table(realtime_proposers(problem, params, Path("models")), problem, modular, params, truth,
-                               cache, executor)
+        table, timing["query_ms_median"] = realtime_table(realtime_proposers(problem, params, Path("models")), problem,
+                                                          modular, params, truth, cache, executor)
         timing["queries"] = len(table)
     write_table(table, "data/modular/realtime.parquet", "modular_realtime")
     summary = summarise(table)

@@ -1,18 +1,24 @@
-"""DVC stage `train_eggan_modular`: EG-GAN-crowding, EG-GAN and the Fit2form baseline on modular robots
-(thesis ch. 4, 5.1), each on the same problem and budget of real rollouts.
+"""DVC stage `train_eggan_modular`: EG-GAN-crowding, EG-GAN and the Fit2form, DQN and MolGAN baselines on modular
+robots (thesis ch. 4, 5.1), each on the same problem and budget of real rollouts.
 
-params (modular, eggan_modular) -> models/eggan_modular_{crowding,ga,fit2form}.{pt,json} (+ .mcap for the EG-GAN
-variants), their checkpoints
+params (modular, eggan_modular) -> models/eggan_modular_{crowding,ga,fit2form,dqn,molgan}.{pt,json} (+ .mcap for the
+EG-GAN variants), their checkpoints
 (models/checkpoints/, persistent), reports/plots/eggan_modular_*.csv, reports/metrics/eggan_modular.json.
 Real rollouts go through the shared evaluation cache; a killed run resumes from its checkpoints.
 """
 
+from functools import partial
 from pathlib import Path
 
 from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.executor import Executor
 from robocompose.io import atomic_write_json
-from robocompose.modular.eggan_experiments import train_fit2form_baseline, train_variant
+from robocompose.modular.eggan_experiments import (
+    train_dqn_baseline,
+    train_fit2form_baseline,
+    train_molgan_baseline,
+    train_variant,
+)
 from robocompose.modular.eggan_params import VARIANTS, load_eggan_modular_params
 from robocompose.modular.params import load_modular_params
 from robocompose.report.timings import timed
@@ -22,15 +28,16 @@ from robocompose.stage import run_stage
 def main() -> None:
     modular, params = load_modular_params("params.yaml"), load_eggan_modular_params("params.yaml")
     cache = EvaluationCache(modular.cache or None)
+    trainers = {**{variant: partial(train_variant, variant) for variant in VARIANTS},
+                "fit2form": train_fit2form_baseline, "dqn": train_dqn_baseline, "molgan": train_molgan_baseline}
     metrics = {}
     with timed("train_eggan_modular") as timing, Executor(modular.workers, modular.address or None) as executor:
-        for variant in VARIANTS:
-            _, metrics[variant] = train_variant(variant, modular, params, cache, executor, Path("models"),
-                                                progress=True)
-        metrics["fit2form"] = train_fit2form_baseline(modular, params, cache, executor, Path("models"), progress=True)
+        for method, train_method in trainers.items():
+            started = timing.elapsed()
+            metrics[method] = train_method(modular, params, cache, executor, Path("models"), progress=True)
+            timing.setdefault("train_seconds", {})[method] = round(timing.elapsed() - started, 1)
         timing["real_evaluations"] = {v: m["real_evaluations"] for v, m in metrics.items()}
     atomic_write_json("reports/metrics/eggan_modular.json", metrics)
-
 
 if __name__ == "__main__":
     run_stage(main)

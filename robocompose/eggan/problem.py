@@ -25,12 +25,19 @@ Conventions
 - `evaluate(task, designs)` -> `(B, K)` float64, one column per entry of `objectives`; each objective says
   whether it is maximised. A problem may answer from a cache or a learned surrogate; it counts the real
   evaluations it spends in `real_evaluations` (the report's training budget).
+- `random_designs(rng, n)`: n designs drawn uniformly from the problem's valid designs (the conditional MolGAN
+  baseline's "real" data, thesis 5.1); only the baselines that need it call it.
 - `key()`, `state_dict()`, `load_state_dict()`: what enters the trainer's checkpoint key, and the mutable
   state (a surrogate, counters) a checkpoint must hold for a resumed run to continue bit for bit.
 - `evolve(task, designs, objectives, method, steps, rng)`: the evolution-guided data creation on a
   generated batch: returns X_pop (same length) and its `(B, K)` objectives. `method` names the evolution
   (e.g. "crowding", "ga", "nsga2"); a problem lists the ones it supports in `evolution_methods`.
   Single-objective problems can delegate to `evolve_single_objective` below.
+- Sequential designers (the DQN baseline) build a discrete design one decision at a time
+  (`SequentialProblem`): decision g sets every row of `decision_groups[g]` of the (R, C) design to one choice,
+  and `designs_from_choices` turns (B, R) choices back into designs. A problem without `decision_groups` is
+  decided one row per step (`decision_groups_of`); a problem with a symmetry (the modular robot's mirrored
+  port pairs) lists the rows one decision sets together.
 """
 
 from __future__ import annotations
@@ -109,6 +116,10 @@ class EgganProblem(Protocol):
         """X_pop and its (B, K) objectives: `steps` steps of evolution `method` on the generated batch."""
         ...
 
+    def random_designs(self, rng: np.random.Generator, n: int) -> list[Design]:
+        """n designs drawn uniformly (with replacement) from the valid designs (MolGAN's real data)."""
+        ...
+
     def design_id(self, design: Design) -> str:
         """A printable, canonical name of a design (logs, tables, the compose CLI)."""
         ...
@@ -130,6 +141,26 @@ class EgganProblem(Protocol):
     def load_state_dict(self, state: dict) -> None:
         """Restore what `state_dict` returned, so that a resumed run continues exactly."""
         ...
+
+
+class SequentialProblem(EgganProblem, Protocol):
+    """A discrete problem a sequential designer can build (see the module docstring)."""
+
+    decision_groups: tuple[tuple[int, ...], ...]  # optional: the rows each decision sets, in decision order
+
+    def designs_from_choices(self, choices: np.ndarray) -> list[Design]:
+        """(B, R) integer choice per row of the design (R = design_shape[0]) -> B designs."""
+        ...
+
+
+def decision_groups_of(problem: SequentialProblem) -> tuple[tuple[int, ...], ...]:
+    """The problem's decision groups (one decision per row when it declares none), checked to partition the rows."""
+    rows = problem.design_shape[0]
+    groups = tuple(tuple(int(r) for r in g) for g in getattr(problem, "decision_groups", [(r,) for r in range(rows)]))
+    if sorted(r for g in groups for r in g) != list(range(rows)) or not all(groups):
+        raise ValueError(f"problem {problem.name}: decision_groups {groups} must partition the design's rows "
+                         f"0..{rows - 1}, each row in exactly one non-empty group")
+    return groups
 
 
 def sample_rows(output: torch.Tensor, generator: torch.Generator | None) -> tuple[torch.Tensor, torch.Tensor]:

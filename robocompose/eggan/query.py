@@ -15,6 +15,7 @@ import torch
 
 from robocompose.eggan.networks import Generator
 from robocompose.eggan.problem import Design, EgganProblem, Sampled, Task
+from robocompose.eggan.storage import load_model, save_model
 from robocompose.io.errors import InputError
 
 
@@ -73,36 +74,22 @@ def save_generator(generator: Generator, problem: EgganProblem, path: str | Path
 
     `half` stores floating-point weights as float16 (half the file; the shipped generator), loaded as float32.
     """
-    from robocompose.io import atomic_path, atomic_write_json
-
-    path = Path(path)
     info = {"problem": problem.name, "task_shape": list(problem.task_shape),
             "design_shape": list(problem.design_shape), "network": asdict(generator.config),
             "model_code": model_code_digest(), "weights": "float16" if half else "float32", **meta}
-    with atomic_path(path) as tmp:
-        state = {k: v.half() if half and v.is_floating_point() else v.clone()
-                 for k, v in generator.state_dict().items()}
-        torch.save({"info": info, "state": state}, tmp)
-    atomic_write_json(path.with_suffix(".json"), info)
-    return path
+    state = {k: v.half() if half and v.is_floating_point() else v.clone() for k, v in generator.state_dict().items()}
+    return save_model(info, state, path)
 
 
 def load_generator(path: str | Path, problem: EgganProblem) -> tuple[Generator, dict]:
     """A saved generator for `problem`, in eval mode, and its info; a clear error if it does not fit."""
     from robocompose.eggan.networks import NetworkConfig
 
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such generator file")
-    try:
-        saved = torch.load(path, map_location="cpu", weights_only=True)
-        info = saved["info"]
-    except Exception as err:  # a corrupt or foreign file: name it
-        raise ValueError(f"{path}: not an EG-GAN generator file ({err})") from None
+    info, state = load_model(path, "an EG-GAN generator")
     if info["problem"] != problem.name or tuple(info["design_shape"]) != tuple(problem.design_shape) or tuple(
             info["task_shape"]) != tuple(problem.task_shape):
-        raise ValueError(f"{path}: a generator for {info['problem']} {info['task_shape']} -> {info['design_shape']}, "
+        raise InputError(f"{path}: a generator for {info['problem']} {info['task_shape']} -> {info['design_shape']}, "
                          f"not for {problem.name} {list(problem.task_shape)} -> {list(problem.design_shape)}")
     generator = Generator(problem.task_shape, problem.design_shape, NetworkConfig(**info["network"]))
-    generator.load_state_dict({k: v.float() if v.is_floating_point() else v for k, v in saved["state"].items()})
+    generator.load_state_dict({k: v.float() if v.is_floating_point() else v for k, v in state.items()})
     return generator.eval(), info

@@ -2,7 +2,7 @@
 
     from robocompose.glso.runs import GLSOConfig, RunSpec, run_search, run_all
     steps = run_search(RunSpec("flat", "glso", seed=0), config, evaluation)     # one run -> step table
-    steps = run_all(config, evaluation, Path("data/glso"), executor)            # every (task, method, seed)
+    steps, seconds = run_all(config, evaluation, Path("data/glso"), executor)   # every (task, method, seed)
 
 The budget rule: a run is `budget` calls of the objective. A call is one MPPI episode of a complete
 design, or the invalid score a design that cannot be simulated gets (only GLSO proposes such designs:
@@ -12,9 +12,10 @@ seen again in a run costs a call and returns its cached score (evaluations are d
 
 Resumption: after every call the run's method state (its RNG, search tree, network, optimiser; pickled
 whole) and its rows are written atomically to the checkpoint, then its step table. A run killed at any
-point resumes from the last checkpoint and ends with the same table as an uninterrupted run (every
-column but the wall-clock `seconds`). The checkpoint key covers the run, the budget, the method's
-settings, the evaluator's settings hash, the VAE file and the code; a stale checkpoint is started over.
+point resumes from the last checkpoint and ends with the same table as an uninterrupted run. The tables
+hold no wall times (`run_job` returns a run's seconds; the stage keeps them in reports/timings.json). The
+checkpoint key covers the run, the budget, the method's settings, the evaluator's settings hash, the VAE
+file and the code; a stale checkpoint is started over.
 """
 
 from __future__ import annotations
@@ -148,7 +149,7 @@ def run_key(spec: RunSpec, config: GLSOConfig, evaluation: EvaluationConfig, mod
 
 
 def step_row(spec: RunSpec, step: int, proposal: Proposal, result: dict, score: float, repeat: bool,
-             best: float, seconds: float) -> dict:
+             best: float) -> dict:
     from robocompose.latent.constraints import grammar_rules, is_derivable
 
     tree = proposal.tree
@@ -157,7 +158,7 @@ def step_row(spec: RunSpec, step: int, proposal: Proposal, result: dict, score: 
             "design_id": tree.design_id, "rules": list(rules), "parents": list(tree.parents),
             "tokens": list(tree.tokens), "latent": [] if proposal.z is None else proposal.z.tolist(),
             "score": score, "reward": result["reward"], "status": result["status"], "repeat": repeat,
-            "best_so_far": best, "seconds": seconds}
+            "best_so_far": best}
 
 
 def run_search(spec: RunSpec, config: GLSOConfig, evaluation: EvaluationConfig,
@@ -197,7 +198,6 @@ def run_search(spec: RunSpec, config: GLSOConfig, evaluation: EvaluationConfig,
     seen = {row["design_id"] for row in rows}
     best = rows[-1]["best_so_far"] if rows else -np.inf
     for step in range(len(rows), config.budget):
-        started = time.perf_counter()
         proposal = method.propose(env)
         result = objective_fn(proposal.tree)
         score = objective(result)
@@ -205,7 +205,7 @@ def run_search(spec: RunSpec, config: GLSOConfig, evaluation: EvaluationConfig,
         best = max(best, score)
         repeat = proposal.tree.design_id in seen
         seen.add(proposal.tree.design_id)
-        rows.append(step_row(spec, step, proposal, result, score, repeat, best, time.perf_counter() - started))
+        rows.append(step_row(spec, step, proposal, result, score, repeat, best))
         if checkpoint is not None:
             with atomic_path(checkpoint) as tmp:
                 tmp.write_bytes(pickle.dumps({"key": key, "state": pickle.dumps((method, rows))}))
@@ -229,12 +229,14 @@ class RunJob:
     out_dir: str
 
 
-def run_job(job: RunJob) -> str:
+def run_job(job: RunJob) -> tuple[str, float]:
+    """(the run's step table, the seconds this process spent on it: a resumed run counts only its new steps)."""
     out = Path(job.out_dir)
     table = out / "runs" / f"{job.spec.name}.parquet"
+    started = time.perf_counter()
     run_search(job.spec, job.config, job.evaluation, checkpoint=out / "checkpoints" / f"{job.spec.name}.pkl",
                table=table)
-    return str(table)
+    return str(table), time.perf_counter() - started
 
 
 def run_specs(config: GLSOConfig) -> list[RunSpec]:
@@ -242,8 +244,9 @@ def run_specs(config: GLSOConfig) -> list[RunSpec]:
 
 
 def run_all(config: GLSOConfig, evaluation: EvaluationConfig, out_dir: Path,
-            executor: Executor | None = None) -> pd.DataFrame:
-    """Every (task, method, seed) run, fanned out over `executor`; all step tables, concatenated in run order."""
+            executor: Executor | None = None) -> tuple[pd.DataFrame, dict[str, float]]:
+    """Every (task, method, seed) run, fanned out over `executor`: all step tables, concatenated in run order,
+    and each run's wall seconds by run name (for reports/timings.json)."""
     from tqdm import tqdm
 
     for method in config.methods:
@@ -252,8 +255,9 @@ def run_all(config: GLSOConfig, evaluation: EvaluationConfig, out_dir: Path,
             raise ArtifactError(f"{path}: the VAE of method {method} is missing (dvc repro train_vae)")
     jobs = [RunJob(spec, config, evaluation, str(out_dir)) for spec in run_specs(config)]
     executor = executor or Executor(workers=1)
-    tables = list(tqdm(executor.imap(run_job, jobs), total=len(jobs), desc="glso runs", unit="run"))
-    return pd.concat([read_table(t, "glso_steps") for t in tables], ignore_index=True)
+    done = list(tqdm(executor.imap(run_job, jobs), total=len(jobs), desc="glso runs", unit="run"))
+    steps = pd.concat([read_table(table, "glso_steps") for table, _ in done], ignore_index=True)
+    return steps, {job.spec.name: round(seconds, 1) for job, (_, seconds) in zip(jobs, done, strict=True)}
 
 
 def summarise(steps: pd.DataFrame) -> dict:

@@ -54,8 +54,8 @@ SCHEMAS: dict[str, pa.Schema] = {
     # the design's grammar derivation (empty if the grammar cannot make it), `parents`/`tokens` its tree,
     # `latent` the latent point it was decoded from (empty for non-latent methods); `score` is what the
     # method was told (the reward if ok, else the status's invalid score); `repeat` marks a design already
-    # evaluated earlier in the run (it costs a call and gets its cached score); `seconds` is the step's
-    # wall time (propose + evaluate), the only column that differs between identical runs.
+    # evaluated earlier in the run (it costs a call and gets its cached score). Wall times are not stored
+    # here (identical runs give identical bytes): the stage puts each run's seconds in reports/timings.json.
     "glso_steps": pa.schema([
         _required("step", pa.int32()), _required("method", pa.string()), _required("task", pa.string()),
         _required("seed", pa.int64()), _required("design_id", pa.string()),
@@ -63,7 +63,7 @@ SCHEMAS: dict[str, pa.Schema] = {
         _required("tokens", pa.list_(pa.int16())), _required("latent", pa.list_(pa.float64())),
         _required("score", pa.float64()), pa.field("reward", pa.float64(), nullable=True),
         _required("status", pa.string()), _required("repeat", pa.bool_()),
-        _required("best_so_far", pa.float64()), _required("seconds", pa.float64())]),
+        _required("best_so_far", pa.float64())]),
     # Team formation (robocompose.teams). One row per region of a terrain chip: its centre in the joint
     # position + terrain space (seed_x, seed_y, seed_<terrain> shares) and the terrain weight (the region
     # raster is recomputed from them, teams.decompose), its size and its terrain shares (sum to 1).
@@ -130,14 +130,14 @@ SCHEMAS: dict[str, pa.Schema] = {
         _required("optimum", pa.float64()), _required("evaluations", pa.int64()), _required("sim_steps", pa.int64()),
         _required("sim_seconds", pa.float64())]),
     # The real-time test protocol (robocompose.modular.eggan_experiments, thesis Table 5.1): one row per method x
-    # held-out test terrain x query; distances in m (NaN: no valid candidate / no exhaustive optimum).
+    # held-out test terrain x query; distances in m (NaN: no valid candidate / no exhaustive optimum). Query wall
+    # times go to reports/timings.json, not here (identical runs give identical bytes).
     "modular_realtime": pa.schema([_required(n, t) for n, t in [
         ("method", pa.string()), ("terrain_seed", pa.int64()), ("query", pa.int64()), ("candidates", pa.int64()),
         ("valid", pa.int64()), ("best_design", pa.string())]] + [
         pa.field("max_distance", pa.float64(), nullable=True), _required("distinct", pa.int64()),
         pa.field("ec_distance", pa.float64(), nullable=True), _required("ec_failures", pa.int64()),
-        pa.field("optimum", pa.float64(), nullable=True), pa.field("regret", pa.float64(), nullable=True),
-        _required("query_ms", pa.float64())]),
+        pa.field("optimum", pa.float64(), nullable=True), pa.field("regret", pa.float64(), nullable=True)]),
     # The latent landscape (robocompose.latent.landscape, thesis Fig. 7.1): one row per (VAE variant, dataset
     # design): the first two principal components of its latent mean (and the variance fraction each explains)
     # and, for the scored subset, the evaluator's flat-terrain status and reward ("" / null when not scored).

@@ -29,9 +29,11 @@ import numpy as np
 import pandas as pd
 import torch
 
+from robocompose.eggan.dqn import DQNConfig, best_designs, load_dqn, save_dqn, train_dqn
 from robocompose.eggan.fit2form import Fit2formConfig, train_fit2form
+from robocompose.eggan.molgan import MolganConfig, train_molgan
 from robocompose.eggan.query import generate, load_generator, rank_distinct, save_generator
-from robocompose.eggan.train import Trained, train
+from robocompose.eggan.train import train
 from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.executor import Executor
 from robocompose.modular.eggan_params import VARIANTS, EgganModularParams
@@ -61,8 +63,9 @@ def make_problem(modular: ModularParams, params: EgganModularParams, cache: Eval
 
 
 def train_variant(variant: str, modular: ModularParams, params: EgganModularParams, cache: EvaluationCache | None,
-                  executor: Executor | None, out: Path, progress: bool = False) -> tuple[Trained, dict]:
-    """Train one EG-GAN variant; writes out/eggan_modular_VARIANT.{pt,json,mcap,csv} and its checkpoint."""
+                  executor: Executor | None, out: Path, progress: bool = False) -> dict:
+    """Train one EG-GAN variant; writes out/eggan_modular_VARIANT.{pt,json,mcap,csv} and its checkpoint; returns
+    its metrics (no wall times: they go to reports/timings.json, so that the files stay byte-reproducible)."""
     if variant not in VARIANTS:
         raise ValueError(f"variant {variant!r}: expected one of {sorted(VARIANTS)}")
     config = dataclasses.replace(params.train, evolution=variant, evolution_steps=params.evolution_steps[variant])
@@ -70,18 +73,16 @@ def train_variant(variant: str, modular: ModularParams, params: EgganModularPara
     problem = make_problem(modular, params, cache, executor,
                            config.iterations * config.tasks * (1 + config.evolution_steps))
     name = f"eggan_modular_{variant}"
-    started = time.perf_counter()
     trained = train(problem, params.network, config, out / "checkpoints" / f"{name}.pt",
                     Path("reports/plots") / f"{name}.csv", out / f"{name}.mcap", progress=progress)
     metrics = {"method": VARIANTS[variant], "iterations": config.iterations, "batch": config.batch,
                "tasks_per_iteration": config.tasks, "evolution": variant, "evolution_steps": config.evolution_steps,
                "real_evaluations": problem.real_evaluations, "surrogate_heldout": problem.surrogate_error(),
-               "train_seconds_this_run": round(time.perf_counter() - started, 1),
                "final": {k: v for k, v in trained.rows[-1].items()} if trained.rows else {}}
     save_generator(trained.generator, problem, out / f"{name}.pt",
                    {"run_key": trained.key, "settings_hash": modular.eval.settings_hash(),
                     "train": dataclasses.asdict(config), "metrics": metrics})
-    return trained, metrics
+    return metrics
 
 
 def generator_proposer(generator: torch.nn.Module, samples: int) -> Proposer:
@@ -101,8 +102,18 @@ def generator_proposer(generator: torch.nn.Module, samples: int) -> Proposer:
     return propose
 
 
-REALTIME_METHODS = {"fit2form": "Fit2form", "random": "Random sampling", "ga": "EG-GAN",
-                    "crowding": "EG-GAN-crowding"}  # Table 5.1's rows we run (DQN and MolGAN: not built)
+def dqn_proposer(net: torch.nn.Module) -> Proposer:
+    """Whitman's DQN's answer: its greedy design, then the designs a best-first search on its Q reaches next
+    (`robocompose.eggan.dqn.best_designs`); the same candidates for every query of a terrain (no randomness)."""
+
+    def propose(problem: ModularEgganProblem, terrain_seed: int, query_seed: int, candidates: int) -> list[str]:
+        return [design for design, _ in best_designs(net, problem, terrain_seed, candidates)]
+
+    return propose
+
+
+REALTIME_METHODS = {"fit2form": "Fit2form", "dqn": "DQN", "molgan": "MolGAN", "random": "Random sampling",
+                    "ga": "EG-GAN", "crowding": "EG-GAN-crowding"}  # Table 5.1's rows, in its order
 
 
 def realtime_proposers(problem: ModularEgganProblem, params: EgganModularParams, models: Path) -> dict[str, Proposer]:
@@ -112,6 +123,8 @@ def realtime_proposers(problem: ModularEgganProblem, params: EgganModularParams,
         path = models / f"eggan_modular_{method}.pt"
         if method == "random":
             proposers[method] = random_proposer
+        elif method == "dqn" and path.exists():
+            proposers[method] = dqn_proposer(load_dqn(path, problem)[0])
         elif path.exists():
             proposers[method] = generator_proposer(load_generator(path, problem)[0], params.protocol.samples)
         else:
@@ -124,12 +137,39 @@ def train_fit2form_baseline(modular: ModularParams, params: EgganModularParams, 
     """Fit2form on the same problem and budget of real rollouts; writes out/eggan_modular_fit2form.{pt,json}."""
     config = build_config(Fit2formConfig, params.baselines.get("fit2form", {}), "eggan_modular.baselines.fit2form")
     problem = make_problem(modular, params, cache, executor, config.iterations * config.tasks)
-    started = time.perf_counter()
     generator, rows = train_fit2form(problem, params.network, config, progress)
     metrics = {"method": "Fit2form", "iterations": config.iterations, "real_evaluations": problem.real_evaluations,
-               "surrogate_heldout": problem.surrogate_error(), "train_seconds": round(time.perf_counter() - started, 1),
-               "final": rows[-1]}
+               "surrogate_heldout": problem.surrogate_error(), "final": rows[-1]}
     save_generator(generator, problem, out / "eggan_modular_fit2form.pt",
+                   {"settings_hash": modular.eval.settings_hash(), "train": dataclasses.asdict(config),
+                    "metrics": metrics})
+    return metrics
+
+
+def train_dqn_baseline(modular: ModularParams, params: EgganModularParams, cache: EvaluationCache | None,
+                       executor: Executor | None, out: Path, progress: bool = False) -> dict:
+    """Whitman's DQN on the same problem and budget of real rollouts; writes out/eggan_modular_dqn.{pt,json}."""
+    config = build_config(DQNConfig, params.baselines.get("dqn", {}), "eggan_modular.baselines.dqn")
+    problem = make_problem(modular, params, cache, executor, config.iterations * config.tasks)
+    net, rows = train_dqn(problem, params.network, config, progress)
+    metrics = {"method": "DQN", "iterations": config.iterations, "episodes": rows[-1]["episodes"],
+               "real_evaluations": problem.real_evaluations, "surrogate_heldout": problem.surrogate_error(),
+               "final": rows[-1]}
+    save_dqn(net, problem, out / "eggan_modular_dqn.pt",
+             {"settings_hash": modular.eval.settings_hash(), "train": dataclasses.asdict(config), "metrics": metrics})
+    return metrics
+
+
+def train_molgan_baseline(modular: ModularParams, params: EgganModularParams, cache: EvaluationCache | None,
+                          executor: Executor | None, out: Path, progress: bool = False) -> dict:
+    """Conditional MolGAN on the same problem and budget of real rollouts; writes out/eggan_modular_molgan.{pt,json}."""
+    config = build_config(MolganConfig, params.baselines.get("molgan", {}), "eggan_modular.baselines.molgan")
+    problem = make_problem(modular, params, cache, executor, config.iterations * config.tasks)
+    generator, rows = train_molgan(problem, params.network, config, progress)
+    metrics = {"method": "MolGAN", "iterations": config.iterations, "lam": config.lam,
+               "real_evaluations": problem.real_evaluations, "surrogate_heldout": problem.surrogate_error(),
+               "final": rows[-1]}
+    save_generator(generator, problem, out / "eggan_modular_molgan.pt",
                    {"settings_hash": modular.eval.settings_hash(), "train": dataclasses.asdict(config),
                     "metrics": metrics})
     return metrics
@@ -143,11 +183,12 @@ def random_proposer(problem: ModularEgganProblem, terrain_seed: int, query_seed:
 
 def realtime_table(proposers: dict[str, Proposer], problem: ModularEgganProblem, modular: ModularParams,
                    params: EgganModularParams, truth: pd.DataFrame | None, cache: EvaluationCache | None,
-                   executor: Executor | None) -> pd.DataFrame:
-    """One row per method x test terrain x query (see the module docstring)."""
+                   executor: Executor | None) -> tuple[pd.DataFrame, dict[str, float]]:
+    """One row per method x test terrain x query (see the module docstring), and each method's median query
+    wall time in ms (kept apart from the table, so that the table's bytes depend on the inputs only)."""
     p = params.protocol
     rule = modular.fitness
-    rows = []
+    rows, query_ms = [], {}
     for terrain_seed in p.test_terrains:
         optimum, known = np.nan, None
         if truth is not None and (truth.terrain_seed == terrain_seed).any():
@@ -168,7 +209,7 @@ def realtime_table(proposers: dict[str, Proposer], problem: ModularEgganProblem,
                 query_seed = _seed(query, terrain_seed, 4999)
                 started = time.perf_counter()
                 candidates = propose(problem, terrain_seed, query_seed, p.candidates)
-                query_ms = (time.perf_counter() - started) * 1000
+                query_ms.setdefault(method, []).append((time.perf_counter() - started) * 1000)
                 results = simulate(candidates)
                 fitness = np.array([rule.fitness(r) for r in results])
                 valid = np.array([r.distance is not None for r in results])
@@ -187,15 +228,14 @@ def realtime_table(proposers: dict[str, Proposer], problem: ModularEgganProblem,
                     "distinct": distinct_solutions(ok, fitness[valid], lambda a, b: float(hamming(a, b)), DELTA,
                                                    EPSILON),
                     "ec_distance": float(np.mean(ec_ok)) if ec_ok else np.nan,
-                    "ec_failures": len(ec) - len(ec_ok), "optimum": optimum, "regret": optimum - best,
-                    "query_ms": query_ms})
-    return pd.DataFrame(rows)
+                    "ec_failures": len(ec) - len(ec_ok), "optimum": optimum, "regret": optimum - best})
+    return pd.DataFrame(rows), {method: round(float(np.median(ms)), 3) for method, ms in query_ms.items()}
 
 
 def summarise(table: pd.DataFrame) -> pd.DataFrame:
     """Per method: mean and std over terrains x queries of max distance, distinct, EC, regret; failure counts."""
     grouped = table.groupby("method", sort=False)
-    out = grouped[["max_distance", "distinct", "ec_distance", "regret", "query_ms"]].agg(["mean", "std"])
+    out = grouped[["max_distance", "distinct", "ec_distance", "regret"]].agg(["mean", "std"])
     out.columns = [f"{a}_{b}" for a, b in out.columns]
     out["queries"] = grouped.size()
     out["no_valid_candidate"] = grouped.max_distance.apply(lambda s: int(s.isna().sum()))

@@ -93,6 +93,9 @@ class ModularEgganProblem:
     discrete = True
     objectives = (Objective("distance", maximise=True),)
     evolution_methods = ("crowding", "ga")
+    # Mirrored port pairs (front-left/front-right, mid-left/mid-right, back-left/back-right): a sequential
+    # designer (Whitman's DQN) makes one module choice per pair, so its designs are left-right symmetric.
+    decision_groups = ((0, 5), (1, 4), (2, 3))
 
     def __init__(self, modular: ModularParams, fitness: FitnessConfig, cache: EvaluationCache | None = None,
                  executor: Executor | None = None, mutation_rate: float = 1 / 6, crossover_rate: float = 0.9):
@@ -103,6 +106,7 @@ class ModularEgganProblem:
         self.real: dict[tuple[int, str], float] = {}  # (terrain seed, design) -> real fitness, in rollout order
         self.spent = 0  # real rollouts asked for (cache hits included: the budget counts them)
         self.calls = 0  # evaluate calls answered
+        self._valid: list[str] | None = None  # the designs the fitness rule simulates (computed once)
 
     # --- the EG-GAN interface ---
 
@@ -120,12 +124,15 @@ class ModularEgganProblem:
 
     def sample_designs(self, output: torch.Tensor, generator: torch.Generator | None) -> Sampled:
         picks, log_prob = sample_rows(output, generator)  # (B, 6), (B,)
-        return Sampled([index_to_design(row) for row in picks.numpy()], one_hot_rows(picks, len(MODULE_LETTERS)),
+        return Sampled(self.designs_from_choices(picks.numpy()), one_hot_rows(picks, len(MODULE_LETTERS)),
                        log_prob)
 
     def design_tensor(self, designs: Sequence[str]) -> torch.Tensor:
         return one_hot_rows(np.array([design_to_index(d) for d in designs]).reshape(-1, N_PORTS),
                             len(MODULE_LETTERS))
+
+    def designs_from_choices(self, choices: np.ndarray) -> list[str]:
+        return [index_to_design(row) for row in np.asarray(choices)]  # (B, 6) module indices -> port strings
 
     def evaluate(self, task: int, designs: Sequence[str]) -> np.ndarray:
         """(B, 1): the rule's penalty, else a real rollout's fitness if one was made, else the surrogate's."""
@@ -153,6 +160,10 @@ class ModularEgganProblem:
         population, fitness = evolve_single_objective(ModularSearch(self, task), designs, objectives[:, 0], method,
                                                       steps, rng, self.crossover_rate, self.mutation_rate)
         return population, fitness[:, None]
+
+    def random_designs(self, rng: np.random.Generator, n: int) -> list[str]:
+        valid = self._valid_designs()
+        return [valid[i] for i in rng.integers(len(valid), size=n)]
 
     def design_id(self, design: str) -> str:
         return design
@@ -188,12 +199,18 @@ class ModularEgganProblem:
         self.spent += len(designs)
         return values
 
+    def _valid_designs(self) -> list[str]:
+        """The designs the fitness rule simulates (not scored by the penalty), in `all_designs` order."""
+        if self._valid is None:
+            self._valid = [d for d in all_designs() if not self.modular.fitness.skips(d)]
+        return self._valid
+
     def _warm_up(self) -> None:
         if self.real:
             return
         f = self.fitness
         rng = np.random.default_rng([f.seed, 3301])
-        valid = [d for d in all_designs() if not self.modular.fitness.skips(d)]
+        valid = self._valid_designs()
         terrains = f.train_seed_base + rng.choice(f.train_terrains, size=f.warmup_terrains, replace=False)
         picks = rng.choice(len(valid), size=f.warmup, replace=f.warmup > len(valid))
         for k, terrain_seed in enumerate(terrains):

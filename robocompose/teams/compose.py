@@ -11,11 +11,12 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 
 from robocompose.arguments import input_file, non_negative_int, positive_int
 from robocompose.io.errors import InputError
 
-SHIPPED_MODEL = "models/shipped/teams_generator.pt"  # the default profile's generator, in the repository
+SHIPPED_MODEL = Path(__file__).resolve().parent / "pretrained" / "generator.pt"  # the default profile's, shipped
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -30,9 +31,24 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     compose.add_argument("--budget", type=int, default=None,
                          help="deployment budget (robots, 1..60): print the front's best allocation within it")
     compose.add_argument("--model", type=input_file("a teams generator (.pt)"), default=None,
-                         help=f"a generator file of the teams_eggan stage (default: the shipped {SHIPPED_MODEL})")
+                         help=f"a generator file of the teams_eggan stage (default: the shipped {SHIPPED_MODEL.name})")
     compose.add_argument("--seed", type=non_negative_int, default=0, help="seed of the noise and of the robots' starts")
     compose.set_defaults(handler=_compose)
+
+    ship = subparsers.add_parser("ship-teams", help="copy a trained teams generator to the shipped default")
+    ship.add_argument("--from", dest="source", type=Path, default=Path("models/teams_eggan.pt"),
+                      help="generator of `dvc repro teams_eggan` (default: models/teams_eggan.pt)")
+    ship.set_defaults(handler=_ship)
+
+
+def _ship(args: argparse.Namespace) -> None:
+    import shutil
+
+    from robocompose.teams.generative import load_generator
+
+    load_generator(args.source)  # checked: a checksum, a teams generator, the current design head
+    shutil.copyfile(args.source, SHIPPED_MODEL)
+    print(json.dumps({"shipped": str(SHIPPED_MODEL), "from": str(args.source), "bytes": SHIPPED_MODEL.stat().st_size}))
 
 
 def _compose(args: argparse.Namespace) -> None:
@@ -40,7 +56,6 @@ def _compose(args: argparse.Namespace) -> None:
 
     import torch
 
-    from robocompose.io.provenance import ROOT
     from robocompose.teams.cli import first_chip
     from robocompose.teams.decompose import DecomposeConfig, decompose_chip
     from robocompose.teams.eggan_problem import query_front
@@ -48,7 +63,7 @@ def _compose(args: argparse.Namespace) -> None:
     from robocompose.teams.generative import load_generator
 
     torch.set_num_threads(1)
-    generator, saved = load_generator(args.model or ROOT / SHIPPED_MODEL)
+    generator, saved = load_generator(args.model or SHIPPED_MODEL)
     k = saved["n_regions"]
     if args.regions is not None and args.regions != k:
         raise InputError(f"--regions {args.regions}: the generator was trained for K = {k} regions (its task "

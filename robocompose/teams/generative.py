@@ -16,16 +16,15 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import io
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import torch
 
 from robocompose.eggan.networks import Generator, NetworkConfig
+from robocompose.eggan.storage import load_torch, save_torch
 from robocompose.eggan.train import TrainConfig, Trained, train
-from robocompose.io import atomic_path
+from robocompose.io import InputError
 from robocompose.io.provenance import ROOT
 from robocompose.teams.baselines import joint_plan
 from robocompose.teams.chips import Chip
@@ -70,24 +69,21 @@ def train_generator(chips: list[tuple[Chip, Decomposition]], coverage: CoverageC
 
 def save_generator(trained: Trained, n_regions: int, params: dict, metrics: dict, path: Path) -> None:
     """The generator file: weights, sizes, K, the settings and metrics of its training, the code digest."""
-    buffer = io.BytesIO()  # saved to memory first: torch names the archive after a file, not a buffer
-    torch.save({"generator": trained.generator.state_dict(), "network": dataclasses.asdict(trained.network),
+    save_torch({"generator": trained.generator.state_dict(), "network": dataclasses.asdict(trained.network),
                 "n_regions": n_regions, "n_species": len(SPECIES), "params": params, "metrics": metrics,
-                "code_digest": model_code_digest(), "design_head": DESIGN_HEAD, "run_key": trained.key}, buffer)
-    with atomic_path(path) as tmp:
-        tmp.write_bytes(buffer.getvalue())
+                "code_digest": model_code_digest(), "design_head": DESIGN_HEAD, "run_key": trained.key}, path)
 
 
 def load_generator(path: Path) -> tuple[Generator, dict]:
     """(the generator in eval mode, the file's contents without the weights); a clear error if unusable."""
     path = Path(path)
     if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such generator file (expected one written by the teams_eggan stage)")
-    saved = torch.load(path, map_location="cpu", weights_only=False)
+        raise InputError(f"{path}: no such generator file (expected one written by the teams_eggan stage)")
+    saved = load_torch(path)  # the checksum first (ArtifactError naming the file); tensors and plain data only
     if not isinstance(saved, dict) or "generator" not in saved or "network" not in saved:
-        raise ValueError(f"{path}: not a teams generator file (expected keys generator, network, n_regions)")
+        raise InputError(f"{path}: not a teams generator file (expected keys generator, network, n_regions)")
     if saved.get("design_head") != DESIGN_HEAD:
-        raise ValueError(f"{path}: trained with design head {saved.get('design_head')!r}, the code's is "
+        raise InputError(f"{path}: trained with design head {saved.get('design_head')!r}, the code's is "
                          f"{DESIGN_HEAD!r}: retrain (stage teams_eggan)")
     k, o = saved["n_regions"], saved["n_species"]
     generator = Generator((k * 4,), (k + 1, o), NetworkConfig(**saved["network"]))

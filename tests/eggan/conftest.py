@@ -73,6 +73,9 @@ class MatchProblem:
         designs = [tuple(int(v) for v in row) for row in picks.tolist()]
         return Sampled(designs, one_hot_rows(picks, CHOICES), log_prob)
 
+    def designs_from_choices(self, choices):
+        return [tuple(int(v) for v in row) for row in choices]
+
     def design_tensor(self, designs):
         return one_hot_rows(np.array(designs), CHOICES)
 

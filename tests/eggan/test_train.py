@@ -16,6 +16,7 @@ import torch
 
 from robocompose.eggan.networks import NetworkConfig
 from robocompose.eggan.query import generate, rank_distinct
+from robocompose.eggan.storage import load_torch
 from robocompose.eggan.train import (
     TrainConfig,
     bgan_generator_loss,
@@ -116,7 +117,7 @@ def _run(tmp: Path, name: str, slow: bool, kill_after_checkpoint: bool) -> Path:
             time.sleep(0.02)
         process.send_signal(signal.SIGKILL)
         process.wait()
-        assert torch.load(checkpoint, weights_only=False)["iteration"] < 40  # really interrupted
+        assert load_torch(checkpoint, weights_only=False)["iteration"] < 40  # really interrupted
         process = subprocess.Popen([sys.executable, str(script), str(checkpoint), str(csv)], env=env,
                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     assert process.wait(timeout=300) == 0
@@ -124,8 +125,8 @@ def _run(tmp: Path, name: str, slow: bool, kill_after_checkpoint: bool) -> Path:
 
 
 def test_killed_training_resumes_to_the_same_checkpoint(tmp_path):
-    straight = torch.load(_run(tmp_path, "straight", False, False), weights_only=False)
-    resumed = torch.load(_run(tmp_path, "resumed", True, True), weights_only=False)
+    straight = load_torch(_run(tmp_path, "straight", False, False), weights_only=False)
+    resumed = load_torch(_run(tmp_path, "resumed", True, True), weights_only=False)
     assert straight["iteration"] == resumed["iteration"] == 40
     for part in ("generator", "discriminator"):
         for name, value in straight[part].items():
@@ -147,3 +148,17 @@ def test_training_log_validates_against_its_schema(tmp_path, valid_foxglove_log)
     rows = [{"iteration": i, "d_loss": 0.5, "g_loss": float("nan"), "gen_distinct": 3} for i in (1, 2)]
     write_logs(rows, None, tmp_path / "log.mcap", "/eggan/train")
     assert valid_foxglove_log(tmp_path / "log.mcap") == 2
+
+
+def test_a_corrupt_checkpoint_is_moved_aside_and_training_starts_afresh(tmp_path, match_problem):
+    checkpoint = tmp_path / "run.pt"
+    small = TrainConfig(iterations=10, batch=16, tasks=4, samples=4, log_every=5, checkpoint_every=5)
+    first = train(match_problem, NetworkConfig(latent=8, hidden=16), small, checkpoint)
+    data = bytearray(checkpoint.read_bytes())
+    data[len(data) * 3 // 4] ^= 0xFF  # a flipped byte in the weights: torch.load alone would resume from it
+    checkpoint.write_bytes(bytes(data))
+    with pytest.warns(UserWarning, match="checksum mismatch"):
+        again = train(MatchProblem(), NetworkConfig(latent=8, hidden=16), small, checkpoint)
+    assert (tmp_path / "run.pt.corrupt").exists() and again.rows == first.rows
+    for name, value in first.generator.state_dict().items():
+        assert torch.equal(value, again.generator.state_dict()[name]), name

@@ -55,7 +55,7 @@ def test_a_design_that_cannot_be_simulated_costs_a_call_and_scores_the_invalid_s
 def test_runs_are_reproducible_and_seeds_differ(small_config):
     a, b, c = (run_search(RunSpec("flat", "random", s), small_config, EVALUATION, objective_fn=fake_objective)
                for s in (0, 0, 1))
-    assert a.drop(columns="seconds").equals(b.drop(columns="seconds"))
+    assert a.equals(b)
     assert list(a["design_id"]) != list(c["design_id"])
 
 
@@ -98,11 +98,12 @@ def test_run_all_fans_the_runs_out_resumes_them_and_replays_each_tasks_best(tiny
     config = GLSOConfig(tasks=["flat"], methods=["random", "mcts"], seeds=[0], budget=2, models=tiny_models)
     evaluation = dataclasses.replace(TINY, cache=str(tmp_path / "cache.parquet"))
     with Executor(workers=2) as executor:
-        steps = run_all(config, evaluation, tmp_path / "glso", executor)
+        steps, seconds = run_all(config, evaluation, tmp_path / "glso", executor)
         assert sorted(steps.groupby(["method", "seed"]).size().items()) == [(("mcts", 0), 2), (("random", 0), 2)]
         assert set(steps["status"]) == {"ok"} and steps["reward"].notna().all()
-        again = run_all(config, evaluation, tmp_path / "glso", executor)  # every run answered by its checkpoint
-        assert again.drop(columns="seconds").equals(steps.drop(columns="seconds"))
+        assert sorted(seconds) == ["flat_mcts_seed0", "flat_random_seed0"] and all(s > 0 for s in seconds.values())
+        again, _ = run_all(config, evaluation, tmp_path / "glso", executor)  # every run answered by its checkpoint
+        assert again.equals(steps)
         best = record_best(steps, evaluation, tmp_path / "rollouts", executor)
     assert float(best["score"].iloc[0]) == steps["score"].max()
     assert (tmp_path / "rollouts" / "flat.mcap").stat().st_size > 0 and (tmp_path / "rollouts" / "flat.gif").exists()
@@ -117,8 +118,8 @@ def test_runs_on_a_dask_cluster_match_local_processes(tiny_models, tmp_path):
     config = GLSOConfig(tasks=["flat"], methods=["random", "ghs"], seeds=[0], budget=2, models=tiny_models,
                         ghs={"num_samples": 2, "opt_iter": 2})
     with Executor(workers=2) as executor:
-        local = run_all(config, TINY, tmp_path / "local", executor)
+        local, _ = run_all(config, TINY, tmp_path / "local", executor)
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
                       silence_logs=40) as cluster, Executor(address=cluster.scheduler_address) as executor:
-        remote = run_all(config, TINY, tmp_path / "dask", executor)
-    assert remote.drop(columns="seconds").equals(local.drop(columns="seconds"))
+        remote, _ = run_all(config, TINY, tmp_path / "dask", executor)
+    assert remote.equals(local)

@@ -11,6 +11,8 @@ import torch
 from robocompose.cli import main
 from robocompose.eggan.networks import Generator, NetworkConfig
 from robocompose.eggan.query import load_generator, model_code_digest, save_generator
+from robocompose.eggan.storage import save_torch
+from robocompose.io import InputError
 from robocompose.modular.compose import SHIPPED_MODEL, parse_caps
 from robocompose.modular.eggan_problem import FitnessConfig, ModularEgganProblem
 from robocompose.modular.evaluate import EvalSettings, FitnessRule
@@ -77,10 +79,25 @@ def test_bad_caps_and_foreign_model(tmp_path):
     with pytest.raises(ValueError, match="--max"):
         parse_caps("arm=2")
     assert parse_caps("leg=2, legwheel=0") == {"l": 2, "b": 0}
+    problem = ModularEgganProblem(PARAMS, FitnessConfig())
     junk = tmp_path / "junk.pt"
     junk.write_bytes(b"not a model")
-    with pytest.raises(ValueError, match="not an EG-GAN generator"):
-        load_generator(junk, ModularEgganProblem(PARAMS, FitnessConfig()))
+    with pytest.raises(InputError, match=f"{junk}: no checksum header"):
+        load_generator(junk, problem)
+    other = save_torch({"weights": torch.zeros(3)}, tmp_path / "other.pt")
+    with pytest.raises(InputError, match="not an EG-GAN generator file"):
+        load_generator(other, problem)
+
+
+def test_a_cut_or_flipped_generator_file_is_an_error_naming_it_and_the_cli_exits_2(tmp_path, capsys):
+    model = tmp_path / "g.pt"
+    model.write_bytes(SHIPPED_MODEL.read_bytes())
+    data = bytearray(model.read_bytes())
+    data[len(data) * 3 // 4] ^= 0xFF  # inside the tensor data, where torch.load alone would not notice
+    model.write_bytes(bytes(data))
+    assert main(["compose", "modular", "--terrain-seed", "3", "--model", str(model)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and f"{model}: checksum mismatch, the file is truncated or corrupted" in err
 
 
 def test_the_shipped_generator_matches_the_current_model_code():

@@ -79,3 +79,15 @@ def test_state_round_trip_and_key(fake_rollouts):
 def test_bad_fitness_config():
     with pytest.raises(ValueError, match="warmup"):
         FitnessConfig(warmup=50, budget=40)
+
+
+def test_random_designs_are_uniform_over_the_designs_the_rule_simulates():
+    problem = ModularEgganProblem(PARAMS, FITNESS)
+    designs = problem.random_designs(np.random.default_rng(0), 4000)
+    assert not any(PARAMS.fitness.skips(d) for d in designs)
+    assert problem.random_designs(np.random.default_rng(0), 4000) == designs  # seeded
+    # 1296 valid designs (no empty corner, at most two empty ports): each mid port is empty 1/4 of the time
+    assert len(set(designs)) > 0.9 * 1296 * (1 - np.exp(-4000 / 1296))
+    assert abs(np.mean([d[1] == "n" for d in designs]) - 0.25) < 0.03
+    everything = ModularEgganProblem(dataclasses.replace(PARAMS, fitness=FitnessRule(invalid="simulate")), FITNESS)
+    assert any(d[0] == "n" for d in everything.random_designs(np.random.default_rng(0), 200))  # no rule: any design

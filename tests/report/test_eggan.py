@@ -13,12 +13,12 @@ from robocompose.report.eggan import section
 
 def _table() -> pd.DataFrame:
     rows = []
-    for method, best, distinct in (("crowding", 6.0, 4), ("ga", 5.5, 2), ("fit2form", 5.0, 1), ("random", 3.0, 1)):
+    for method, best, distinct in (("crowding", 6.0, 4), ("ga", 5.5, 2), ("fit2form", 5.0, 1), ("molgan", 4.5, 2),
+                                   ("dqn", 5.5, 3), ("random", 3.0, 1)):
         for query in range(3):
             rows.append({"method": method, "terrain_seed": 1000, "query": query, "candidates": 10, "valid": 10,
                          "best_design": "wwwwww", "max_distance": best if query else np.nan, "distinct": distinct,
-                         "ec_distance": best - 1, "ec_failures": 0, "optimum": 7.0, "regret": 7.0 - best,
-                         "query_ms": 1.5})
+                         "ec_distance": best - 1, "ec_failures": 0, "optimum": 7.0, "regret": 7.0 - best})
     return pd.DataFrame(rows)
 
 
@@ -33,7 +33,16 @@ def test_section_has_table_5_1_with_thesis_numbers_and_a_verdict(tmp_path):
     assert "| EG-GAN-crowding | 6.00 ± 0.00 | 4.0 ± 0.0 | 5.00 ± 0.00 | 1.00 ± 0.00 | 1 / 0 | 400 | 5.73 ± 0.22" in text
     assert "| Random sampling | 3.00" in text and "0.86 ± 0.81" in text  # the thesis's hand-crafted row
     assert "EG-GAN-crowding beats random sampling" in text and "has more distinct solutions than EG-GAN" in text
-    assert "| DQN based | not built" in text
+    dqn = next(line for line in text.splitlines() if line.startswith("| DQN based |"))
+    assert dqn.startswith("| DQN based | 5.50 ± 0.00 | 3.0 ± 0.0 |")
+    assert dqn.endswith("| 4.31 ± 0.26 | 2.7 ± 0.9 | 3.10 ± 0.92 | - |")  # the thesis's numbers beside ours
+    assert "not built" not in text
+    molgan = next(line for line in text.splitlines() if line.startswith("| MolGAN |"))
+    assert molgan.startswith("| MolGAN | 4.50 ± 0.00 | 2.0 ± 0.0 | 3.50 ± 0.00 |")
+    assert molgan.endswith("| 3.82 ± 0.55 | 1.8 ± 0.3 | 2.93 ± 1.00 | - |")  # the thesis's numbers beside ours
+    assert "| EG-GAN-crowding | 6.00 ± 0.00 | 4.0 ± 0.0 | not benchmarked" in text  # Table 5.2 without a bench
+    (reports / "benchmarks.json").write_text(json.dumps({"eggan.modular.query_ms": 1.234}))
+    assert "| 1.2 ms per query (thesis 0.003 min) |" in section(reports, data)
 
 
 def test_section_says_what_is_missing(tmp_path):

@@ -4,7 +4,9 @@ import pytest
 import torch
 
 from robocompose.eggan.networks import NetworkConfig
+from robocompose.eggan.storage import load_torch, save_torch
 from robocompose.eggan.train import TrainConfig, train
+from robocompose.io import InputError
 from robocompose.io.provenance import ROOT
 from robocompose.teams.chips import synthetic_chip
 from robocompose.teams.compose import SHIPPED_MODEL
@@ -27,15 +29,19 @@ def test_generator_file_round_trips_weights_settings_and_metrics(tmp_path):
         assert torch.equal(tensor, generator.state_dict()[name])
     assert saved["params"] == {"coverage": {"iterations": 2}} and saved["metrics"]["mean_hypervolume"] == 1.5
     assert saved["code_digest"] == model_code_digest() and not generator.training
-    with pytest.raises(FileNotFoundError, match="no such generator file"):
+    with pytest.raises(InputError, match="no such generator file"):
         load_generator(tmp_path / "missing.pt")
-    torch.save({"weights": 1}, tmp_path / "other.pt")
-    with pytest.raises(ValueError, match="not a teams generator file"):
+    save_torch({"weights": 1}, tmp_path / "other.pt")
+    with pytest.raises(InputError, match="not a teams generator file"):
         load_generator(tmp_path / "other.pt")
-    old_head = torch.load(tmp_path / "g.pt", weights_only=False) | {"design_head": "softmax-depot"}
-    torch.save(old_head, tmp_path / "old.pt")
-    with pytest.raises(ValueError, match="trained with design head 'softmax-depot'.*retrain"):
+    save_torch(load_torch(tmp_path / "g.pt") | {"design_head": "softmax-depot"}, tmp_path / "old.pt")
+    with pytest.raises(InputError, match="trained with design head 'softmax-depot'.*retrain"):
         load_generator(tmp_path / "old.pt")
+    data = bytearray((tmp_path / "g.pt").read_bytes())
+    data[len(data) * 3 // 4] ^= 0xFF  # a flipped byte inside the weights: torch.load alone would not notice
+    (tmp_path / "g.pt").write_bytes(bytes(data))
+    with pytest.raises(InputError, match=f"{tmp_path / 'g.pt'}: checksum mismatch"):
+        load_generator(tmp_path / "g.pt")
 
 
 def test_the_shipped_generator_is_the_default_profiles_and_matches_the_model_code():

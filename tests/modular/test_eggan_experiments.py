@@ -1,0 +1,89 @@
+"""The learned baselines in the modular experiments: MolGAN and Whitman's DQN train on the shared problem and
+budget, are saved with their metrics (no wall times), and answer the real-time protocol with the protocol's
+number of distinct candidates; the DQN decides one module per mirrored port pair.
+
+Rollouts are faked (distance = the number of wheels minus the terrain seed mod 3), as in test_eggan_problem.py;
+the DQN's learning is tested on a toy problem in tests/eggan/test_dqn.py.
+"""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from robocompose.eggan.dqn import load_dqn
+from robocompose.modular import eggan_problem
+from robocompose.modular.eggan_experiments import (
+    REALTIME_METHODS,
+    dqn_proposer,
+    make_problem,
+    realtime_proposers,
+    train_dqn_baseline,
+    train_molgan_baseline,
+)
+from robocompose.modular.eggan_params import build_eggan_modular_params
+from robocompose.modular.evaluate import EvalSettings, FitnessRule, Result
+from robocompose.modular.params import ExperimentsConfig, ModularParams
+from robocompose.modular.robot import PORT_XY
+
+MODULAR = ModularParams(EvalSettings(control_steps=10), FitnessRule(), ExperimentsConfig())
+SECTION = {"fitness": {"train_terrains": 6, "warmup": 20, "warmup_terrains": 4, "budget": 40, "real_per_round": 4,
+                       "surrogate": {"steps": 10, "hidden": 16}},
+           "network": {"latent": 8, "hidden": 16, "filters": 4},
+           "baselines": {"molgan": {"iterations": 6, "tasks": 2, "samples": 4, "n_critic": 2,
+                                    "wgan_only_iterations": 2},
+                         "dqn": {"iterations": 6, "tasks": 2, "episodes": 4, "updates": 2, "batch": 8, "start": 8,
+                                 "replay": 32, "hidden": 16, "layers": 1}}}
+
+
+@pytest.fixture
+def fake_rollouts(monkeypatch):
+    calls = []
+
+    def fake(designs, terrain_seed, settings, rule, cache=None, executor=None, save_every=0):
+        calls.append(list(designs))
+        return [Result(None, "invalid", 0, 0.0) if rule.skips(d) else Result(float(d.count("w")) - terrain_seed % 3,
+                                                                                "ok", 10, 0.01) for d in designs]
+
+    monkeypatch.setattr(eggan_problem, "evaluate_designs", fake)
+    return calls
+
+
+def test_molgan_baseline_trains_on_the_shared_budget_and_answers_queries(tmp_path, fake_rollouts):
+    params = build_eggan_modular_params(SECTION, "test")
+    metrics = train_molgan_baseline(MODULAR, params, None, None, tmp_path)
+    # warm-up + real rounds spaced over the run's 6 x 2 evaluate calls, capped by the budget
+    assert 20 < metrics["real_evaluations"] <= 40 and metrics["method"] == "MolGAN" and metrics["lam"] == 0.5
+    saved = json.loads((tmp_path / "eggan_modular_molgan.json").read_text())
+    assert saved["train"]["n_critic"] == 2 and "train_seconds" not in saved["metrics"]  # the file's bytes: params only
+    assert REALTIME_METHODS["molgan"] == "MolGAN"
+    for method in ("fit2form", "ga", "crowding"):  # the other generators' files, stood in by MolGAN's
+        (tmp_path / f"eggan_modular_{method}.pt").write_bytes((tmp_path / "eggan_modular_molgan.pt").read_bytes())
+    train_dqn_baseline(MODULAR, params, None, None, tmp_path)  # the protocol wants every method's model
+    problem = eggan_problem.ModularEgganProblem(MODULAR, params.fitness)
+    proposers = realtime_proposers(problem, params, tmp_path)
+    assert list(proposers) == list(REALTIME_METHODS)
+    for method in ("molgan", "dqn"):
+        candidates = proposers[method](problem, 1000, 7, 10)
+        assert len(set(candidates)) == 10 and all(len(d) == 6 for d in candidates)
+
+
+def test_dqn_decision_groups_are_the_mirrored_port_pairs():
+    for left, right in eggan_problem.ModularEgganProblem.decision_groups:
+        assert PORT_XY[left][0] == PORT_XY[right][0] and PORT_XY[left][1] == -PORT_XY[right][1]
+
+
+def test_dqn_baseline_spends_the_budget_and_proposes_ten_distinct_symmetric_designs(tmp_path, fake_rollouts):
+    params = build_eggan_modular_params(SECTION, "test")
+    metrics = train_dqn_baseline(MODULAR, params, None, None, tmp_path)
+    assert metrics["method"] == "DQN" and metrics["episodes"] == 6 * 2 * 4
+    assert metrics["real_evaluations"] == sum(len(c) for c in fake_rollouts) > params.fitness.warmup  # real rounds ran
+    saved = json.loads((tmp_path / "eggan_modular_dqn.json").read_text())
+    assert saved["decision_groups"] == [[0, 5], [1, 4], [2, 3]] and "train_seconds" not in saved["metrics"]
+    problem = make_problem(MODULAR, params, None, None)
+    propose = dqn_proposer(load_dqn(tmp_path / "eggan_modular_dqn.pt", problem)[0])
+    answer = propose(problem, 1000, query_seed=7, candidates=10)
+    assert len(answer) == len(set(answer)) == 10
+    assert all(design == design[::-1] for design in answer)  # port order runs around the rim: mirrored = reversed
+    assert propose(problem, 1000, query_seed=8, candidates=10) == answer  # the greedy search has no randomness
