@@ -1,5 +1,6 @@
 """`robocompose modular ...`: evaluate one modular design on a block terrain; run a GA baseline on one terrain;
-measure one terrain's exhaustive table.
+measure one terrain's exhaustive table; probe candidate terrain distributions; the terrain criterion of a
+directory of exhaustive tables.
 
 Settings come from the `modular:` section of `--params` (default: params.yaml if there is one, else the
 dataclass defaults: the default profile's episode on the reference's course); a file named with `--params` must
@@ -12,7 +13,7 @@ import argparse
 import json
 from pathlib import Path
 
-from robocompose.arguments import non_negative_int, output_directory, output_file
+from robocompose.arguments import input_file, non_negative_int, output_directory, output_file
 
 VARIANTS = ("ga20", "ga50", "crowding", "random")
 
@@ -39,21 +40,53 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "population 50), random (random sampling)")
     ga.add_argument("--terrain-seed", type=non_negative_int, required=True)
     ga.add_argument("--seed", type=non_negative_int, default=0, help="seed of the search")
-    ga.add_argument("--workers", type=non_negative_int, help="evaluation processes (default: params; 0 = all cores)")
     ga.add_argument("--address", help="a running Dask scheduler (tcp://host:8786) for the evaluations "
                     "(default: params' modular.address; \"\" = local processes)")
-    _add_params_argument(ga)
+    _add_evaluation_arguments(ga)
     ga.set_defaults(handler=_ga)
 
     exhaustive = commands.add_parser(
-        "exhaustive", help="every design on one terrain, kept under reports/modular/exhaustive/ (resumes)")
-    exhaustive.add_argument("--terrain-seed", type=non_negative_int, required=True)
+        "exhaustive", help="every design on each terrain, a table per terrain kept under "
+        "reports/modular/exhaustive/ (resumes: terrains whose table is there are skipped, a terrain half done "
+        "resumes from the cache)")
+    exhaustive.add_argument("--terrain-seed", type=non_negative_int, nargs="+", required=True,
+                            help="one or more terrain seeds, measured in this order")
     exhaustive.add_argument("--out-dir", type=output_directory, default=None,
                             help="where the table and its provenance record go (default reports/modular/exhaustive)")
-    exhaustive.add_argument("--workers", type=non_negative_int,
-                            help="evaluation processes (default: params; 0 = all cores)")
-    _add_params_argument(exhaustive)
+    exhaustive.add_argument("--candidates", type=input_file("candidates YAML"),
+                            help="with --distribution: a YAML of candidate terrain distributions (as for probe)")
+    exhaustive.add_argument("--distribution", help="measure under this candidate of --candidates instead of the "
+                            "params' terrain")
+    _add_evaluation_arguments(exhaustive)
     exhaustive.set_defaults(handler=_exhaustive)
+
+    probe = commands.add_parser(
+        "probe", help="a fixed set of designs on seeded terrains under candidate terrain distributions; writes "
+        "the rows and the terrain criterion per candidate as CSV (resumes through the cache)")
+    probe.add_argument("--candidates", type=input_file("candidates YAML"), required=True,
+                       help="YAML mapping: distribution name -> overrides of the params' eval.terrain fields")
+    probe.add_argument("--terrain-seed", type=non_negative_int, nargs="+", required=True,
+                       help="the terrain seeds, probed in this order")
+    probe.add_argument("--out", type=output_file(".csv", "CSV"), required=True,
+                       help="the probe's rows; the criterion per candidate goes beside it (<name>_criterion.csv)")
+    probe.add_argument("--designs", nargs="+", default=None,
+                       help="port strings to probe (default: terrain_study.PROBE_DESIGNS, 20 designs)")
+    _add_evaluation_arguments(probe)
+    probe.set_defaults(handler=_probe)
+
+    criterion = commands.add_parser(
+        "criterion", help="the terrain criterion (distinct optima up to mirror, regret of the best-on-average "
+        "design) of the exhaustive tables in a directory; prints JSON")
+    criterion.add_argument("--dir", type=Path, default=None,
+                           help="a directory of blocks-<seed>.parquet tables (default reports/modular/exhaustive)")
+    criterion.set_defaults(handler=_criterion)
+
+
+def _add_evaluation_arguments(parser: argparse.ArgumentParser) -> None:
+    """--workers and --params of the commands that evaluate many designs."""
+    parser.add_argument("--workers", type=non_negative_int,
+                        help="evaluation processes (default: params; 0 = all cores)")
+    _add_params_argument(parser)
 
 
 def _add_params_argument(parser: argparse.ArgumentParser) -> None:
@@ -109,14 +142,71 @@ def _exhaustive(args: argparse.Namespace) -> None:
     from robocompose.evaluation.cache import EvaluationCache
     from robocompose.evaluation.executor import Executor
     from robocompose.io import read_table
-    from robocompose.modular.truth import COMMITTED_DIR, measure_committed, truth_summary
+    from robocompose.io.errors import InputError
+    from robocompose.modular.terrain_study import candidate_settings
+    from robocompose.modular.truth import (
+        COMMITTED_DIR,
+        committed_path,
+        measure_committed,
+        read_committed,
+        truth_summary,
+    )
+    from robocompose.params import read_params
 
     params = _params(args.params)
+    settings = params.eval
+    if (args.candidates is None) != (args.distribution is None):
+        raise InputError("--candidates and --distribution: expected both (a candidate terrain) or neither")
+    if args.distribution is not None:
+        document = read_params(args.candidates)
+        if args.distribution not in document:
+            raise InputError(f"--distribution {args.distribution!r}: not in {args.candidates} (expected one of "
+                             f"{sorted(document)})")
+        settings = candidate_settings(settings, {args.distribution: document[args.distribution]},
+                                      str(args.candidates))[args.distribution]
+    directory = args.out_dir or COMMITTED_DIR
     workers = params.workers if args.workers is None else args.workers
     cache = EvaluationCache(params.cache or None)
     with Executor(workers=workers, address=params.address or None) as executor:
-        path = measure_committed(args.terrain_seed, params.eval, params.fitness, cache, executor,
-                                 args.out_dir or COMMITTED_DIR)
-    best = truth_summary(read_table(path, "modular_exhaustive"), params.experiments.near_optimal).iloc[0]
-    print(json.dumps({"terrain_seed": args.terrain_seed, "table": str(path), "optimum": best.optimum,
-                      "best_design": best.best_design, "near_optimal": int(best.near_optimal)}))
+        for seed in args.terrain_seed:
+            kept = read_committed(seed, settings, params.fitness, directory) is not None
+            path = (committed_path(seed, directory) if kept
+                    else measure_committed(seed, settings, params.fitness, cache, executor, directory))
+            best = truth_summary(read_table(path, "modular_exhaustive"), params.experiments.near_optimal).iloc[0]
+            print(json.dumps({"terrain_seed": seed, "table": str(path), "source": "kept" if kept else "measured",
+                              "optimum": best.optimum, "best_design": best.best_design,
+                              "near_optimal": int(best.near_optimal)}), flush=True)
+
+def _probe(args: argparse.Namespace) -> None:
+    from robocompose.evaluation.cache import EvaluationCache
+    from robocompose.evaluation.executor import Executor
+    from robocompose.io import atomic_write_text
+    from robocompose.modular.robot import parse_design
+    from robocompose.modular.terrain_study import PROBE_DESIGNS, candidate_settings, criteria, probe_table, rounded
+    from robocompose.params import read_params
+
+    params = _params(args.params)
+    candidates = candidate_settings(params.eval, read_params(args.candidates), str(args.candidates))
+    designs = [parse_design(d) for d in args.designs] if args.designs else list(PROBE_DESIGNS)
+    workers = params.workers if args.workers is None else args.workers
+    cache = EvaluationCache(params.cache or None)
+
+    def write(table) -> None:
+        rows = table.drop(columns="seconds")  # wall time of each rollout: not reproducible
+        atomic_write_text(args.out, rounded(rows).to_csv(index=False))
+        atomic_write_text(args.out.with_name(f"{args.out.stem}_criterion.csv"),
+                          rounded(criteria(table)).to_csv(index=False))
+
+    with Executor(workers=workers, address=params.address or None) as executor:
+        table = probe_table(candidates, args.terrain_seed, params.fitness, cache, executor, designs,
+                            on_piece=write)
+    for row in criteria(table).to_dict("records"):
+        print(json.dumps(row))
+
+
+def _criterion(args: argparse.Namespace) -> None:
+    from robocompose.modular.terrain_study import directory_criterion
+    from robocompose.modular.truth import COMMITTED_DIR
+
+    per_terrain, totals = directory_criterion(args.dir or COMMITTED_DIR)
+    print(json.dumps({**totals, "per_terrain": per_terrain.to_dict("records")}))

@@ -33,6 +33,9 @@ from robocompose.modular.evaluate import EvalSettings, FitnessRule, evaluate_des
 from robocompose.modular.robot import all_designs
 
 COMMITTED_DIR = Path("reports/modular/exhaustive")
+# Issue 13's terrain criterion: on >= 8 terrains, >= 3 distinct optima (up to mirror) and the best-on-average
+# design's mean regret >= 10% of the mean optimum.
+CRITERION = {"terrains": 8, "distinct_optima": 3, "regret_ratio": 0.10}
 # What decides a rollout besides its settings: the robot, the terrain, the gait and pybullet's settings (modules),
 # and the episode loop of evaluate.py (functions: the rest of that file is caching and batching).
 PHYSICS_MODULES = ("robocompose.modular.robot", "robocompose.modular.terrain", "robocompose.modular.controller",
@@ -176,8 +179,8 @@ def terrain_criterion(table: pd.DataFrame) -> tuple[pd.DataFrame, dict]:
 
     The best design on average is the one with the highest mean distance over the terrains among designs that
     carry a distance on every terrain (a penalty is never averaged as a distance). Totals: the number of distinct
-    optimal designs up to mirror symmetry, the mean optimum, the best-on-average design's mean regret and its
-    ratio to the mean optimum (the criterion asks >= 3 distinct optima and a ratio >= 0.1).
+    optimal designs up to mirror symmetry, the mean optimum, the best-on-average design's mean regret, its
+    ratio to the mean optimum, and `holds`: whether they meet `CRITERION`.
     """
     distances = table.pivot(index="design", columns="terrain_seed", values="distance")  # (designs, terrains)
     complete = distances.dropna()
@@ -200,4 +203,7 @@ def terrain_criterion(table: pd.DataFrame) -> tuple[pd.DataFrame, dict]:
               "average_design": average, "mean_optimum": mean_optimum,
               "mean_regret": float(per_terrain.regret.mean()),
               "regret_ratio": float(per_terrain.regret.mean() / mean_optimum) if mean_optimum > 0 else float("nan")}
+    totals["holds"] = bool(totals["terrains"] >= CRITERION["terrains"]
+                           and totals["distinct_optima"] >= CRITERION["distinct_optima"]
+                           and totals["regret_ratio"] >= CRITERION["regret_ratio"])
     return per_terrain, totals

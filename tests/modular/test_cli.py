@@ -78,6 +78,58 @@ def test_exhaustive_commits_one_terrains_table_with_its_provenance(tmp_path, cap
     assert record["simulated"] == 2 and record["settings"]["control_steps"] == 3 and record["physics_digest"]
 
 
+
+
+def test_exhaustive_measures_a_candidate_distribution_and_skips_terrains_already_kept(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr("robocompose.modular.truth.all_designs", lambda: ["wwwwww", "nnnnnn"])
+    params, candidates = tmp_path / "params.yaml", tmp_path / "candidates.yaml"
+    params.write_text(TINY)
+    candidates.write_text("tall: {max_height_range: [0.3, 0.4]}\n")
+    flags = ["modular", "exhaustive", "--terrain-seed", "4", "5", "--out-dir", str(tmp_path / "tall"),
+             "--params", str(params), "--candidates", str(candidates), "--distribution", "tall"]
+    assert main(flags) == 0
+    assert [json.loads(line)["source"] for line in capsys.readouterr().out.splitlines()] == ["measured"] * 2
+    record = json.loads((tmp_path / "tall" / "blocks-5.json").read_text())
+    assert record["settings"]["terrain"]["max_height_range"] == [0.3, 0.4]
+    assert main(flags[:5] + ["6"] + flags[5:]) == 0  # 4 and 5 are kept, 6 is measured
+    assert [json.loads(line)["source"] for line in capsys.readouterr().out.splitlines()] == [
+        "kept", "kept", "measured"]
+    assert main(flags[:-2]) == 2
+    assert "expected both" in capsys.readouterr().err
+    assert main(flags[:-1] + ["short"]) == 2
+    assert "not in" in capsys.readouterr().err
+
+def test_probe_writes_rows_and_criterion_and_criterion_reads_a_table_directory(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr("robocompose.modular.truth.all_designs", lambda: ["wwwwww", "llllll"])
+    params, candidates = tmp_path / "params.yaml", tmp_path / "candidates.yaml"
+    params.write_text(TINY)
+    candidates.write_text("low: {max_height_range: [0.0, 0.01]}\ntall: {max_height_range: [0.2, 0.3]}\n")
+    assert main(["modular", "probe", "--candidates", str(candidates), "--terrain-seed", "4", "5",
+                 "--designs", "WWWWWW", "llllll", "--out", str(tmp_path / "probe.csv"), "--params", str(params)]) == 0
+    printed = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert [row["distribution"] for row in printed] == ["low", "tall"] and printed[0]["terrains"] == 2
+    assert (tmp_path / "probe.csv").read_text().count("\n") == 1 + 2 * 2 * 2
+    assert (tmp_path / "probe_criterion.csv").read_text().startswith("distribution,terrains,distinct_optima")
+    for seed in (4, 5):
+        assert main(["modular", "exhaustive", "--terrain-seed", str(seed), "--out-dir", str(tmp_path / "truth"),
+                     "--params", str(params)]) == 0
+    capsys.readouterr()
+    assert main(["modular", "criterion", "--dir", str(tmp_path / "truth")]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["terrains"] == 2 and [r["terrain_seed"] for r in out["per_terrain"]] == [4, 5]
+    assert main(["modular", "criterion", "--dir", str(tmp_path / "none")]) == 2
+    assert "no exhaustive tables" in capsys.readouterr().err
+
+
+def test_probe_rejects_an_unknown_terrain_field(tmp_path, capsys):
+    params, candidates = tmp_path / "params.yaml", tmp_path / "candidates.yaml"
+    params.write_text(TINY)
+    candidates.write_text("tall: {height: 0.4}\n")
+    assert main(["modular", "probe", "--candidates", str(candidates), "--terrain-seed", "4",
+                 "--out", str(tmp_path / "probe.csv"), "--params", str(params)]) == 2
+    assert "tall.height: unknown terrain field" in capsys.readouterr().err
+    assert not (tmp_path / "probe.csv").exists()
+
 def test_ga_on_a_dask_cluster_finds_what_local_processes_find(tmp_path, capsys, dask_address):
     params = tmp_path / "params.yaml"
     params.write_text(TINY)
