@@ -1,8 +1,11 @@
 """DVC stage `glso`: every (task, method, seed) search run of thesis 8, fanned out over the Executor.
 
 params (glso, evaluation) + models/vae_{full,nopred,nogram}.pt -> data/glso/steps.parquet (all step tables),
-data/glso/runs/ and data/glso/checkpoints/ (per run; persistent, so a killed stage resumes every run where
-it stopped), data/glso/rollouts/<task>.{mcap,gif} (each task's best design replayed), reports/metrics/glso.json.
+data/glso/runs/ (per run; persistent), data/glso/rollouts/<task>.{mcap,gif} (each task's best design replayed),
+reports/metrics/glso.json. Each run's checkpoint, data/glso/checkpoints/<run>.pkl, is not a DVC output: it only
+saves time (its key covers the run, the settings and the code) and a pickled method state (torch modules) is
+not byte-identical across processes, so a killed stage resumes every run where it stopped and dvc.lock stays
+the same from run to run.
 """
 
 from pathlib import Path

@@ -120,23 +120,14 @@ def kill_stage(project: Path, stage: str, ready) -> None:
     log.close()
 
 
-def outputs(project: Path, paths: list[str]) -> dict[str, object]:
-    """The bytes of every file under `paths`; for a parquet table with a wall-time column (`seconds`: how long
-    a step took, which no rerun repeats), its other columns."""
-    import pyarrow.parquet as pq
-
-    found: dict[str, object] = {}
+def outputs(project: Path, paths: list[str]) -> dict[str, bytes]:
+    """The bytes of every file under `paths` (outputs hold no wall times, so a rerun must repeat them exactly)."""
+    found: dict[str, bytes] = {}
     for name in paths:
         path = project / name
         for file in sorted(path.rglob("*") if path.is_dir() else [path]):
-            if not file.is_file():
-                continue
-            key = file.relative_to(project).as_posix()
-            columns = pq.read_schema(file).names if file.suffix == ".parquet" else []
-            if "seconds" in columns:
-                found[key] = pq.read_table(file, columns=[c for c in columns if c != "seconds"]).to_pylist()
-            else:
-                found[key] = file.read_bytes()
+            if file.is_file():
+                found[file.relative_to(project).as_posix()] = file.read_bytes()
     return found
 
 
@@ -192,7 +183,7 @@ EGGAN_OUTS = ["models/teams_eggan.pt", "data/teams/eggan_queries.parquet", "data
 def test_killed_glso_stage_resumes_to_the_same_results(project: Path) -> None:
     """The stage runs its searches one after another here (workers 1); killed after the first, `dvc repro`
     keeps the finished run, resumes the others from their per-step checkpoints, and gives the same step
-    tables (but their wall times), rollouts and metrics as an uninterrupted run."""
+    tables, rollouts and metrics, byte for byte, as an uninterrupted run."""
     runs = project / "data" / "glso" / "runs"
     kill_stage(project, "glso", lambda _: runs.is_dir() and any(runs.iterdir()))
     assert not (project / "data" / "glso" / "steps.parquet").exists()
