@@ -13,12 +13,7 @@ from pathlib import Path
 from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.executor import Executor
 from robocompose.io import atomic_write_json
-from robocompose.modular.eggan_experiments import (
-    train_dqn_baseline,
-    train_fit2form_baseline,
-    train_molgan_baseline,
-    train_variant,
-)
+from robocompose.modular.eggan_experiments import BASELINES, train_baseline, train_variant
 from robocompose.modular.eggan_params import VARIANTS, load_eggan_modular_params
 from robocompose.modular.params import load_modular_params
 from robocompose.report.timings import timed
@@ -29,7 +24,7 @@ def main() -> None:
     modular, params = load_modular_params("params.yaml"), load_eggan_modular_params("params.yaml")
     cache = EvaluationCache(modular.cache or None)
     trainers = {**{variant: partial(train_variant, variant) for variant in VARIANTS},
-                "fit2form": train_fit2form_baseline, "dqn": train_dqn_baseline, "molgan": train_molgan_baseline}
+                **{name: partial(train_baseline, name) for name in BASELINES}}
     metrics = {}
     with timed("train_eggan_modular") as timing, Executor(modular.workers, modular.address or None) as executor:
         for method, train_method in trainers.items():

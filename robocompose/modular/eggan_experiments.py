@@ -23,7 +23,9 @@ import dataclasses
 import math
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -132,46 +134,38 @@ def realtime_proposers(problem: ModularEgganProblem, params: EgganModularParams,
     return proposers
 
 
-def train_fit2form_baseline(modular: ModularParams, params: EgganModularParams, cache: EvaluationCache | None,
-                            executor: Executor | None, out: Path, progress: bool = False) -> dict:
-    """Fit2form on the same problem and budget of real rollouts; writes out/eggan_modular_fit2form.{pt,json}."""
-    config = build_config(Fit2formConfig, params.baselines.get("fit2form", {}), "eggan_modular.baselines.fit2form")
-    problem = make_problem(modular, params, cache, executor, config.iterations * config.tasks)
-    generator, rows = train_fit2form(problem, params.network, config, progress)
-    metrics = {"method": "Fit2form", "iterations": config.iterations, "real_evaluations": problem.real_evaluations,
-               "surrogate_heldout": problem.surrogate_error(), "final": rows[-1]}
-    save_generator(generator, problem, out / "eggan_modular_fit2form.pt",
-                   {"settings_hash": modular.eval.settings_hash(), "train": dataclasses.asdict(config),
-                    "metrics": metrics})
-    return metrics
+@dataclass(frozen=True)
+class Baseline:
+    """A learned baseline of Table 5.1: its title, config class, trainer, file writer and extra metrics."""
+
+    title: str
+    config: type
+    train: Callable  # (problem, network, config, progress) -> (model, log rows)
+    save: Callable  # (model, problem, path, meta) -> path
+    extra: Callable[[Any, list[dict]], dict]  # (config, log rows) -> metrics beside the common ones
 
 
-def train_dqn_baseline(modular: ModularParams, params: EgganModularParams, cache: EvaluationCache | None,
-                       executor: Executor | None, out: Path, progress: bool = False) -> dict:
-    """Whitman's DQN on the same problem and budget of real rollouts; writes out/eggan_modular_dqn.{pt,json}."""
-    config = build_config(DQNConfig, params.baselines.get("dqn", {}), "eggan_modular.baselines.dqn")
+BASELINES = {
+    "fit2form": Baseline("Fit2form", Fit2formConfig, train_fit2form, save_generator, lambda config, rows: {}),
+    "dqn": Baseline("DQN", DQNConfig, train_dqn, save_dqn, lambda config, rows: {"episodes": rows[-1]["episodes"]}),
+    "molgan": Baseline("MolGAN", MolganConfig, train_molgan, save_generator, lambda config, rows: {"lam": config.lam}),
+}
+
+
+def train_baseline(name: str, modular: ModularParams, params: EgganModularParams, cache: EvaluationCache | None,
+                   executor: Executor | None, out: Path, progress: bool = False) -> dict:
+    """One learned baseline (`BASELINES`) on the same problem and budget of real rollouts as EG-GAN; writes
+    out/eggan_modular_NAME.{pt,json} and returns its metrics."""
+    baseline = BASELINES[name]
+    config = build_config(baseline.config, params.baselines.get(name, {}), f"eggan_modular.baselines.{name}")
     problem = make_problem(modular, params, cache, executor, config.iterations * config.tasks)
-    net, rows = train_dqn(problem, params.network, config, progress)
-    metrics = {"method": "DQN", "iterations": config.iterations, "episodes": rows[-1]["episodes"],
+    model, rows = baseline.train(problem, params.network, config, progress)
+    metrics = {"method": baseline.title, "iterations": config.iterations, **baseline.extra(config, rows),
                "real_evaluations": problem.real_evaluations, "surrogate_heldout": problem.surrogate_error(),
                "final": rows[-1]}
-    save_dqn(net, problem, out / "eggan_modular_dqn.pt",
-             {"settings_hash": modular.eval.settings_hash(), "train": dataclasses.asdict(config), "metrics": metrics})
-    return metrics
-
-
-def train_molgan_baseline(modular: ModularParams, params: EgganModularParams, cache: EvaluationCache | None,
-                          executor: Executor | None, out: Path, progress: bool = False) -> dict:
-    """Conditional MolGAN on the same problem and budget of real rollouts; writes out/eggan_modular_molgan.{pt,json}."""
-    config = build_config(MolganConfig, params.baselines.get("molgan", {}), "eggan_modular.baselines.molgan")
-    problem = make_problem(modular, params, cache, executor, config.iterations * config.tasks)
-    generator, rows = train_molgan(problem, params.network, config, progress)
-    metrics = {"method": "MolGAN", "iterations": config.iterations, "lam": config.lam,
-               "real_evaluations": problem.real_evaluations, "surrogate_heldout": problem.surrogate_error(),
-               "final": rows[-1]}
-    save_generator(generator, problem, out / "eggan_modular_molgan.pt",
-                   {"settings_hash": modular.eval.settings_hash(), "train": dataclasses.asdict(config),
-                    "metrics": metrics})
+    baseline.save(model, problem, out / f"eggan_modular_{name}.pt",
+                  {"settings_hash": modular.eval.settings_hash(), "train": dataclasses.asdict(config),
+                   "metrics": metrics})
     return metrics
 
 

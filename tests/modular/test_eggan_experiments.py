@@ -19,8 +19,7 @@ from robocompose.modular.eggan_experiments import (
     dqn_proposer,
     make_problem,
     realtime_proposers,
-    train_dqn_baseline,
-    train_molgan_baseline,
+    train_baseline,
 )
 from robocompose.modular.eggan_params import build_eggan_modular_params
 from robocompose.modular.evaluate import EvalSettings, FitnessRule, Result
@@ -52,7 +51,7 @@ def fake_rollouts(monkeypatch):
 
 def test_molgan_baseline_trains_on_the_shared_budget_and_answers_queries(tmp_path, fake_rollouts):
     params = build_eggan_modular_params(SECTION, "test")
-    metrics = train_molgan_baseline(MODULAR, params, None, None, tmp_path)
+    metrics = train_baseline("molgan", MODULAR, params, None, None, tmp_path)
     # warm-up + real rounds spaced over the run's 6 x 2 evaluate calls, capped by the budget
     assert 20 < metrics["real_evaluations"] <= 40 and metrics["method"] == "MolGAN" and metrics["lam"] == 0.5
     saved = json.loads((tmp_path / "eggan_modular_molgan.json").read_text())
@@ -60,7 +59,7 @@ def test_molgan_baseline_trains_on_the_shared_budget_and_answers_queries(tmp_pat
     assert REALTIME_METHODS["molgan"] == "MolGAN"
     for method in ("fit2form", "ga", "crowding"):  # the other generators' files, stood in by MolGAN's
         (tmp_path / f"eggan_modular_{method}.pt").write_bytes((tmp_path / "eggan_modular_molgan.pt").read_bytes())
-    train_dqn_baseline(MODULAR, params, None, None, tmp_path)  # the protocol wants every method's model
+    train_baseline("dqn", MODULAR, params, None, None, tmp_path)  # the protocol wants every method's model
     problem = eggan_problem.ModularEgganProblem(MODULAR, params.fitness)
     proposers = realtime_proposers(problem, params, tmp_path)
     assert list(proposers) == list(REALTIME_METHODS)
@@ -76,7 +75,7 @@ def test_dqn_decision_groups_are_the_mirrored_port_pairs():
 
 def test_dqn_baseline_spends_the_budget_and_proposes_ten_distinct_symmetric_designs(tmp_path, fake_rollouts):
     params = build_eggan_modular_params(SECTION, "test")
-    metrics = train_dqn_baseline(MODULAR, params, None, None, tmp_path)
+    metrics = train_baseline("dqn", MODULAR, params, None, None, tmp_path)
     assert metrics["method"] == "DQN" and metrics["episodes"] == 6 * 2 * 4
     assert metrics["real_evaluations"] == sum(len(c) for c in fake_rollouts) > params.fitness.warmup  # real rounds ran
     saved = json.loads((tmp_path / "eggan_modular_dqn.json").read_text())
