@@ -34,10 +34,15 @@ def load_torch(path: str | os.PathLike[str], weights_only: bool = True) -> objec
 
 
 def save_model(info: dict, state: dict, path: str | os.PathLike[str]) -> Path:
-    """A trained network's file: {"info", "state"} behind the checksum header, and `info` as JSON beside it."""
+    """A trained network's file: {"info", "state"} behind the checksum header, and `info` as JSON beside it.
+
+    `info` goes in as JSON text: pickle's bytes depend on which equal strings are one object (a run resumed from
+    a checkpoint has other string objects than a straight one), JSON's do not."""
+    import json
+
     from robocompose.io import atomic_write_json
 
-    save_torch({"info": info, "state": state}, path)
+    save_torch({"info": json.dumps(info, sort_keys=True), "state": state}, path)
     atomic_write_json(Path(path).with_suffix(".json"), info)
     return Path(path)
 
@@ -48,8 +53,10 @@ def load_model(path: str | os.PathLike[str], kind: str) -> tuple[dict, dict]:
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: no such file (expected {kind} file)")
+    import json
+
     saved = load_torch(path)  # the checksum first: a cut file never reaches torch
     try:
-        return saved["info"], saved["state"]
-    except (KeyError, TypeError) as err:  # a checked file of another kind
+        return json.loads(saved["info"]), saved["state"]
+    except (KeyError, TypeError, json.JSONDecodeError) as err:  # a checked file of another kind
         raise InputError(f"{path}: not {kind} file (no {err})") from None

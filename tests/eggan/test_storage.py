@@ -46,3 +46,19 @@ def test_a_model_file_holds_info_and_state_and_a_file_of_another_kind_is_refused
         load_model(other, "a toy model")
     with pytest.raises(InputError, match="no such file"):
         load_model(tmp_path / "missing.pt", "a toy model")
+
+
+def test_a_model_files_bytes_do_not_depend_on_which_equal_strings_are_one_object(tmp_path):
+    """A run resumed from a checkpoint holds equal but distinct string objects where a straight run shares one;
+    pickle's memo would write them differently, the file must not."""
+    import copy
+
+    from robocompose.eggan.storage import load_model, save_model
+
+    key = "real_evaluations"
+    shared = {key: 3, "final": {key: 3}}  # one string object twice
+    distinct = {"".join(["real_", "evaluations"]): 3, "final": copy.deepcopy({"".join(["real_", "evaluations"]): 3})}
+    state = {"w": torch.ones(2)}
+    a, b = save_model(shared, state, tmp_path / "a.pt"), save_model(distinct, state, tmp_path / "b.pt")
+    assert a.read_bytes() == b.read_bytes()
+    assert load_model(a, "a test model")[0] == shared
