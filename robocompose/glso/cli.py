@@ -18,7 +18,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     glso.add_argument("--params", default="params.yaml", help="params file (sections glso and evaluation)")
     glso.add_argument("--checkpoint", default=None, help="resume from / save to this checkpoint file")
     glso.add_argument("--out", default=None, help="write the step table (parquet) here")
+    glso.add_argument("--address", default=None,
+                      help="run the search on a worker of this Dask scheduler (tcp://host:8786; default: params' "
+                           "glso.address; \"\" = here); its lines print when it finishes")
     glso.set_defaults(handler=_glso)
+
+
+def _remote_search(job: tuple) -> object:
+    """One search run on a Dask worker (module level, so that it pickles): its step table."""
+    from robocompose.glso.runs import run_search
+
+    spec, config, evaluation, checkpoint, model = job
+    return run_search(spec, config, evaluation, checkpoint=checkpoint, model_path=model)
 
 
 def _glso(args: argparse.Namespace) -> int:
@@ -50,9 +61,22 @@ def _glso(args: argparse.Namespace) -> int:
         print(json.dumps({k: row[k] for k in ("step", "design_id", "rules", "score", "status", "best_so_far")}),
               flush=True)
 
-    steps = run_search(RunSpec(args.task, args.method, args.seed), config, evaluation, on_step=show,
-                       checkpoint=None if args.checkpoint is None else Path(args.checkpoint),
-                       table=None if args.out is None else Path(args.out), model_path=model)
+    spec = RunSpec(args.task, args.method, args.seed)
+    checkpoint = None if args.checkpoint is None else Path(args.checkpoint)
+    address = config.address if args.address is None else args.address
+    if address:
+        from robocompose.evaluation.executor import Executor
+        from robocompose.io import write_table
+
+        with Executor(address=address) as executor:
+            steps = next(executor.imap(_remote_search, [(spec, config, evaluation, checkpoint, model)]))
+        for row in steps.to_dict("records"):
+            show(row)
+        if args.out is not None:
+            write_table(steps, Path(args.out), "glso_steps")
+    else:
+        steps = run_search(spec, config, evaluation, on_step=show, checkpoint=checkpoint,
+                           table=None if args.out is None else Path(args.out), model_path=model)
     best = steps.loc[steps["score"].idxmax()]
     print(json.dumps({"best": {"design_id": best.design_id, "rules": list(best.rules), "score": best.score,
                                "status": best.status, "step": int(best.step), "parents": list(best.parents),

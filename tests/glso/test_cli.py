@@ -37,3 +37,11 @@ def test_cli_bad_input_exits_2_with_one_line(argv, message, params, capsys):
     assert main(["glso", "--params", params, *argv]) == 2
     err = capsys.readouterr().err
     assert message in err and len(err.strip().splitlines()) == 1
+
+
+def test_cli_runs_the_search_on_a_dask_worker_and_prints_what_a_local_run_prints(params, capsys, dask_address):
+    argv = ["glso", "--task", "flat", "--method", "random", "--budget", "3", "--params", params]
+    assert main(argv) == 0
+    local = capsys.readouterr().out
+    assert main([*argv, "--address", dask_address]) == 0
+    assert capsys.readouterr().out == local and len(local.splitlines()) == 4
