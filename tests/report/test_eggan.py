@@ -22,7 +22,8 @@ def _table() -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def test_section_has_table_5_1_with_thesis_numbers_and_a_verdict(tmp_path):
+def test_section_has_table_5_1_with_thesis_numbers_and_a_verdict(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # the section reads models/ of the working directory: none here, whatever runs it
     data, reports = tmp_path / "data", tmp_path / "reports"
     write_table(_table(), data / "modular" / "realtime.parquet", "modular_realtime")
     (reports / "metrics").mkdir(parents=True)
