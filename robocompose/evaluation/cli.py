@@ -59,6 +59,8 @@ def register_fidelity(subparsers: argparse._SubParsersAction) -> None:
     fidelity.add_argument("--params", default="params.yaml", help="params file whose `evaluator_fidelity` is used")
     fidelity.add_argument("--tasks", help="comma-separated tasks instead of evaluator_fidelity.tasks")
     fidelity.add_argument("--rungs", help="comma-separated ladder rungs instead of evaluator_fidelity.rungs")
+    fidelity.add_argument("--designs", help="measure: comma-separated design names, only these (for a second "
+                                            "process on another part of the set)")
     fidelity.set_defaults(handler=_fidelity)
 
 
@@ -66,6 +68,7 @@ def _fidelity(args: argparse.Namespace) -> int:
     import dataclasses
 
     from robocompose.evaluation import fidelity
+    from robocompose.io.errors import InputError
     from robocompose.params import load_section
 
     config = load_section(fidelity.FidelityConfig, "evaluator_fidelity", args.params)
@@ -77,7 +80,15 @@ def _fidelity(args: argparse.Namespace) -> int:
         return 0
     designs = fidelity.read_design_set(config.directory)
     if args.action == "measure":
-        print(json.dumps({"scored": fidelity.measure(config, designs)}))
+        chosen = designs
+        if args.designs:
+            names = args.designs.split(",")
+            unknown = sorted(set(names) - set(designs["name"]))
+            if unknown:
+                raise InputError(f"--designs: unknown design {unknown[0]!r}; "
+                                 f"{Path(config.directory) / fidelity.DESIGNS_FILE} has {list(designs['name'])}")
+            chosen = designs[designs["name"].isin(names)]
+        print(json.dumps({"scored": fidelity.measure(config, chosen)}))
     summary = fidelity.summarise(fidelity.read_scores(config.directory), designs, config.top)
     print(summary.to_string(index=False))
     return 0

@@ -207,24 +207,33 @@ def measure_order(designs: pd.DataFrame) -> pd.DataFrame:
 
 
 def measure(config: FidelityConfig, designs: pd.DataFrame) -> int:
-    """Score every (task, rung, design) not yet in the pieces; the number scored now.
+    """Score every (task, rung, design) not yet in the pieces; the number scored by this call.
 
     Order: task, then design (`measure_order`), then rung (config order). Design-major order makes a partial
     run useful: every design measured so far has a score at every rung, so a Spearman over them exists.
+    Several processes may share the pieces (say, one per task, or one per part of the design set): each job is
+    checked against its piece again just before it runs, so what another process wrote meanwhile is skipped.
     """
     trees = {row.design_id: derive(parse_rules(row.rules)).tree for row in designs.itertuples()}
     designs = measure_order(designs)
-    done = {(task, rung): set(read_piece(piece_path(config.directory, task, rung))["design_id"])
-            for task in config.tasks for rung in config.rungs}
+
+    def done(task: str, rung: str) -> set[str]:
+        return set(read_piece(piece_path(config.directory, task, rung))["design_id"])
+
+    todo = {(task, rung): done(task, rung) for task in config.tasks for rung in config.rungs}
     jobs = [(task, rung, row.name, row.design_id) for task in config.tasks for row in designs.itertuples()
-            for rung in config.rungs if row.design_id not in done[task, rung]]
+            for rung in config.rungs if row.design_id not in todo[task, rung]]
+    scored = 0
     for task, rung, name, design_id in tqdm(jobs, desc="fidelity", unit="eval"):
+        if design_id in done(task, rung):
+            continue
         evaluation = EvaluationConfig(mppi=rung_config(rung), seed=config.seed)
         row = evaluate(trees[design_id], task, evaluation, config.seed)
         _append(piece_path(config.directory, task, rung),
                 {"task": task, "rung": rung, "name": name, "design_id": design_id, **row,
                  "objective": objective(row), "evaluator": simulation_digest(task)})
-    return len(jobs)
+        scored += 1
+    return scored
 
 
 def read_scores(directory: str | Path) -> pd.DataFrame:

@@ -97,3 +97,38 @@ def test_measure_appends_rows_and_resumes(tmp_path, monkeypatch):
     assert len(read_piece(piece)) == 2
     again = evaluate(derive(parse_rules(rules)).tree, "flat", EvaluationConfig(mppi=rung_config("tiny")), 0)
     assert row["reward"] == again["reward"] and row["sim_steps"] == again["sim_steps"]  # the exact float survives
+
+
+def test_measure_skips_what_another_process_wrote_meanwhile(tmp_path, monkeypatch):
+    """Two processes may share the pieces: a job another process finished after this one listed its jobs is
+    skipped, not measured twice."""
+    monkeypatch.setitem(fidelity.LADDER, "tiny", (2, 2, 2, 3))
+    monkeypatch.setitem(fidelity.LADDER, "tiny2", (2, 2, 2, 4))
+    rules = REFERENCE_DESIGNS["robogrammar_ridged"]
+    design_id = derive(parse_rules(rules)).tree.design_id
+    designs = pd.DataFrame([{"name": "ridged_ref", "kind": "reference", "design_id": design_id, "rules": rules,
+                             "screen_reward": np.nan}])
+    config = FidelityConfig(directory=str(tmp_path), tasks=["flat"], rungs=["tiny", "tiny2"])
+    real_evaluate = fidelity.evaluate
+
+    def evaluate_while_another_process_writes(tree, task, evaluation, seed):
+        row = real_evaluate(tree, task, evaluation, seed)
+        fidelity._append(fidelity.piece_path(tmp_path, "flat", "tiny2"),  # the other process's row
+                         {"task": "flat", "rung": "tiny2", "name": "ridged_ref", "design_id": design_id, **row,
+                          "objective": 0.0, "evaluator": "other"})
+        return row
+
+    monkeypatch.setattr(fidelity, "evaluate", evaluate_while_another_process_writes)
+    assert fidelity.measure(config, designs) == 1
+    assert len(read_piece(fidelity.piece_path(tmp_path, "flat", "tiny2"))) == 1
+
+
+def test_measure_command_rejects_an_unknown_design_name(tmp_path, cli_error):
+    designs = pd.DataFrame([{"name": "ridged_ref", "kind": "reference", "design_id": "0" * 16,
+                             "rules": REFERENCE_DESIGNS["robogrammar_ridged"], "screen_reward": np.nan}])
+    fidelity.write_design_set(designs, tmp_path)
+    params = tmp_path / "params.yaml"
+    params.write_text(f"evaluator_fidelity:\n  directory: {tmp_path}\n  tasks: [flat]\n  rungs: [thesis]\n")
+    cli_error(["evaluator-fidelity", "measure", "--params", str(params), "--designs", "ridged_ref,nosuch"],
+              "--designs: unknown design 'nosuch'", "designs.csv has ['ridged_ref']")
+    assert not (tmp_path / "scores").exists()
