@@ -1,3 +1,6 @@
+import json
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -18,6 +21,7 @@ from robocompose.evaluation.fidelity import (
 )
 from robocompose.evaluation.references import REFERENCE_DESIGNS
 from robocompose.grammar.derivation import derive, parse_rules
+from robocompose.params import load_section
 
 
 def test_thesis_rung_is_robogrammars_controller():
@@ -132,3 +136,13 @@ def test_measure_command_rejects_an_unknown_design_name(tmp_path, cli_error):
     cli_error(["evaluator-fidelity", "measure", "--params", str(params), "--designs", "ridged_ref,nosuch"],
               "--designs: unknown design 'nosuch'", "designs.csv has ['ridged_ref']")
     assert not (tmp_path / "scores").exists()
+
+
+def test_default_profile_runs_the_rung_the_committed_table_selects():
+    """The default evaluator is the setting the committed fidelity table selects: a re-measured table that
+    selects another rung must come with a changed default (and a re-run pipeline)."""
+    root = Path(__file__).resolve().parents[2]
+    choice = json.loads((root / "reports" / "metrics" / "evaluator_fidelity.json").read_text())
+    mppi = load_section(EvaluationConfig, "evaluation", root / "profiles" / "default.yaml").mppi
+    assert choice["rung"], choice["reason"]
+    assert fidelity.LADDER[choice["rung"]] == (mppi.samples, mppi.first_samples, mppi.horizon, mppi.episode)
