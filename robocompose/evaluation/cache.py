@@ -34,9 +34,6 @@ import pandas as pd
 
 from robocompose.io import ArtifactError, get_schema, read_table, set_aside, write_table
 
-# Storage and fan-out: they keep and ship results but do not shape them, so their source is left out of the
-# evaluators' code digests (an edit of a table schema must not throw away hours of cached rollouts).
-INFRASTRUCTURE = ("robocompose.io", "robocompose.evaluation.cache", "robocompose.evaluation.executor")
 CacheKey = tuple  # values of the key columns, in order; e.g. (design_id, task, settings_hash, seed)
 DEFAULT_CACHE_PATH = Path("data/cache/eval_cache.parquet")
 EVAL_KEY_COLUMNS = ("design_id", "task", "settings_hash", "seed")

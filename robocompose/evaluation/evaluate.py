@@ -16,10 +16,9 @@ Optimisers score a result with `objective(row)`: the reward when ok, else `INVAL
 3.8 for a self-collision, 4.0 for a blow-up: about what a robot standing still scores).
 
 The settings hash of a task covers everything that shapes a result besides design and seed: the MPPI
-config, the physics settings, the task (floor, friction, horizon scale, obstacle seed), the constants of the
-robot builder, design geometry, reward and controller modules, and a digest of the source of every module
-the evaluation runs (`robocompose.io.provenance.code_digest`), so a change of code invalidates the cache
-with no version to bump by hand.
+config, the physics settings, the task (floor, friction, horizon scale, obstacle seed), and the code and
+constants the episode reaches (`robocompose.io.provenance.result_digest`), so a change of that code invalidates
+the cache with no version to bump by hand, while moving it or editing messages does not.
 """
 
 from __future__ import annotations
@@ -32,19 +31,17 @@ from dataclasses import dataclass, field
 import pandas as pd
 
 from robocompose.control.mppi import MPPIConfig, run_episode
-from robocompose.evaluation.cache import EVAL_KEY_COLUMNS, INFRASTRUCTURE, EvaluationCache
+from robocompose.evaluation.cache import EVAL_KEY_COLUMNS, EvaluationCache
 from robocompose.evaluation.executor import Executor, evaluate_many
 from robocompose.grammar.tree import DesignTree
 from robocompose.io.errors import InputError
-from robocompose.io.provenance import code_digest, constants_of, settings_digest
+from robocompose.io.provenance import result_digest, settings_digest
 from robocompose.params import build_config
 from robocompose.sim.physics import PhysicsSettings
 from robocompose.tasks.terrains import get_task
 
-# Modules whose constants shape a result (robot geometry and masses, motors, terrains, reward, controller).
-RESULT_MODULES = ("robocompose.grammar.tree", "robocompose.sim.builder", "robocompose.sim.physics",
-                  "robocompose.tasks.terrains", "robocompose.control.world", "robocompose.control.mppi",
-                  "robocompose.evaluation.evaluate")
+# Where a result's code starts: the episode, and through it the robot builder, terrains, reward and controller.
+RESULT_CODE = ("robocompose.evaluation.evaluate:evaluate",)
 OK, SELF_COLLISION, UNSTABLE = "ok", "self_collision", "unstable"
 STATUSES = (OK, SELF_COLLISION, UNSTABLE)
 BLOWUP_REWARD = 10.0  # any mean reward at or above this is a simulation blow-up
@@ -81,10 +78,8 @@ class EvaluationConfig:
 
 def simulation_digest(task: str) -> str:
     """16 hex digits of what shapes a result on `task` besides the controller settings, design and seed: the
-    task, the physics, the result-shaping constants and the source of the modules that compute it."""
-    return settings_digest({"task": get_task(task), "physics": PhysicsSettings(),
-                            "constants": constants_of(*RESULT_MODULES),
-                            "code": code_digest(*RESULT_MODULES, exclude=INFRASTRUCTURE)})
+    task, the physics, and the code and constants the episode runs (`result_digest`)."""
+    return settings_digest({"task": get_task(task), "physics": PhysicsSettings(), "code": result_digest(*RESULT_CODE)})
 
 
 def objective(row: dict) -> float:

@@ -74,6 +74,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     _add_evaluation_arguments(probe)
     probe.set_defaults(handler=_probe)
 
+    verify = commands.add_parser(
+        "verify-committed", help="re-simulate a random sample of each committed exhaustive table under its own "
+        "settings and compare bit for bit; with --rekey, a table whose sample all agrees takes the current physics "
+        "digest (the proof that a code change left its numbers as they were); prints JSON per table")
+    verify.add_argument("--dir", type=Path, default=None,
+                        help="a directory of blocks-<seed>.parquet tables (default reports/modular/exhaustive)")
+    verify.add_argument("--sample", type=non_negative_int, default=20, help="designs re-simulated per table")
+    verify.add_argument("--seed", type=non_negative_int, default=0, help="seed of the sample")
+    verify.add_argument("--rekey", action="store_true", help="re-key the tables whose sample agrees exactly")
+    _add_evaluation_arguments(verify)
+    verify.set_defaults(handler=_verify)
+
     criterion = commands.add_parser(
         "criterion", help="the terrain criterion (distinct optima up to mirror, regret of the best-on-average "
         "design) of the exhaustive tables in a directory; prints JSON")
@@ -202,6 +214,22 @@ def _probe(args: argparse.Namespace) -> None:
                             on_piece=write)
     for row in criteria(table).to_dict("records"):
         print(json.dumps(row))
+
+
+def _verify(args: argparse.Namespace) -> None:
+    from robocompose.evaluation.executor import Executor
+    from robocompose.io.errors import InputError
+    from robocompose.modular.truth import COMMITTED_DIR, verify_committed
+
+    directory = args.dir or COMMITTED_DIR
+    tables = sorted(Path(directory).glob("blocks-*.parquet"))
+    if not tables:
+        raise InputError(f"--dir {directory}: no blocks-<seed>.parquet tables there")
+    params = _params(args.params)
+    workers = params.workers if args.workers is None else args.workers
+    with Executor(workers=workers, address=params.address or None) as executor:
+        for path in tables:
+            print(json.dumps(verify_committed(path, args.sample, args.seed, executor, args.rekey)), flush=True)
 
 
 def _criterion(args: argparse.Namespace) -> None:

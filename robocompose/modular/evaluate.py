@@ -13,8 +13,8 @@ the `penalty` rule: not simulated, no distance). Optimisers turn a result into a
 
 Results are cached in the shared evaluation cache, key (design port string, "blocks-<seed>", settings hash,
 seed 0): the rollout is deterministic, so the seed column is always 0. The settings hash covers the episode
-settings, the terrain ranges, the physics (gravity, damping, solver), the controller's gait, the constants
-of the robot, controller, terrain and evaluator modules and a digest of their source.
+settings, the terrain ranges, the physics (gravity, damping, solver), the controller's gait, and the code and
+constants a rollout reaches (`robocompose.io.provenance.result_digest`).
 """
 
 from __future__ import annotations
@@ -26,17 +26,17 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from robocompose.evaluation.cache import INFRASTRUCTURE, EvaluationCache
+from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.executor import Executor, evaluate_many
 from robocompose.io.errors import InputError
-from robocompose.io.provenance import code_digest, constants_of, settings_digest
+from robocompose.io.provenance import result_digest, settings_digest
 from robocompose.modular.controller import RobotState, make_controller
 from robocompose.modular.robot import START_HEIGHT, ModularRobot, build_robot, parse_design, valid_in_original
 from robocompose.modular.terrain import Terrain, TerrainConfig, add_terrain, generate_terrain
 
-# Modules whose constants shape a result (robot parts and masses, motor gains, gait, terrain grid, stops).
-RESULT_MODULES = ("robocompose.modular.robot", "robocompose.modular.controller", "robocompose.modular.terrain",
-                  "robocompose.sim.physics", "robocompose.modular.evaluate")
+# Where a result's code starts: one rollout on a generated terrain (robot parts and masses, motor gains, gait,
+# terrain grid, stops), and the rule of which designs the original rejects (they are scored, not simulated).
+RESULT_CODE = ("robocompose.modular.evaluate:simulate", "robocompose.modular.robot:valid_in_original")
 REWARD_STATUSES = ("ok", "flipped", "left_course", "stalled")  # statuses that carry a measured distance
 BLOWUP_SPEED = 50.0  # m/s; a chassis faster than this has exploded
 
@@ -75,8 +75,7 @@ class EvalSettings:
         controller = make_controller(self.controller)
         return settings_digest({"settings": asdict(self), "physics": self.physics(),
                                 "gait": getattr(controller, "gait", None), "controller": type(controller).__name__,
-                                "constants": constants_of(*RESULT_MODULES),
-                                "code": code_digest(*RESULT_MODULES, exclude=INFRASTRUCTURE)})
+                                "code": result_digest(*RESULT_CODE)})
 
     @property
     def sim_steps(self) -> int:

@@ -13,9 +13,6 @@
 
 from __future__ import annotations
 
-import ast
-import hashlib
-import inspect
 import json
 import time
 from dataclasses import asdict
@@ -27,7 +24,7 @@ from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.executor import Executor
 from robocompose.io import atomic_write_json, read_table, write_table
 from robocompose.io.atomic import read_json
-from robocompose.io.provenance import module_path
+from robocompose.io.provenance import result_digest
 from robocompose.modular import evaluate
 from robocompose.modular.evaluate import EvalSettings, FitnessRule, evaluate_designs
 from robocompose.modular.robot import all_designs
@@ -36,11 +33,6 @@ COMMITTED_DIR = Path("reports/modular/exhaustive")
 # Issue 13's terrain criterion: on >= 8 terrains, >= 3 distinct optima (up to mirror) and the best-on-average
 # design's mean regret >= 10% of the mean optimum.
 CRITERION = {"terrains": 8, "distinct_optima": 3, "regret_ratio": 0.10}
-# What decides a rollout besides its settings: the robot, the terrain, the gait and pybullet's settings (modules),
-# and the episode loop of evaluate.py (functions: the rest of that file is caching and batching).
-PHYSICS_MODULES = ("robocompose.modular.robot", "robocompose.modular.terrain", "robocompose.modular.controller",
-                   "robocompose.sim.physics")
-EPISODE_FUNCTIONS = ("rollout", "_state", "up_z", "_stop_reason")
 
 
 def exhaustive_terrain(terrain_seed: int, settings: EvalSettings, rule: FitnessRule,
@@ -58,37 +50,10 @@ def exhaustive_terrain(terrain_seed: int, settings: EvalSettings, rule: FitnessR
                          "seconds": [r.seconds for r in results]})
 
 
-class _RolloutCode(ast.NodeTransformer):
-    """Drops what cannot change the numbers of a rollout that runs to its end: docstrings, imports (the physics
-    modules among them are digested themselves) and raise statements (error types and messages)."""
-
-    def visit_Import(self, node: ast.AST) -> None:
-        return None
-
-    visit_ImportFrom = visit_Import
-
-    def visit_Raise(self, node: ast.Raise) -> ast.Pass:
-        return ast.Pass()
-
-    def generic_visit(self, node: ast.AST) -> ast.AST:
-        body = getattr(node, "body", None)
-        if (isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)) and body
-                and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant)
-                and isinstance(body[0].value.value, str)):
-            node.body = body[1:]
-        return super().generic_visit(node)
-
-
-def _rollout_code(source: str) -> str:
-    return ast.dump(_RolloutCode().visit(ast.parse(source)))  # no line numbers: comments and layout drop out
-
-
 def physics_digest() -> str:
-    """SHA-256 (16 hex digits) of the physics modules' code and the episode functions' code, as `_RolloutCode`
-    keeps them: a change of layout, comments, docstrings, imports or error types keeps the digest."""
-    sources = [module_path(name).read_text() for name in PHYSICS_MODULES]
-    sources += [inspect.getsource(getattr(evaluate, name)) for name in EPISODE_FUNCTIONS]
-    return hashlib.sha256("\0".join(_rollout_code(source) for source in sources).encode()).hexdigest()[:16]
+    """16 hex digits of the code and constants a rollout reaches (`result_digest` of the evaluator's entry points):
+    a change of layout, comments, docstrings, imports, error messages or a move of code keeps the digest."""
+    return result_digest(*evaluate.RESULT_CODE)
 
 
 def provenance(settings: EvalSettings, rule: FitnessRule) -> dict:
@@ -149,6 +114,40 @@ def measure_committed(terrain_seed: int, settings: EvalSettings, rule: FitnessRu
     table = exhaustive_terrain(terrain_seed, settings, rule, cache, executor)
     cache.save()
     return write_committed(table, settings, rule, time.perf_counter() - started, directory)
+
+
+def verify_committed(path: Path, sample: int, seed: int, executor: Executor | None = None,
+                     rekey: bool = False) -> dict:
+    """Re-simulate `sample` random simulated designs of one committed table under its own settings and rule, and
+    compare distance, status and sim steps exactly. With `rekey` and every row equal, the record's physics digest
+    becomes the current one: the proof that a change of code (or of the digest's scheme) left the numbers as
+    they were, instead of re-keying blindly. Returns the comparison (and whether the record was re-keyed)."""
+    path = Path(path)
+    record = read_json(path.with_suffix(".json"))
+    settings, rule = EvalSettings(**record["settings"]), FitnessRule(**record["fitness"])
+    table = read_table(path, "modular_exhaustive")
+    simulated = table[table.sim_steps > 0]
+    rows = simulated.sample(n=min(sample, len(simulated)), random_state=seed).sort_values("design")
+    results = evaluate_designs(list(rows.design), int(rows.terrain_seed.iloc[0]), settings, rule, None, executor)
+    mismatches = [row.design for row, result in zip(rows.itertuples(), results, strict=True)
+                  if (result.status, result.sim_steps) != (row.status, row.sim_steps)
+                  or not _same_distance(result.distance, row.distance)]
+    current = physics_digest()
+    report = {"table": str(path), "sample": len(rows), "mismatches": mismatches,
+              "stored_digest": record["physics_digest"], "current_digest": current, "rekeyed": False}
+    if rekey and not mismatches and record["physics_digest"] != current:
+        atomic_write_json(path.with_suffix(".json"), {**record, "physics_digest": current,
+                                                      "verified": {"sample": len(rows), "seed": seed,
+                                                                   "from_digest": record["physics_digest"]}})
+        report["rekeyed"] = True
+    return report
+
+
+def _same_distance(measured: float | None, stored: float) -> bool:
+    """Bit-for-bit equal distances (a missing distance is null in a result and NaN in a table)."""
+    if measured is None:
+        return stored != stored
+    return float(measured).hex() == float(stored).hex()
 
 
 def mirror(design: str) -> str:

@@ -118,7 +118,7 @@ def test_settings_hash_covers_the_task_physics_and_code(monkeypatch):
     assert TINY.settings_hash("flat") != base["flat"]
     monkeypatch.undo()
     # any edit of the evaluator's code
-    monkeypatch.setattr(ev, "code_digest", lambda *modules, **exclude: "changed-source")
+    monkeypatch.setattr(ev, "result_digest", lambda *entries: "changed-source")
     assert TINY.settings_hash("flat") != base["flat"]
 
 

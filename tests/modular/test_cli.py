@@ -80,6 +80,20 @@ def test_exhaustive_commits_one_terrains_table_with_its_provenance(tmp_path, cap
 
 
 
+def test_verify_committed_checks_every_table_and_an_empty_directory_exits_2(tmp_path, capsys, monkeypatch, cli_error):
+    monkeypatch.setattr("robocompose.modular.truth.all_designs", lambda: ["wwwwww", "llllll"])
+    params = tmp_path / "params.yaml"
+    params.write_text(TINY)
+    truth = tmp_path / "truth"
+    assert main(["modular", "exhaustive", "--terrain-seed", "1003", "1004", "--out-dir", str(truth),
+                 "--params", str(params)]) == 0
+    capsys.readouterr()
+    assert main(["modular", "verify-committed", "--dir", str(truth), "--sample", "2", "--params", str(params)]) == 0
+    reports = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert [r["sample"] for r in reports] == [2, 2] and all(r["mismatches"] == [] for r in reports)
+    cli_error(["modular", "verify-committed", "--dir", str(tmp_path)], f"--dir {tmp_path}", "no blocks-<seed>.parquet")
+
+
 def test_exhaustive_measures_a_candidate_distribution_and_skips_terrains_already_kept(tmp_path, capsys, monkeypatch):
     monkeypatch.setattr("robocompose.modular.truth.all_designs", lambda: ["wwwwww", "nnnnnn"])
     params, candidates = tmp_path / "params.yaml", tmp_path / "candidates.yaml"

@@ -71,7 +71,7 @@ def test_settings_hash_covers_the_terrain_ranges():
     ("robocompose.modular.robot", "WHEEL_RADIUS", 0.2),  # robot constants
     ("robocompose.modular.robot", "FRICTION", 0.5),
     ("robocompose.modular.robot", "CHASSIS_MASS", 9.0),
-    ("robocompose.modular.terrain", "GRID_X", 7),
+    ("robocompose.modular.terrain", "CHUNK", 8),  # how the terrain's boxes are built
     ("robocompose.modular.evaluate", "BLOWUP_SPEED", 40.0),
 ])
 def test_settings_hash_changes_with_every_constant_that_shapes_a_rollout(monkeypatch, module, name, value):
@@ -101,7 +101,7 @@ def test_settings_hash_covers_gait_gravity_damping_and_code(monkeypatch):
             for f in dataclasses.fields(physics.PhysicsSettings)))
         assert SHORT.settings_hash() != before
         monkeypatch.undo()
-    monkeypatch.setattr(modular_evaluate, "code_digest", lambda *modules, **exclude: "changed-source")
+    monkeypatch.setattr(modular_evaluate, "result_digest", lambda *entries: "changed-source")
     assert SHORT.settings_hash() != before
 
 

@@ -13,6 +13,7 @@ from robocompose.modular.truth import (
     terrain_criterion,
     truth_summary,
     truth_tables,
+    verify_committed,
     write_committed,
 )
 
@@ -44,6 +45,25 @@ def test_a_committed_table_is_used_only_under_the_settings_rule_and_physics_it_w
     record = json.loads(path.with_suffix(".json").read_text())
     path.with_suffix(".json").write_text(json.dumps({**record, "physics_digest": "0" * 16}))
     assert read_committed(1007, TINY, RULE, tmp_path) is None  # other robot / terrain / gait code
+
+
+def test_verify_rekeys_a_table_only_when_a_resimulated_sample_agrees_bit_for_bit(tmp_path):
+    table = exhaustive_terrain(1007, TINY, RULE, EvaluationCache(), None, designs=SUBSET)
+    path = write_committed(table, TINY, RULE, seconds=1.0, directory=tmp_path)
+    record = json.loads(path.with_suffix(".json").read_text())
+    path.with_suffix(".json").write_text(json.dumps({**record, "physics_digest": "0" * 16}))  # an older scheme
+    report = verify_committed(path, sample=3, seed=0, rekey=True)
+    assert report["mismatches"] == [] and report["sample"] == 3 and report["rekeyed"]
+    pd.testing.assert_frame_equal(read_committed(1007, TINY, RULE, tmp_path), table)  # usable again
+    assert json.loads(path.with_suffix(".json").read_text())["verified"]["from_digest"] == "0" * 16
+
+    tampered = table.copy()
+    tampered.loc[tampered.sim_steps > 0, "distance"] += 1e-12  # one ulp-scale change is a mismatch
+    path = write_committed(tampered, TINY, RULE, seconds=1.0, directory=tmp_path)
+    path.with_suffix(".json").write_text(json.dumps({**record, "physics_digest": "0" * 16}))
+    report = verify_committed(path, sample=3, seed=0, rekey=True)
+    assert len(report["mismatches"]) == 3 and not report["rekeyed"]
+    assert read_committed(1007, TINY, RULE, tmp_path) is None
 
 
 def test_truth_tables_read_committed_terrains_and_simulate_the_others(tmp_path, monkeypatch):
@@ -95,11 +115,12 @@ def test_terrain_criterion_counts_optima_up_to_mirror_and_the_regret_of_the_best
 
 
 
-def test_the_physics_digest_ignores_error_types_imports_and_layout_but_not_code():
-    from robocompose.modular.truth import _rollout_code
+def test_the_physics_digest_follows_what_a_rollout_runs(monkeypatch):
+    import robocompose.modular.robot as robot
+    from robocompose.modular.truth import physics_digest
 
-    base = 'import math\n\ndef f(x):\n    """Doc."""\n    if x < 0:\n        raise ValueError("no")\n    return 2 * x\n'
-    same = ('from errors import InputError\nimport math\n\n\ndef f(x):  # comment\n    if x < 0:\n'
-            '        raise InputError(f"negative {x}")\n    return 2 * x\n')
-    other = base.replace("2 * x", "3 * x")
-    assert _rollout_code(base) == _rollout_code(same) != _rollout_code(other)
+    before = physics_digest()
+    monkeypatch.setattr(robot, "CHASSIS_MASS", robot.CHASSIS_MASS * 2)  # a part's mass: reached by the rollout
+    assert physics_digest() != before
+    monkeypatch.undo()
+    assert physics_digest() == before
