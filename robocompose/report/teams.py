@@ -16,9 +16,11 @@ from robocompose.io import read_table
 from robocompose.report.timings import read_timings
 
 THESIS_TABLE_5_4 = {20: (9.4, 1.0, 43.1), 50: (11.9, 1.5, 107.6)}  # population: (HV, HV std, minutes)
-THESIS_TABLE_5_5 = {  # method: coverage cost x 1e-2 at deployment budget 15 / 30 / 45
+THESIS_TABLE_5_5 = {  # method: coverage cost x 1e-2 at deployment budget 15 / 30 / 45 (None: not in the thesis)
     "no_decomposition": ("No decomposition", (0.365, 0.153, 0.056)),
-    "dec_random_allocation": ("Dec + random allocation", (0.732, 0.401, 0.062)),
+    "dec_random_allocation": ("Dec + random allocation (random non-empty teams, the thesis's)", (0.732, 0.401, 0.062)),
+    "dec_uniform_robots": ("Dec + uniform random robots (ours: each robot to a uniform region, regions may stay "
+                           "empty)", None),
 }
 TERRAIN_COLOURS = ["#3b7dd8", "#8c6d46", "#b8d98a", "#9a9a9a"]  # Water, Mountain, Plain, City
 SPECIES_COLOURS = ["#d62728", "#ff7f0e", "#1f77b4"]  # ground, aerial, aquatic
@@ -186,7 +188,8 @@ def _table_5_5(coverage: pd.DataFrame, eggan: Eggan | None) -> str:
         rows = coverage[coverage.method == method]
         values = [rows[rows.budget == b].coverage_cost for b in budgets]
         means[method] = [v.mean() for v in values]
-        lines.append(f"| {name} | {' | '.join(map(str, thesis))} | "
+        thesis = map(str, thesis) if thesis else ["-"] * len(budgets)
+        lines.append(f"| {name} | {' | '.join(thesis)} | "
                      f"{' | '.join(_mean_std(v, 100, 3) for v in values)} |")
     pairs = {method: frozenset(zip(rows.chip_id, rows.seed, strict=True))
              for method, rows in coverage.groupby("method")}

@@ -1,8 +1,11 @@
 """Coverage baselines of thesis Table 5.5, at a deployment budget of B robots.
 
-Both draw B robots at random from the bank (N robots of each species, without replacement):
-- decomposition + random allocation: each robot joins the team of a uniformly drawn region; teams
-  plan in their regions exactly as for any allocation (ergodic.ChipCoverage).
+Each draws B robots at random from the bank (N robots of each species, without replacement):
+- decomposition + random allocation (the thesis's "randomly grouped into teams and allocated to each
+  sub-region"): a uniformly random split of the B robots into K non-empty teams, one per region; teams plan in
+  their regions exactly as for any allocation (ergodic.ChipCoverage).
+- decomposition + uniform random robots (ours, labelled apart): each robot joins the team of a uniformly drawn
+  region, so regions may stay empty (with 15 robots in 8 regions, 75% of draws leave one empty).
 - no decomposition: the robots start anywhere on the chip (on terrain they can move on) and plan
   jointly, as one team, for uniform coverage of the whole chip.
 Both are scored by the same cost as every allocation (ergodic.py): the area-weighted sum over the
@@ -17,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
+from robocompose.io.errors import InputError
 from robocompose.teams.ergodic import ChipCoverage, Robots, ergodic_cost
 from robocompose.teams.species import coverage_weights
 
@@ -36,6 +40,21 @@ def random_allocation(rng: np.random.Generator, budget: int, n_regions: int, n_s
     regions = rng.integers(n_regions, size=budget)
     counts = np.zeros((n_regions, n_species), dtype=np.int64)
     np.add.at(counts, (regions, species), 1)
+    return counts
+
+
+def random_teams(rng: np.random.Generator, budget: int, n_regions: int, n_species: int,
+                 robots_per_species: int) -> np.ndarray:
+    """(K, O) counts: `budget` random robots split at random into `n_regions` non-empty teams (team sizes: a
+    uniformly drawn composition of the budget into K positive parts; robots shuffled into them)."""
+    if budget < n_regions:
+        raise InputError(f"budget {budget}: expected at least one robot per region ({n_regions})")
+    species = np.repeat(np.arange(n_species), random_species_counts(rng, budget, n_species, robots_per_species))
+    cuts = np.sort(rng.choice(np.arange(1, budget), size=n_regions - 1, replace=False))
+    sizes = np.diff(np.concatenate([[0], cuts, [budget]]))  # (K,) >= 1 each, summing to the budget
+    regions = np.repeat(np.arange(n_regions), sizes)
+    counts = np.zeros((n_regions, n_species), dtype=np.int64)
+    np.add.at(counts, (regions, rng.permutation(species)), 1)
     return counts
 
 

@@ -25,7 +25,7 @@ import torch
 
 from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.executor import Executor
-from robocompose.teams.baselines import no_decomposition_costs, random_allocation, random_species_counts
+from robocompose.teams.baselines import no_decomposition_costs, random_allocation, random_species_counts, random_teams
 from robocompose.teams.chips import Chip, read_chip
 from robocompose.teams.decompose import Decomposition, chip_decomposition
 from robocompose.teams.ergodic import CoverageConfig
@@ -87,12 +87,14 @@ def nsga2_runs(chips: list[tuple[Chip, Decomposition]], coverage: CoverageConfig
 def baseline_draws(chip_id: str, seed: int, budgets: list[int], n_regions: int, robots_per_species: int
                    ) -> tuple[np.ndarray, np.ndarray]:
     """The random draws of Table 5.5 on one chip and seed, from Generator((seed, hash of the chip id)):
-    ((n_budgets, K, O) random allocations, (n_budgets, O) species counts of the joint teams)."""
+    ((n_budgets, K, O) uniform random robots, (n_budgets, O) species counts of the joint teams, (n_budgets, K, O)
+    random non-empty teams). The first two draws come first, as before the third existed, so they keep their values."""
     rng = np.random.default_rng([seed, int(hashlib.sha1(chip_id.encode()).hexdigest()[:12], 16)])
     n_species = len(SPECIES)
     allocations = np.stack([random_allocation(rng, b, n_regions, n_species, robots_per_species) for b in budgets])
     teams = np.stack([random_species_counts(rng, b, n_species, robots_per_species) for b in budgets])
-    return allocations, teams
+    split = np.stack([random_teams(rng, b, n_regions, n_species, robots_per_species) for b in budgets])
+    return allocations, teams, split
 
 
 def _chip_baselines(task: tuple[Chip, Decomposition, CoverageConfig, ExperimentsConfig, int]) -> list[tuple]:
@@ -103,13 +105,17 @@ def _chip_baselines(task: tuple[Chip, Decomposition, CoverageConfig, Experiments
     n_regions = decomposition.n_regions
     rows = []
     for seed in config.seeds:
-        allocations, teams = baseline_draws(chip.chip_id, seed, config.budgets, n_regions,
-                                            coverage.robots_per_species)
-        random_costs, _, _ = problem.evaluate(allocations, seed)
+        allocations, teams, split = baseline_draws(chip.chip_id, seed, config.budgets, n_regions,
+                                                   coverage.robots_per_species)
+        uniform_costs, _, _ = problem.evaluate(allocations, seed)
+        split_costs, _, _ = problem.evaluate(split, seed)
         joint_costs, joint_unvisited = no_decomposition_costs(problem, teams, seed)
-        for budget, random_cost, joint_cost, unvisited, allocation, team in zip(
-                config.budgets, random_costs, joint_costs, joint_unvisited, allocations, teams, strict=True):
-            rows.append(("dec_random_allocation", chip.chip_id, budget, seed, random_cost,
+        for budget, uniform_cost, split_cost, joint_cost, unvisited, allocation, split_teams, team in zip(
+                config.budgets, uniform_costs, split_costs, joint_costs, joint_unvisited, allocations, split, teams,
+                strict=True):
+            rows.append(("dec_random_allocation", chip.chip_id, budget, seed, split_cost,
+                         int(deployment_cost(split_teams)), int((split_teams.sum(1) == 0).sum())))
+            rows.append(("dec_uniform_robots", chip.chip_id, budget, seed, uniform_cost,
                          int(deployment_cost(allocation)), int((allocation.sum(1) == 0).sum())))
             rows.append(("no_decomposition", chip.chip_id, budget, seed, joint_cost, int(team.sum()),
                          int(unvisited)))

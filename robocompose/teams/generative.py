@@ -114,15 +114,15 @@ def eggan_queries(generator: Generator, chips: list[tuple[Chip, Decomposition]],
 def coverage_examples(chips: list[tuple[Chip, Decomposition]], fronts: pd.DataFrame, coverage: CoverageConfig,
                       budget: int, seed: int) -> pd.DataFrame:
     """Fig. 5.4's observations: on each chip, at deployment budget `budget`, EG-GAN's best front allocation
-    within the budget, the random allocation and the joint plan of Table 5.5 (the same draws): the
+    within the budget, the random non-empty teams and the joint plan of Table 5.5 (the same draws): the
     "teams_coverage_examples" table."""
     frames = []
     for chip, decomposition in chips:
         problem = chip_coverage(chip, decomposition, coverage)
-        allocations, teams = baseline_draws(chip.chip_id, seed, [budget], decomposition.n_regions,
-                                            coverage.robots_per_species)
+        _, teams, split = baseline_draws(chip.chip_id, seed, [budget], decomposition.n_regions,
+                                         coverage.robots_per_species)
         within = fronts[(fronts.chip_id == chip.chip_id) & (fronts.seed == seed) & (fronts.deployment_cost <= budget)]
-        plans = {"dec_random_allocation": problem.evaluate(allocations, seed)[1:],
+        plans = {"dec_random_allocation": problem.evaluate(split, seed)[1:],
                  "no_decomposition": joint_plan(problem, teams, seed)}
         if len(within):
             best = np.asarray(within.sort_values("coverage_cost").counts.iloc[0], dtype=np.int64)

@@ -28,7 +28,8 @@ def test_section_has_both_tables_beside_the_thesis_and_its_figures(tmp_path, mon
     text = section(tmp_path / "reports", tmp_path / "data")
     assert "| NSGA-II:20 | 9.4 ± 1.0 | 43.1 |" in text and "| NSGA-II:50 | 11.9 ± 1.5 | 107.6 |" in text
     assert "| No decomposition | 0.365 | 0.153 | 0.056 |" in text
-    assert "| Dec + random allocation | 0.732 | 0.401 | 0.062 |" in text
+    assert "| Dec + random allocation (random non-empty teams, the thesis's) | 0.732 | 0.401 | 0.062 |" in text
+    assert "| Dec + uniform random robots (ours: each robot to a uniform region, regions may stay empty) | - |" in text
     assert "synthetic label chips" in text
     assert "| terrain-driven (weight 0.3) |" in text and "| random-seed Voronoi" in text
     assert "every row on the same chip x seed pairs" in text and "WARNING" not in text

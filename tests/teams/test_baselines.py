@@ -1,7 +1,14 @@
 import numpy as np
+import pytest
 import torch
 
-from robocompose.teams.baselines import no_decomposition_costs, random_allocation, random_species_counts
+from robocompose.io.errors import InputError
+from robocompose.teams.baselines import (
+    no_decomposition_costs,
+    random_allocation,
+    random_species_counts,
+    random_teams,
+)
 from robocompose.teams.ergodic import ChipCoverage, CoverageConfig, ergodic_cost, frequencies
 
 TINY = CoverageConfig(iterations=4, n_observations=6)
@@ -14,6 +21,20 @@ def test_random_draws_respect_budget_and_bank():
         counts = random_allocation(rng, budget, n_regions=4, n_species=3, robots_per_species=20)
         assert counts.shape == (4, 3) and counts.sum() == budget and (counts.sum(0) <= 20).all()
     assert random_species_counts(rng, 60, 3, 20).tolist() == [20, 20, 20]
+
+
+def test_random_teams_fill_every_region_and_split_the_budget_uniformly():
+    rng = np.random.default_rng(0)
+    for budget in (8, 15, 45):
+        counts = random_teams(rng, budget, n_regions=8, n_species=3, robots_per_species=20)
+        assert counts.shape == (8, 3) and counts.sum() == budget and (counts.sum(1) >= 1).all()
+        assert (counts.sum(0) <= 20).all()
+    # 4 robots in 2 regions: team sizes (1, 3), (2, 2), (3, 1), each a third of the compositions
+    sizes = [tuple(random_teams(rng, 4, 2, 3, 20).sum(1)) for _ in range(3000)]
+    shares = {s: sizes.count(s) / len(sizes) for s in set(sizes)}
+    assert set(shares) == {(1, 3), (2, 2), (3, 1)} and all(abs(v - 1 / 3) < 0.04 for v in shares.values())
+    with pytest.raises(InputError, match="budget 5: expected at least one robot per region"):
+        random_teams(rng, 5, 8, 3, 20)
 
 
 def test_no_decomposition_scores_observations_in_the_region_they_lie_in():

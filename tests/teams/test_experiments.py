@@ -59,8 +59,9 @@ def test_nsga2_runs_record_every_population_and_a_front_per_run(test_chips):
 
 def test_coverage_baselines_deploy_exactly_the_budget(test_chips):
     table = coverage_baselines(test_chips, TINY, EXPERIMENTS)
-    assert len(table) == 2 * 2 * 2  # methods x budgets x seeds on one chip
+    assert len(table) == 3 * 2 * 2  # methods x budgets x seeds on one chip
     assert (table.deployment_cost == table.budget).all()
+    assert (table[table.method == "dec_random_allocation"].empty_regions == 0).all()  # the thesis's: teams fill K
     assert np.isfinite(table.coverage_cost).all() and (table.coverage_cost > 0).all()
 
 
