@@ -80,7 +80,7 @@ def test_run_reward_equals_the_per_step_reward_with_velocities(tree):
 
 
 # Scores of a small MPPI episode, pinned to the last bit: a speed-up of the world or the controller must
-# leave them unchanged (changes that move scores are a fidelity question, see the README). The floor's
+# leave them unchanged (changes that move scores are a fidelity question, see docs/evaluation.md). The floor's
 # size alone moves them in the 13th digit (flat's floor is 40 m long, ridged's 20 m; the ridges are not
 # reached in 6 control steps).
 PINNED_SCORES = {("robogrammar_flat", "flat"): 4.086111602347066, ("robogrammar_flat", "ridged"): 4.086111602347207,
