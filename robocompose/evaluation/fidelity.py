@@ -161,7 +161,7 @@ def read_piece(path: Path) -> pd.DataFrame:
 
     The pieces are a measurement record, not a cache: each row keeps the simulation digest of the code that
     measured it, and rows of an older digest stay (hours of CPU); that the current code gives the same
-    scores is checked by re-measuring a sample (see the README's fidelity section).
+    scores is checked by re-measuring a sample (see docs/evaluation.md).
     """
     if not path.exists():
         return pd.DataFrame(columns=list(SCORE_COLUMNS))
