@@ -12,7 +12,7 @@ from robocompose.evaluation.executor import Executor
 from robocompose.io import atomic_write_json, write_table
 from robocompose.modular.params import load_modular_params
 from robocompose.modular.truth import terrain_criterion, truth_summary, truth_tables
-from robocompose.report.timings import timed
+from robocompose.io.timings import timed
 from robocompose.stage import run_stage
 
 

@@ -2,7 +2,7 @@
 
 from robocompose.params import load_section
 from robocompose.report.build import ReportConfig, build_report
-from robocompose.report.timings import timed
+from robocompose.io.timings import timed
 from robocompose.stage import run_stage
 
 

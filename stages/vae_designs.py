@@ -10,7 +10,7 @@ from robocompose.dataset.nogram import NogramConfig, enumerate_nogram
 from robocompose.io import get_schema, read_table, write_table
 from robocompose.latent.params import ExtraConfig
 from robocompose.params import load_section
-from robocompose.report.timings import timed
+from robocompose.io.timings import timed
 from robocompose.stage import run_stage
 
 

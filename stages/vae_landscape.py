@@ -6,7 +6,7 @@ from robocompose.io import write_table
 from robocompose.latent.landscape import LandscapeConfig, landscape
 from robocompose.latent.train import load_designs, load_model
 from robocompose.params import load_section
-from robocompose.report.timings import timed
+from robocompose.io.timings import timed
 from robocompose.stage import run_stage
 
 

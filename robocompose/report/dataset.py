@@ -47,7 +47,7 @@ def section(reports_dir: Path, data_dir: Path, gallery: int = 12, gallery_seed: 
     plt.close(fig)
     _gallery(designs, figures / "gallery.png", gallery, gallery_seed)
 
-    from robocompose.report.timings import read_timings
+    from robocompose.io.timings import read_timings
 
     timing = read_timings(Path(reports_dir) / "timings.json").get("enumerate", {})
     speed = (f" at {timing['designs_per_s']} designs/s on this machine (thesis: 5e5 designs in ~4 h on 8 cores, "
