@@ -3,8 +3,8 @@
 from robocompose.dataset.enumerate import EnumerateConfig, enumerate_designs
 from robocompose.dataset.nogram import NogramConfig, enumerate_nogram
 from robocompose.io import atomic_write_json, write_table
-from robocompose.params import load_section
 from robocompose.io.timings import timed
+from robocompose.params import load_section
 from robocompose.stage import run_stage
 
 

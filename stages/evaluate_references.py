@@ -9,8 +9,8 @@ from pathlib import Path
 from robocompose.evaluation.evaluate import EvaluationConfig
 from robocompose.evaluation.references import ReferencesConfig, best_per_task, evaluate_references, record_best
 from robocompose.io import atomic_write_json, read_table, write_table
-from robocompose.params import load_section
 from robocompose.io.timings import timed
+from robocompose.params import load_section
 from robocompose.stage import run_stage
 
 

@@ -14,8 +14,8 @@ from robocompose.evaluation.evaluate import EvaluationConfig
 from robocompose.evaluation.executor import Executor
 from robocompose.glso.runs import GLSOConfig, record_best, run_all, summarise
 from robocompose.io import atomic_write_json, write_table
-from robocompose.params import load_section
 from robocompose.io.timings import timed
+from robocompose.params import load_section
 from robocompose.stage import run_stage
 
 OUT = Path("data/glso")

@@ -10,9 +10,9 @@ results, so an interrupted run resumes).
 from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.executor import Executor
 from robocompose.io import atomic_write_json, write_table
+from robocompose.io.timings import timed
 from robocompose.modular.params import load_modular_params
 from robocompose.modular.truth import terrain_criterion, truth_summary, truth_tables
-from robocompose.io.timings import timed
 from robocompose.stage import run_stage
 
 

@@ -10,10 +10,10 @@ from pathlib import Path
 from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.executor import Executor
 from robocompose.io import atomic_write_json, read_table, write_table
+from robocompose.io.timings import timed
 from robocompose.modular.eggan_experiments import make_problem, realtime_proposers, realtime_table, summarise
 from robocompose.modular.eggan_params import load_eggan_modular_params
 from robocompose.modular.params import load_modular_params
-from robocompose.io.timings import timed
 from robocompose.stage import run_stage
 
 EXHAUSTIVE = Path("data/modular/exhaustive.parquet")

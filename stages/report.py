@@ -1,8 +1,8 @@
 """DVC stage `report`: every stage's outputs -> reports/report.md, reports/report.html, reports/figures/."""
 
+from robocompose.io.timings import timed
 from robocompose.params import load_section
 from robocompose.report.build import ReportConfig, build_report
-from robocompose.io.timings import timed
 from robocompose.stage import run_stage
 
 

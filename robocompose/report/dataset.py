@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from robocompose.evaluation.references import REFERENCE_DESIGNS
+from robocompose.grammar.references import REFERENCE_DESIGNS
 from robocompose.io import read_table
 from robocompose.io.atomic import read_json
 from robocompose.sim.contacts import PAD_X

@@ -36,9 +36,9 @@ def section(reports_dir: Path, data_dir: Path, params: Path = Path("params.yaml"
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from robocompose.io.timings import read_timings
     from robocompose.latent.train import read_curves
     from robocompose.params import read_params
-    from robocompose.io.timings import read_timings
 
     settings = read_params(params)["train_vae"]
     model, train = settings["model"], settings["train"]
