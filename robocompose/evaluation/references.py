@@ -77,6 +77,15 @@ def best_per_task(table: pd.DataFrame) -> pd.DataFrame:
     return ok.loc[ok.groupby("task", sort=False)["reward"].idxmax()]
 
 
+def best_scores(table: pd.DataFrame) -> dict[str, dict[str, float]]:
+    """The best objective score per task of the reference designs and of the random designs (`reference`,
+    `random`): what an optimiser would see, penalties included."""
+    scores = table.assign(score=[objective(r) for r in table.to_dict("records")])
+    return {kind: {task: round(float(score), 4) for task, score in
+                   scores[scores["name"].str.startswith(prefix)].groupby("task", sort=False)["score"].max().items()}
+            for kind, prefix in (("reference", "robogrammar"), ("random", "random"))}
+
+
 def record_rollout(job: tuple[EvalJob, tuple[int, int]]) -> tuple[dict, RolloutRecorder]:
     """Evaluate `job` again with a visual world and a recorder: (row, recorder). Runs in a worker."""
     job, gif_size = job

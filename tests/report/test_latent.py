@@ -3,7 +3,8 @@ import pandas as pd
 import pytest
 
 from robocompose.io import ArtifactError, write_table
-from robocompose.latent.train import LOG_FIELDS, log_evaluation, log_row, training_log
+from robocompose.latent.curves import LOG_FIELDS
+from robocompose.latent.train import log_evaluation, log_row, training_log
 from robocompose.report.latent import section
 
 PARAMS = """train_vae:
