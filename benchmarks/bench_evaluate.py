@@ -26,8 +26,8 @@ import pybullet as pb
 from robocompose.control.mppi import MPPIConfig, rollout_return, run_episode, sample_inputs
 from robocompose.control.world import RobotWorld
 from robocompose.evaluation.evaluate import EvaluationConfig, evaluate
-from robocompose.evaluation.references import REFERENCE_DESIGNS
 from robocompose.grammar.derivation import derive, parse_rules
+from robocompose.grammar.references import REFERENCE_DESIGNS
 from robocompose.params import load_section
 from robocompose.tasks.terrains import get_task
 

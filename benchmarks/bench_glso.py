@@ -20,11 +20,11 @@ import torch
 from threadpoolctl import threadpool_limits
 
 from robocompose.evaluation.evaluate import EvaluationConfig, evaluate
-from robocompose.evaluation.references import REFERENCE_DESIGNS
 from robocompose.glso.bo import LatentBO
 from robocompose.glso.ghs import GraphHeuristicSearch
 from robocompose.glso.runs import GLSOConfig, SearchEnv
 from robocompose.grammar.derivation import derive, parse_rules
+from robocompose.grammar.references import REFERENCE_DESIGNS
 from robocompose.latent.model import GraphVAE, VAEConfig
 from robocompose.params import load_section, read_params
 

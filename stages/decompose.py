@@ -5,7 +5,7 @@ reports/metrics/decompose.json)."""
 from pathlib import Path
 
 from robocompose.io import atomic_write_json, write_table
-from robocompose.report.timings import timed
+from robocompose.io.timings import timed
 from robocompose.stage import run_stage
 from robocompose.teams.chips import prepare_chips
 from robocompose.teams.decompose import purity_table, regions_table

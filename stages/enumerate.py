@@ -1,16 +1,21 @@
-"""DVC stage `enumerate`: params -> data/designs.parquet, data/designs_nogram.parquet and their statistics."""
+"""DVC stage `enumerate`: params -> data/designs.parquet, data/designs_nogram.parquet, their statistics and a
+gallery of the dataset (reports/plots/gallery.png)."""
+
+from pathlib import Path
 
 from robocompose.dataset.enumerate import EnumerateConfig, enumerate_designs
 from robocompose.dataset.nogram import NogramConfig, enumerate_nogram
+from robocompose.dataset.summary import GalleryConfig, draw_gallery, floor_points
 from robocompose.io import atomic_write_json, write_table
+from robocompose.io.timings import timed
 from robocompose.params import load_section
-from robocompose.report.timings import timed
 from robocompose.stage import run_stage
 
 
 def main() -> None:
     config = load_section(EnumerateConfig, "enumerate")
     nogram = load_section(NogramConfig, "nogram")
+    gallery = load_section(GalleryConfig, "gallery")
     with timed("enumerate") as timing:
         designs, stats = enumerate_designs(config)
         timing["designs_per_s"] = round(len(designs) / timing.elapsed(), 1)
@@ -18,7 +23,9 @@ def main() -> None:
         nogram_designs, nogram_stats = enumerate_nogram(nogram, config.workers, config.chunk, address=config.address)
         write_table(nogram_designs, "data/designs_nogram.parquet", "designs")
         atomic_write_json("reports/metrics/enumerate.json", {"grammar": stats.as_dict(),
-                                                              "nogram": nogram_stats.as_dict()})
+                                                              "nogram": nogram_stats.as_dict(),
+                                                              "floor_points": floor_points(designs)})
+        draw_gallery(designs, gallery, Path("reports/plots/gallery.png"))
 
 
 if __name__ == "__main__":

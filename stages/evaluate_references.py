@@ -7,10 +7,16 @@ data/rollouts/<task>.{mcap,gif} (best design of each task), reports/metrics/eval
 from pathlib import Path
 
 from robocompose.evaluation.evaluate import EvaluationConfig
-from robocompose.evaluation.references import ReferencesConfig, best_per_task, evaluate_references, record_best
+from robocompose.evaluation.references import (
+    ReferencesConfig,
+    best_per_task,
+    best_scores,
+    evaluate_references,
+    record_best,
+)
 from robocompose.io import atomic_write_json, read_table, write_table
+from robocompose.io.timings import timed
 from robocompose.params import load_section
-from robocompose.report.timings import timed
 from robocompose.stage import run_stage
 
 
@@ -28,6 +34,7 @@ def main() -> None:
         atomic_write_json("reports/metrics/evaluate_references.json", {
             "best_reward": {row.task: round(row.reward, 4) for row in best.itertuples()},
             "best_design": {row.task: row.name for row in best.itertuples()},
+            "best_score": best_scores(table),
             "statuses": table["status"].value_counts().sort_index().to_dict(),
             "settings_hash": {task: evaluation.settings_hash(task) for task in config.tasks}})
 

@@ -8,8 +8,8 @@ first scores every missing (task, rung, design) into the pieces (hours, resumabl
 
 from robocompose.evaluation import fidelity
 from robocompose.io import atomic_write_json
+from robocompose.io.timings import timed
 from robocompose.params import load_section
-from robocompose.report.timings import timed
 from robocompose.stage import run_stage
 
 

@@ -1,7 +1,8 @@
 """DVC stage `glso`: every (task, method, seed) search run of thesis 8, fanned out over the Executor.
 
 params (glso, evaluation) + models/vae_{full,nopred,nogram}.pt -> data/glso/steps.parquet (all step tables),
-data/glso/runs/ (per run; persistent), data/glso/rollouts/<task>.{mcap,gif} (each task's best design replayed),
+data/glso/runs/ (per run; persistent), data/glso/rollouts/<task>.{mcap,gif,png} (each task's best design replayed,
+and its picture at rest),
 reports/metrics/glso.json. Each run's checkpoint, data/glso/checkpoints/<run>.pkl, is not a DVC output: it only
 saves time (its key covers the run, the settings and the code) and a pickled method state (torch modules) is
 not byte-identical across processes, so a killed stage resumes every run where it stopped and dvc.lock stays
@@ -13,9 +14,11 @@ from pathlib import Path
 from robocompose.evaluation.evaluate import EvaluationConfig
 from robocompose.evaluation.executor import Executor
 from robocompose.glso.runs import GLSOConfig, record_best, run_all, summarise
+from robocompose.grammar.tree import DesignTree
 from robocompose.io import atomic_write_json, write_table
+from robocompose.io.timings import timed
 from robocompose.params import load_section
-from robocompose.report.timings import timed
+from robocompose.sim.render import render_design
 from robocompose.stage import run_stage
 
 OUT = Path("data/glso")
@@ -30,6 +33,9 @@ def main() -> None:
         timing["objective_calls"] = len(steps)
         write_table(steps, OUT / "steps.parquet", "glso_steps")
         best = record_best(steps, evaluation, OUT / "rollouts", executor)
+        for row in best.itertuples():  # Fig. 7.2: each task's best design at rest, beside its rollout
+            render_design(DesignTree(tuple(row.parents), tuple(row.tokens)), OUT / "rollouts" / f"{row.task}.png",
+                          width=320, height=240)
         atomic_write_json("reports/metrics/glso.json", {
             "final_best": summarise(steps), "budget": config.budget, "seeds": config.seeds,
             "best_design": {row.task: {"method": row.method, "seed": int(row.seed), "design_id": row.design_id,

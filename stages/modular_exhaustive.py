@@ -1,18 +1,21 @@
-"""DVC stage `modular_exhaustive`: every modular design on every truth terrain (the ground truth), and the terrain
-criterion (does the best design depend on the terrain?).
+"""DVC stage `modular_exhaustive`: every modular design on every truth terrain (the ground truth), the terrain
+criterion (does the best design depend on the terrain?), and a picture of the first terrains with their best designs.
 
 params (modular) + reports/modular/exhaustive/ (committed one-offs) -> data/modular/exhaustive.parquet,
-reports/metrics/modular_exhaustive.json. A terrain whose committed table was measured under the current settings,
-fitness rule and physics code is read from it; any other is simulated through the shared cache (saved every 32
-results, so an interrupted run resumes).
+reports/metrics/modular_exhaustive.json, reports/plots/modular_terrains.png. A terrain whose committed table was
+measured under the current settings, fitness rule and physics code is read from it; any other is simulated through
+the shared cache (saved every 32 results, so an interrupted run resumes).
 """
+
+from pathlib import Path
 
 from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.executor import Executor
 from robocompose.io import atomic_write_json, write_table
+from robocompose.io.timings import timed
 from robocompose.modular.params import load_modular_params
-from robocompose.modular.truth import terrain_criterion, truth_summary, truth_tables
-from robocompose.report.timings import timed
+from robocompose.modular.pictures import plot_terrains
+from robocompose.modular.truth import exhaustive_metrics, truth_summary, truth_tables
 from robocompose.stage import run_stage
 
 
@@ -26,19 +29,11 @@ def main() -> None:
         timing["simulated_terrains"] = sum(source == "simulated" for source in sources.values())
         timing["rollouts"] = int((table.sim_steps > 0).sum())
     write_table(table, "data/modular/exhaustive.parquet", "modular_exhaustive")
+    metrics = exhaustive_metrics(table, sources, params.experiments.near_optimal, params.eval.terrain)
+    atomic_write_json("reports/metrics/modular_exhaustive.json", {**metrics,
+                                                                   "settings_hash": params.eval.settings_hash()})
     summary = truth_summary(table, params.experiments.near_optimal)
-    per_terrain, totals = terrain_criterion(table)
-    atomic_write_json("reports/metrics/modular_exhaustive.json", {
-        "optimum": {str(r.terrain_seed): round(r.optimum, 4) for r in summary.itertuples()},
-        "best_design": {str(r.terrain_seed): r.best_design for r in summary.itertuples()},
-        "near_optimal": {str(r.terrain_seed): r.near_optimal for r in summary.itertuples()},
-        "source": {str(seed): source for seed, source in sources.items()},
-        "criterion": {**{k: round(v, 4) if isinstance(v, float) else v for k, v in totals.items()},
-                      "per_terrain": [{k: round(v, 4) if isinstance(v, float) else v for k, v in row.items()}
-                                      for row in per_terrain.to_dict("records")]},
-        "simulation_cpu_seconds": round(float(table.seconds.sum()), 1),
-        "statuses": table.status.value_counts().sort_index().to_dict(),
-        "settings_hash": params.eval.settings_hash()})
+    plot_terrains(summary.head(params.experiments.gallery), params, Path("reports/plots/modular_terrains.png"))
 
 
 if __name__ == "__main__":

@@ -8,7 +8,7 @@ import torch
 
 from robocompose.evaluation.executor import Executor
 from robocompose.io import read_table, write_table
-from robocompose.report.timings import timed
+from robocompose.io.timings import timed
 from robocompose.stage import run_stage
 from robocompose.teams.evaluator import teams_cache
 from robocompose.teams.experiments import (

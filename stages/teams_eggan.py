@@ -13,7 +13,7 @@ from pathlib import Path
 import torch
 
 from robocompose.io import atomic_write_json, read_table, write_table
-from robocompose.report.timings import timed
+from robocompose.io.timings import timed
 from robocompose.stage import run_stage
 from robocompose.teams.eggan_problem import EvolutionConfig
 from robocompose.teams.experiments import decomposed_chips

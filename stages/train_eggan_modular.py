@@ -13,10 +13,10 @@ from pathlib import Path
 from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.executor import Executor
 from robocompose.io import atomic_write_json
+from robocompose.io.timings import timed
 from robocompose.modular.eggan_experiments import BASELINES, train_baseline, train_variant
 from robocompose.modular.eggan_params import VARIANTS, load_eggan_modular_params
 from robocompose.modular.params import load_modular_params
-from robocompose.report.timings import timed
 from robocompose.stage import run_stage
 
 

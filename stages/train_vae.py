@@ -5,10 +5,10 @@ import sys
 from pathlib import Path
 
 from robocompose.io.errors import InputError
+from robocompose.io.timings import timed
 from robocompose.latent.metrics import vae_metrics
 from robocompose.latent.params import VARIANTS, load_variant
 from robocompose.latent.train import load_designs, log_evaluation, save_model, train, training_log
-from robocompose.report.timings import timed
 from robocompose.stage import run_stage
 
 

@@ -8,9 +8,9 @@ import pandas as pd
 from robocompose.dataset.enumerate import EnumerateConfig, enumerate_designs
 from robocompose.dataset.nogram import NogramConfig, enumerate_nogram
 from robocompose.io import get_schema, read_table, write_table
+from robocompose.io.timings import timed
 from robocompose.latent.params import ExtraConfig
 from robocompose.params import load_section
-from robocompose.report.timings import timed
 from robocompose.stage import run_stage
 
 

@@ -3,10 +3,10 @@ scores from the evaluator -> data/vae_landscape.parquet (thesis Fig. 7.1)."""
 
 from robocompose.evaluation.evaluate import EvaluationConfig
 from robocompose.io import write_table
+from robocompose.io.timings import timed
 from robocompose.latent.landscape import LandscapeConfig, landscape
 from robocompose.latent.train import load_designs, load_model
 from robocompose.params import load_section
-from robocompose.report.timings import timed
 from robocompose.stage import run_stage
 
 

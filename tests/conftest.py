@@ -8,7 +8,7 @@ import jsonschema
 import pytest
 from mcap.reader import make_reader
 
-from robocompose.evaluation.references import REFERENCE_DESIGNS
+from robocompose.grammar.references import REFERENCE_DESIGNS
 from robocompose.grammar.tree import DesignTree
 from robocompose.io.mcap_log import SCALARS, SCALARS_SCHEMA, foxglove_schema_bytes
 

@@ -5,7 +5,8 @@ import subprocess
 import sys
 
 from robocompose.io.provenance import ROOT
-from robocompose.latent.train import LOG_FIELDS, log_row, training_log
+from robocompose.latent.curves import LOG_FIELDS
+from robocompose.latent.train import log_row, training_log
 
 # Waits until vega-embed has drawn every chart, then tells how many plot divs hold a drawn chart.
 CHARTS_DRAWN = """new Promise(resolve => {

@@ -32,8 +32,8 @@ from tqdm import tqdm
 
 from robocompose.control.mppi import MPPIConfig
 from robocompose.evaluation.evaluate import OK, EvaluationConfig, evaluate, objective, simulation_digest
-from robocompose.evaluation.references import REFERENCE_DESIGNS
 from robocompose.grammar.derivation import derive, parse_rules
+from robocompose.grammar.references import REFERENCE_DESIGNS
 from robocompose.grammar.tree import DesignTree
 from robocompose.io import atomic_write_text
 from robocompose.io.errors import InputError

@@ -18,16 +18,11 @@ from robocompose.evaluation.evaluate import OK, EvalJob, EvaluationConfig, evalu
 from robocompose.evaluation.executor import Executor
 from robocompose.evaluation.rollout_log import RolloutRecorder
 from robocompose.grammar.derivation import derive, parse_rules
+from robocompose.grammar.references import REFERENCE_DESIGNS
 from robocompose.grammar.tree import DesignTree
 from robocompose.io.errors import InputError
 from robocompose.sim.physics import PhysicsSettings
 from robocompose.tasks.terrains import TASK_NAMES, get_task
-
-# The best designs RoboGrammar reports on flat and on ridged terrain (rule sequences).
-REFERENCE_DESIGNS = {
-    "robogrammar_flat": "0,12,7,1,12,3,10,1,3,1,12,12,1,3,10,2,16,8,1,3,12,4,1,3,2,12,18,9,18,8,5,5,1,12,6,3",
-    "robogrammar_ridged": "0,7,1,13,1,2,16,12,13,6,4,19,4,17,5,3,2,16,4,5,18,9,8,9,9,8",
-}
 
 
 @dataclass(frozen=True)
@@ -80,6 +75,15 @@ def best_per_task(table: pd.DataFrame) -> pd.DataFrame:
     """The row of the highest-reward ok design of each task (first in table order on ties)."""
     ok = table[table["status"] == OK]
     return ok.loc[ok.groupby("task", sort=False)["reward"].idxmax()]
+
+
+def best_scores(table: pd.DataFrame) -> dict[str, dict[str, float]]:
+    """The best objective score per task of the reference designs and of the random designs (`reference`,
+    `random`): what an optimiser would see, penalties included."""
+    scores = table.assign(score=[objective(r) for r in table.to_dict("records")])
+    return {kind: {task: round(float(score), 4) for task, score in
+                   scores[scores["name"].str.startswith(prefix)].groupby("task", sort=False)["score"].max().items()}
+            for kind, prefix in (("reference", "robogrammar"), ("random", "random"))}
 
 
 def record_rollout(job: tuple[EvalJob, tuple[int, int]]) -> tuple[dict, RolloutRecorder]:

@@ -19,7 +19,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 import torch
 
 from robocompose.grammar.tree import DesignTree
@@ -28,6 +27,7 @@ from robocompose.io.errors import InputError
 from robocompose.io.provenance import code_digest, settings_digest
 from robocompose.latent.batch import collate
 from robocompose.latent.constraints import Replay, replay
+from robocompose.latent.curves import CURVES, LOG_FIELDS
 from robocompose.latent.model import GraphVAE, VAEConfig
 
 if TYPE_CHECKING:
@@ -214,13 +214,6 @@ def load_model(path: str | Path) -> GraphVAE:
     return model.eval()
 
 
-# The training curves as dvclive logs them: log field -> metric name (plots/metrics/<name>.tsv).
-CURVES = {"loss": "train/loss", "label_loss": "train/label_loss", "stop_loss": "train/stop_loss", "kl": "train/kl",
-          "pred_loss": "train/pred_loss", "label_acc": "train/label_acc", "stop_acc": "train/stop_acc",
-          "beta": "train/beta", "lr": "train/lr", "heldout_reconstruction": "heldout/reconstruction"}
-LOG_FIELDS = ("step", *CURVES)
-
-
 def training_log(directory: str | Path) -> Live:
     """dvclive, DVC's own logger, writing the curves under `directory` (plots/metrics/**.tsv and the summary
     metrics.json) for `dvc plots show/diff` and `dvc exp show`.
@@ -251,17 +244,6 @@ def log_evaluation(live: Live, metrics: dict, prefix: str = "evaluation") -> Non
             log_evaluation(live, value, f"{prefix}/{key}")
         elif isinstance(value, int | float):
             live.log_metric(f"{prefix}/{key}", value, plot=False)
-
-
-def read_curves(directory: str | Path) -> pd.DataFrame:
-    """The curves of a `training_log` directory as one table: LOG_FIELDS columns, a row per logged step."""
-    frame = pd.DataFrame({"step": pd.Series(dtype="int64")})
-    for field, name in CURVES.items():
-        path = Path(directory) / "plots" / "metrics" / f"{name}.tsv"
-        if path.exists():
-            curve = pd.read_csv(path, sep="\t").rename(columns={name.rpartition("/")[2]: field})
-            frame = frame.merge(curve, on="step", how="outer")
-    return frame.reindex(columns=list(LOG_FIELDS)).sort_values("step", ignore_index=True)
 
 
 def write_logs(rows: list[dict], live: Live, mcap_path: Path) -> None:

@@ -28,6 +28,7 @@ from robocompose.io.provenance import result_digest
 from robocompose.modular import evaluate
 from robocompose.modular.evaluate import EvalSettings, FitnessRule, evaluate_designs
 from robocompose.modular.robot import all_designs
+from robocompose.modular.terrain import TerrainConfig, generate_terrain
 
 COMMITTED_DIR = Path("reports/modular/exhaustive")
 # Issue 13's terrain criterion: on >= 8 terrains, >= 3 distinct optima (up to mirror) and the best-on-average
@@ -206,3 +207,26 @@ def terrain_criterion(table: pd.DataFrame) -> tuple[pd.DataFrame, dict]:
                            and totals["distinct_optima"] >= CRITERION["distinct_optima"]
                            and totals["regret_ratio"] >= CRITERION["regret_ratio"])
     return per_terrain, totals
+
+
+def exhaustive_metrics(table: pd.DataFrame, sources: dict[int, str], near_optimal: float,
+                       terrain: TerrainConfig) -> dict:
+    """reports/metrics/modular_exhaustive.json: per terrain its optimum, best design, near-optimal designs,
+    simulated designs and tallest block; the terrain criterion; what the tables cost and where they came from."""
+    summary = truth_summary(table, near_optimal)
+    per_terrain, totals = terrain_criterion(table)
+
+    def rounded(row: dict) -> dict:
+        return {k: round(v, 4) if isinstance(v, float) else v for k, v in row.items()}
+
+    return {
+        "optimum": {str(r.terrain_seed): round(r.optimum, 4) for r in summary.itertuples()},
+        "best_design": {str(r.terrain_seed): r.best_design for r in summary.itertuples()},
+        "near_optimal": {str(r.terrain_seed): r.near_optimal for r in summary.itertuples()},
+        "simulated": {str(r.terrain_seed): r.simulated for r in summary.itertuples()},
+        "tallest_block_cm": {str(r.terrain_seed): round(generate_terrain(r.terrain_seed, terrain).max_height * 100, 1)
+                             for r in summary.itertuples()},
+        "source": {str(seed): source for seed, source in sources.items()},
+        "criterion": {**rounded(totals), "per_terrain": [rounded(row) for row in per_terrain.to_dict("records")]},
+        "simulation_cpu_seconds": round(float(table.seconds.sum()), 1),
+        "statuses": table.status.value_counts().sort_index().to_dict()}

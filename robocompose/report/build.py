@@ -1,34 +1,42 @@
-"""The report stage: every section, as reports/report.md and a self-contained reports/report.html."""
+"""The report stage: every section, as reports/report.md and a self-contained reports/report.html.
+
+The report reads artifacts only: the stages simulate, render and run models; it tabulates and plots what they
+wrote, and quotes the params it is given (`ReportParams`; the stage reads them from params.yaml).
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
 
+from robocompose.control.mppi import MPPIConfig
 from robocompose.io import atomic_write_text
 
 
 @dataclass(frozen=True)
-class ReportConfig:
-    """The `report:` section of params.yaml."""
+class ReportParams:
+    """The params the report quotes beside the results: those the stages that made them ran with."""
 
-    gallery: int = 12  # random designs pictured
-    gallery_seed: int = 0
+    mppi: MPPIConfig  # evaluation.mppi
+    eval_cache: Path | None  # evaluation.cache: the measured seconds per evaluation (None: no cache kept)
+    gallery: dict  # the `gallery:` section (the enumerate stage's picture)
+    train_vae: dict  # the `train_vae:` section
+    modular: dict  # the `modular:` section
 
 
-def build_report(config: ReportConfig, reports_dir: Path = Path("reports"), data_dir: Path = Path("data")) -> Path:
+def build_report(params: ReportParams, reports_dir: Path = Path("reports"), data_dir: Path = Path("data")) -> Path:
     from robocompose.report import dataset, eggan, evaluation, fidelity, glso, latent, metadata, modular, teams
 
     sections = [
         "# robocompose report",
         "Thesis numbers stand beside ours with the settings used; every figure of ours is measured with the "
         "evaluator named in its section.",
-        dataset.section(reports_dir, data_dir, config.gallery, config.gallery_seed),
-        evaluation.section(reports_dir, data_dir),
-        fidelity.section(reports_dir),
-        latent.section(reports_dir, data_dir),
+        dataset.section(reports_dir, data_dir, params.gallery),
+        evaluation.section(reports_dir, data_dir, params.mppi, params.eval_cache),
+        fidelity.section(reports_dir, params.mppi),
+        latent.section(reports_dir, data_dir, params.train_vae),
         glso.section(reports_dir, data_dir),
-        modular.section(reports_dir, data_dir),
+        modular.section(reports_dir, data_dir, params.modular),
         eggan.section(reports_dir, data_dir),
         teams.section(reports_dir, data_dir),
         metadata.section(reports_dir),

@@ -1,4 +1,8 @@
-"""Report section for the grammar dataset: counts, histograms, and a gallery with the reference designs."""
+"""Report section for the grammar dataset: counts, histograms, and the gallery with the reference designs.
+
+Built from the `enumerate` stage's outputs: the design tables, reports/metrics/enumerate.json (with the floor
+points per design) and its gallery picture, reports/plots/gallery.png.
+"""
 
 from __future__ import annotations
 
@@ -6,19 +10,12 @@ from pathlib import Path
 
 import numpy as np
 
-from robocompose.evaluation.references import REFERENCE_DESIGNS
 from robocompose.io import read_table
 from robocompose.io.atomic import read_json
-from robocompose.sim.contacts import PAD_X
 
 
-def contact_counts(contacts: np.ndarray) -> np.ndarray:
-    """Number of real (non-padding) points per design from (N, 16) contact vectors."""
-    pts = contacts.reshape(len(contacts), -1, 2)
-    return (~((pts[:, :, 0] == PAD_X) & (pts[:, :, 1] == 0.0))).sum(axis=1)
-
-
-def section(reports_dir: Path, data_dir: Path, gallery: int = 12, gallery_seed: int = 0) -> str:
+def section(reports_dir: Path, data_dir: Path, gallery: dict) -> str:
+    """`gallery`: the `gallery:` params the enumerate stage drew its picture with."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -30,8 +27,8 @@ def section(reports_dir: Path, data_dir: Path, gallery: int = 12, gallery_seed: 
     nogram = read_table(Path(data_dir) / "designs_nogram.parquet", "designs")
     stats = read_json(Path(reports_dir) / "metrics" / "enumerate.json")
     grammar = stats["grammar"]
-    contacts = np.stack(designs["contacts"].to_numpy())
-    counts = contact_counts(contacts)
+    points = stats["floor_points"]  # number of floor points -> designs
+    counts = np.repeat([int(k) for k in points], list(points.values()))
 
     fig, axes = plt.subplots(1, 2, figsize=(9, 3.2))
     sizes = np.concatenate([designs["n_links"], nogram["n_links"]])
@@ -45,9 +42,8 @@ def section(reports_dir: Path, data_dir: Path, gallery: int = 12, gallery_seed: 
     fig.tight_layout()
     fig.savefig(figures / "dataset_histograms.png", dpi=110)
     plt.close(fig)
-    _gallery(designs, figures / "gallery.png", gallery, gallery_seed)
 
-    from robocompose.report.timings import read_timings
+    from robocompose.io.timings import read_timings
 
     timing = read_timings(Path(reports_dir) / "timings.json").get("enumerate", {})
     speed = (f" at {timing['designs_per_s']} designs/s on this machine (thesis: 5e5 designs in ~4 h on 8 cores, "
@@ -76,38 +72,10 @@ def section(reports_dir: Path, data_dir: Path, gallery: int = 12, gallery_seed: 
         "",
         "![dataset histograms](figures/dataset_histograms.png)",
         "",
-        f"Gallery: {gallery} random designs of the dataset (seed {gallery_seed}) and the two reference designs "
-        "(blue: body links, orange: limb links), at rest on flat ground, pybullet CPU renderer.",
+        f"Gallery: {gallery['designs']} random designs of the dataset (seed {gallery['seed']}) and the two "
+        "reference designs (blue: body links, orange: limb links), at rest on flat ground, pybullet CPU renderer "
+        "(drawn by the `enumerate` stage).",
         "",
-        "![gallery](figures/gallery.png)",
+        "![gallery](plots/gallery.png)",
         "",
     ])
-
-
-def _gallery(designs, path: Path, n: int, seed: int) -> None:
-    import matplotlib.pyplot as plt
-    from PIL import Image
-
-    from robocompose.grammar.derivation import derive, parse_rules
-    from robocompose.grammar.tree import DesignTree
-    from robocompose.sim.render import render_design
-
-    rng = np.random.default_rng(seed)
-    picks = designs.iloc[np.sort(rng.choice(len(designs), size=min(n, len(designs)), replace=False))]
-    items = [(name, derive(parse_rules(rules)).tree) for name, rules in REFERENCE_DESIGNS.items()]
-    items += [(f"{row.design_id}", DesignTree(tuple(int(p) for p in row.parents), tuple(int(t) for t in row.tokens)))
-              for row in picks.itertuples()]
-    cols = 4
-    rows = -(-len(items) // cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 2.5 * rows))
-    tmp = path.with_suffix(".tile.png")
-    for ax, (name, tree) in zip(axes.ravel(), items, strict=False):
-        render_design(tree, tmp, width=320, height=240)
-        ax.imshow(np.asarray(Image.open(tmp)))
-        ax.set_title(f"{name}\n{tree.n_links} links, {tree.n_joints} joints", fontsize=8)
-    for ax in axes.ravel():
-        ax.axis("off")
-    tmp.unlink(missing_ok=True)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)

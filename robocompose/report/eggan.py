@@ -2,8 +2,9 @@
 EG-GAN-crowding row beside the GA runs, the training budgets and surrogate error, the training curves, and
 Fig. 5.1 (two test terrains, the generator's top designs, a random constraint and the designs that survive it).
 
-Built from `train_eggan_modular` (reports/metrics/eggan_modular.json, reports/plots/eggan_modular_*.csv, the
-generators) and `modular_realtime` (data/modular/realtime.parquet); every distance is a pybullet rollout.
+Built from `train_eggan_modular` (reports/metrics/eggan_modular.json, reports/plots/eggan_modular_*.csv) and
+`modular_realtime` (data/modular/realtime.parquet; data/modular/fig5_1.json, Fig. 5.1's generated designs); every
+distance is a pybullet rollout.
 """
 
 from __future__ import annotations
@@ -70,12 +71,12 @@ def section(reports_dir: Path, data_dir: Path) -> str:
     lines += ["", _verdict(table), ""]
     lines += _training_lines(metrics)
     lines += _table_5_2(table, reports_dir, data_dir)
-    generator_path = Path("models/eggan_modular_crowding.pt")
-    if generator_path.exists() and Path("params.yaml").exists():
+    fig_5_1 = Path(data_dir) / "modular" / "fig5_1.json"
+    if fig_5_1.exists():
         figures = Path(reports_dir) / "figures"
         figures.mkdir(parents=True, exist_ok=True)
         lines += ["", "### Fig. 5.1: generated designs and emergency constraints", "",
-                  _figure_5_1(generator_path, sorted(table.terrain_seed.unique())[:2], figures / "eggan_fig5_1.png"),
+                  _figure_5_1(read_json(fig_5_1), figures / "eggan_fig5_1.png"),
                   "", "![Fig. 5.1](figures/eggan_fig5_1.png)", "",
                   "Top: two test terrains (height maps). Below: EG-GAN-crowding's four most probable designs for each "
                   "(one query, 64 samples), a random emergency constraint, and the designs of the ten candidates "
@@ -84,36 +85,27 @@ def section(reports_dir: Path, data_dir: Path) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _figure_5_1(generator_path: Path, terrains: list[int], path: Path) -> str:
-    """Draw Fig. 5.1 and return a one-line caption with the terrains and constraints used."""
+def _figure_5_1(records: list[dict], path: Path) -> str:
+    """Draw Fig. 5.1 from the `modular_realtime` stage's records and return a one-line caption with the terrains
+    and constraints used."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     import numpy as np
 
-    from robocompose.eggan.query import generate, load_generator, rank_distinct
-    from robocompose.modular.eggan_problem import FitnessConfig, ModularEgganProblem
-    from robocompose.modular.experiments import emergency_constraints, satisfies
-    from robocompose.modular.params import load_modular_params
-
-    params = load_modular_params("params.yaml")
-    problem = ModularEgganProblem(params, FitnessConfig())
-    generator, _ = load_generator(generator_path, problem)
     names = {"l": "legs", "w": "wheels", "b": "leg-wheels"}
-    fig, axes = plt.subplots(2, len(terrains), figsize=(6 * len(terrains), 6), squeeze=False)
+    fig, axes = plt.subplots(2, len(records), figsize=(6 * len(records), 6), squeeze=False)
     used = []
-    for k, seed in enumerate(terrains):
-        heights = problem.encode_task(int(seed)).numpy()
+    for k, record in enumerate(records):
+        seed, (module, cap) = record["terrain_seed"], record["constraint"]
+        heights = np.asarray(record["heights"], dtype=np.float32)  # the generator's task encoding, (50, 20)
         axes[0, k].imshow(heights.T, origin="lower", extent=[-1, 9, -2, 2], cmap="copper")
         axes[0, k].set_title(f"test terrain {seed} (max block {heights.max() * 100:.1f} cm)")
-        ranked = rank_distinct(problem, *generate(generator, problem, int(seed), 64, seed=0), 10)
-        valid = [r.design for r in ranked if not params.fitness.skips(r.design)]
-        constraint = emergency_constraints(np.random.default_rng([int(seed), 51]), 1)[0]
-        survivors = [d for d in valid if satisfies(d, constraint)]
-        used.append(f"terrain {seed}: at most {constraint[1]} {names[constraint[0]]}")
-        text = ("top designs: " + ", ".join(valid[:4]) + f"\n\nconstraint: at most {constraint[1]} "
-                f"{names[constraint[0]]}\nsurviving: " + (", ".join(survivors[:4]) or "none (a random valid design)"))
+        used.append(f"terrain {seed}: at most {cap} {names[module]}")
+        surviving = ", ".join(record["surviving"][:4]) or "none (a random valid design)"
+        text = ("top designs: " + ", ".join(record["designs"][:4]) + f"\n\nconstraint: at most {cap} "
+                f"{names[module]}\nsurviving: " + surviving)
         axes[1, k].text(0.02, 0.5, text, family="monospace", fontsize=11, va="center", wrap=True)
         axes[1, k].axis("off")
     fig.tight_layout()

@@ -1,6 +1,7 @@
 """Report section for the robot evaluator (thesis 7.2): reference and random designs on the four tasks.
 
-Built from the `evaluate_references` stage's outputs; the MPPI settings come from params.yaml.
+Built from the `evaluate_references` stage's outputs (the table, its metrics, the rollout GIFs) and the evaluation
+cache's measured seconds; the MPPI settings are the params the stage ran with.
 """
 
 from __future__ import annotations
@@ -10,6 +11,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from robocompose.control.mppi import MPPIConfig
 from robocompose.io import read_table
 from robocompose.io.atomic import read_json
 
@@ -35,18 +37,15 @@ def _evaluation_seconds(table: pd.DataFrame, cache_path: Path) -> pd.Series | No
     return timed.groupby("task")["seconds"].mean() if len(timed) else None
 
 
-def section(reports_dir: Path, data_dir: Path, params: Path = Path("params.yaml")) -> str:
+def section(reports_dir: Path, data_dir: Path, mppi: MPPIConfig, cache: Path | None) -> str:
+    """`mppi`: the `evaluation.mppi` params; `cache`: the evaluation cache (None: none kept)."""
     title = "## Robot evaluator: MPPI in pybullet (thesis 7.2)"
     table_path, rollouts = Path(data_dir) / "reference_evals.parquet", Path(data_dir) / "rollouts"
-    if not table_path.exists():
-        return f"{title}\n\nNot run yet: missing {table_path} (stage `evaluate_references`).\n"
-    from robocompose.evaluation.evaluate import EvaluationConfig, objective
-    from robocompose.evaluation.references import best_per_task
-    from robocompose.params import load_section
-
+    metrics_path = Path(reports_dir) / "metrics" / "evaluate_references.json"
+    if not table_path.exists() or not metrics_path.exists():
+        return f"{title}\n\nNot run yet: missing {table_path} or {metrics_path} (stage `evaluate_references`).\n"
     table = read_table(table_path, "reference_evals")
-    evaluation = load_section(EvaluationConfig, "evaluation", params)
-    mppi = evaluation.mppi
+    metrics = read_json(metrics_path)
     tasks = list(dict.fromkeys(table["task"]))
     names = list(dict.fromkeys(table["name"]))
     grid = table.assign(cell=table.apply(_cell, axis=1)).pivot(index="name", columns="task", values="cell")
@@ -56,9 +55,7 @@ def section(reports_dir: Path, data_dir: Path, params: Path = Path("params.yaml"
              "with their status; optimisers score them 3.8 (self-collision) or 4.0 (blow-up), as GLSO does.", "",
              "| design | " + " | ".join(tasks) + " |", "|---|" + "---|" * len(tasks)]
     lines += [f"| {name} | " + " | ".join(grid.loc[name, task] for task in tasks) + " |" for name in names]
-    scores = table.assign(score=[objective(r) for r in table.to_dict("records")])
-    random_best = scores[scores["name"].str.startswith("random")].groupby("task")["score"].max()
-    reference = scores[scores["name"].str.startswith("robogrammar")].groupby("task")["score"].max()
+    reference, random_best = metrics["best_score"]["reference"], metrics["best_score"]["random"]
     lines += ["", "Best reference design vs best random design per task: "
               + "; ".join(f"{t} {reference[t]:.2f} vs {random_best[t]:.2f}" for t in tasks if t in random_best) + "."]
 
@@ -67,7 +64,7 @@ def section(reports_dir: Path, data_dir: Path, params: Path = Path("params.yaml"
     lines += [f"| {k.replace('_', ' ')} | {v} | {getattr(mppi, k)} |" for k, v in THESIS_MPPI.items()]
     lines += [f"| sim steps per evaluation (flat / wall) | ~2.4 M / ~4.6 M | {steps.get('flat', 0) / 1e6:.2f} M / "
               f"{steps.get('wall', 0) / 1e6:.2f} M |"]
-    seconds = _evaluation_seconds(table, Path(evaluation.cache)) if evaluation.cache else None
+    seconds = _evaluation_seconds(table, Path(cache)) if cache else None
     if seconds is not None:
         flat, wall = (seconds.get(task, float("nan")) for task in ("flat", "wall"))
         lines += [f"| wall seconds per evaluation as run (one process, shared machine; flat / wall) | "
@@ -81,11 +78,10 @@ def section(reports_dir: Path, data_dir: Path, params: Path = Path("params.yaml"
     if gifs:
         out = Path(reports_dir) / "figures"
         out.mkdir(parents=True, exist_ok=True)
-        best = best_per_task(table).set_index("task")
         lines += ["", "Best design of each task (MCAP logs for Foxglove beside the GIFs in `data/rollouts/`):", ""]
         for gif in gifs:
             shutil.copyfile(gif, out / f"rollout_{gif.name}")
             task = gif.stem
-            lines.append(f"![{task}: {best.loc[task, 'name']}, reward {best.loc[task, 'reward']:.2f}]"
+            lines.append(f"![{task}: {metrics['best_design'][task]}, reward {metrics['best_reward'][task]:.2f}]"
                          f"(figures/rollout_{gif.name})")
     return "\n".join(lines) + "\n"

@@ -1,7 +1,7 @@
 """Report section for the evaluator fidelity ladder: how each MPPI setting ranks designs against the thesis's.
 
 Built from the `evaluator_fidelity` stage's outputs (reports/fidelity/summary.csv and
-reports/metrics/evaluator_fidelity.json) and the default profile's `evaluation.mppi`.
+reports/metrics/evaluator_fidelity.json) and the profile's `evaluation.mppi`.
 """
 
 from __future__ import annotations
@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from robocompose.control.mppi import MPPIConfig
 from robocompose.io.atomic import read_json
 
 
@@ -23,18 +24,15 @@ def _row(r: pd.Series) -> str:
             f"{random} |")
 
 
-def section(reports_dir: Path, params: Path = Path("params.yaml")) -> str:
+def section(reports_dir: Path, mppi: MPPIConfig) -> str:
+    """`mppi`: the `evaluation.mppi` params the pipeline runs with."""
     title = "## Evaluator fidelity: which MPPI setting ranks designs like the thesis's"
     summary_path = Path(reports_dir) / "fidelity" / "summary.csv"
     choice_path = Path(reports_dir) / "metrics" / "evaluator_fidelity.json"
     if not summary_path.exists():
         return f"{title}\n\nNot run yet: missing {summary_path} (stage `evaluator_fidelity`).\n"
-    from robocompose.evaluation.evaluate import EvaluationConfig
-    from robocompose.params import load_section
-
     summary = pd.read_csv(summary_path)
     choice = read_json(choice_path) if choice_path.exists() else {}
-    mppi = load_section(EvaluationConfig, "evaluation", params).mppi
     lines = [title, "",
              "One fixed set of designs (the two RoboGrammar reference designs, random dataset designs and the best "
              "of a quick random search) scored under a ladder of MPPI settings, controller seed 0. Spearman is the "

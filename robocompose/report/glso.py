@@ -1,7 +1,8 @@
 """Report section for the GLSO search (thesis 8): Figs. 8.1 and 8.2 (best so far vs evaluations), the final
 best per method and task, the thesis's claims beside ours, and each task's best design (Fig. 7.2).
 
-Built from the `glso` stage's outputs (data/glso/steps.parquet, data/glso/rollouts/); every score is the
+Built from the `glso` stage's outputs (data/glso/steps.parquet, data/glso/rollouts/: each task's best design's
+rollout GIF and picture); every score is the
 real evaluator's (MPPI in pybullet at the profile's settings), the same for every method.
 """
 
@@ -116,19 +117,18 @@ def section(reports_dir: Path, data_dir: Path) -> str:
 
 
 def _best_designs(steps: pd.DataFrame, rollouts: Path, figures: Path) -> list[str]:
-    """Fig. 7.2: a picture of each task's best design, and its rollout GIF."""
-    from robocompose.grammar.tree import DesignTree
-    from robocompose.sim.render import render_design
-
+    """Fig. 7.2: the picture of each task's best design, and its rollout GIF (both drawn by the `glso` stage)."""
     lines = ["", "Fig. 7.2: the best design found on each task (any method; MCAP logs for Foxglove beside the GIFs "
              "in `data/glso/rollouts/`):", ""]
     for row in best_designs(steps).itertuples():
-        picture = figures / f"glso_best_{row.task}.png"
-        render_design(DesignTree(tuple(row.parents), tuple(row.tokens)), picture, width=320, height=240)
         caption = f"{row.task}: {LABELS[row.method]} seed {row.seed}, reward {row.score:.3f}, design {row.design_id}"
-        lines.append(f"![{caption}](figures/{picture.name})")
-        gif = rollouts / f"{row.task}.gif"
-        if gif.exists():
-            shutil.copyfile(gif, figures / f"glso_rollout_{row.task}.gif")
-            lines.append(f"![{row.task} rollout](figures/glso_rollout_{row.task}.gif)")
+        drawn = ((rollouts / f"{row.task}.png", f"glso_best_{row.task}.png", caption),
+                 (rollouts / f"{row.task}.gif", f"glso_rollout_{row.task}.gif", f"{row.task} rollout"))
+        for source, name, alt in drawn:
+            if source.exists():
+                figures.mkdir(parents=True, exist_ok=True)
+                shutil.copyfile(source, figures / name)
+                lines.append(f"![{alt}](figures/{name})")
+            else:
+                lines.append(f"{alt}: not drawn yet ({source} missing: stage `glso`).")
     return lines

@@ -24,7 +24,8 @@ def _fmt(value) -> str:
     return "n/a" if value is None else f"{value:.3f}"
 
 
-def section(reports_dir: Path, data_dir: Path, params: Path = Path("params.yaml")) -> str:
+def section(reports_dir: Path, data_dir: Path, train_vae: dict) -> str:
+    """`train_vae`: the `train_vae:` params the VAEs were trained with."""
     title = "## Graph VAE: latent space of the grammar's designs (thesis 7.1)"
     reports_dir, data_dir = Path(reports_dir), Path(data_dir)
     logs = {name: reports_dir / "training" / f"vae_{name}" for name in VARIANTS}
@@ -36,11 +37,10 @@ def section(reports_dir: Path, data_dir: Path, params: Path = Path("params.yaml"
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from robocompose.latent.train import read_curves
-    from robocompose.params import read_params
-    from robocompose.report.timings import read_timings
+    from robocompose.io.timings import read_timings
+    from robocompose.latent.curves import read_curves
 
-    settings = read_params(params)["train_vae"]
+    settings = train_vae
     model, train = settings["model"], settings["train"]
     timings = read_timings(reports_dir / "timings.json")
     figures = reports_dir / "figures"

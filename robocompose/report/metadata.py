@@ -13,7 +13,7 @@ from pathlib import Path
 
 import yaml
 
-from robocompose.report.timings import TIMINGS_FILE, read_timings
+from robocompose.io.timings import TIMINGS_FILE, read_timings
 
 
 def _git(*args: str, cwd: Path = Path(".")) -> str:

@@ -2,7 +2,8 @@
 terrain?), Table 5.2's GA rows and Table 5.1's random-sampling row beside the thesis's, the exhaustive optimum of
 every test terrain with each method's regret, and a picture of the terrains with their best designs.
 
-Built from the outputs of the `modular_exhaustive` and `modular_baselines` stages. A run's runtime is its
+Built from the outputs of the `modular_exhaustive` stage (its metrics: each terrain's optimum and the terrain
+criterion; its picture, reports/plots/modular_terrains.png) and the `modular_baselines` stage. A run's runtime is its
 simulation steps (every evaluation it asked for, repeats included: its cost without a cache; the runs themselves
 read each fitness from the exhaustive table) at the single-core rate `make bench` measures. Penalties are never
 averaged as distances: runs whose best design carries no distance, and emergency answers without one, are counted
@@ -13,7 +14,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 from robocompose.io import read_table
@@ -49,37 +49,26 @@ def _failures(group: pd.DataFrame) -> str:
     return f"{failed} of {len(group)}"
 
 
-def section(reports_dir: Path, data_dir: Path) -> str:
-    """Markdown for the modular-robot section; the figure goes to reports_dir/figures/."""
-    paths = {"exhaustive": Path(data_dir) / "modular" / "exhaustive.parquet",
+def section(reports_dir: Path, data_dir: Path, modular: dict) -> str:
+    """Markdown for the modular-robot section; `modular`: the `modular:` params the stages ran with."""
+    paths = {"metrics": Path(reports_dir) / "metrics" / "modular_exhaustive.json",
              "runs": Path(data_dir) / "modular" / "runs.parquet"}
     missing = [str(p) for p in paths.values() if not p.exists()]
     if missing:
         return ("## Modular robot design (thesis 5.1)\n\nNot run yet: missing " + ", ".join(missing)
                 + " (stages `modular_exhaustive` and `modular_baselines`).\n")
-    from robocompose.modular.params import load_modular_params
-    from robocompose.modular.terrain import generate_terrain
-    from robocompose.modular.truth import terrain_criterion, truth_summary
-
-    truth = read_table(paths["exhaustive"], "modular_exhaustive")
+    truth = read_json(paths["metrics"])
     runs = read_table(paths["runs"], "modular_runs")
     runs["regret"] = runs.optimum - runs.best_distance
-    params = load_modular_params("params.yaml") if Path("params.yaml").exists() else None
-    summary = truth_summary(truth, params.experiments.near_optimal if params else 0.5)
-    figures = Path(reports_dir) / "figures"
-    figures.mkdir(parents=True, exist_ok=True)
-    gallery = params.experiments.gallery if params else 2
-    if params is not None:
-        _plot_terrains(summary.head(gallery), params, figures / "modular_terrains.png")
+    summary = pd.DataFrame([{"terrain_seed": int(seed), "optimum": optimum, "best_design": truth["best_design"][seed],
+                             "near_optimal": truth["near_optimal"][seed], "simulated": truth["simulated"][seed]}
+                            for seed, optimum in truth["optimum"].items()])
     n_terrains, n_seeds = runs.terrain_seed.nunique(), runs.seed.nunique()
-    if params:
-        e = params.eval
-        seconds = e.control_steps * e.sim_steps_per_control * e.time_step
-        episode = (f"{e.control_steps} control steps x {e.sim_steps_per_control} sim steps ({seconds:.1f} s) on "
-                   f"a course x in [{e.terrain.x_range[0]:g}, {e.terrain.x_range[1]:g}] m, blocks up to "
-                   f"H ~ U({e.terrain.max_height_range[0]:g}, {e.terrain.max_height_range[1]:g}) m high")
-    else:
-        episode = "see params.yaml"
+    e, terrain = modular["eval"], modular["eval"]["terrain"]
+    seconds = e["control_steps"] * e["sim_steps_per_control"] * e["time_step"]
+    episode = (f"{e['control_steps']} control steps x {e['sim_steps_per_control']} sim steps ({seconds:.1f} s) on "
+               f"a course x in [{terrain['x_range'][0]:g}, {terrain['x_range'][1]:g}] m, blocks up to "
+               f"H ~ U({terrain['max_height_range'][0]:g}, {terrain['max_height_range'][1]:g}) m high")
 
     lines = [
         "## Modular robot design (thesis 5.1)",
@@ -94,7 +83,7 @@ def section(reports_dir: Path, data_dir: Path) -> str:
         "design wins every terrain); the episode is shorter than the thesis's 250 steps in the default profile.",
         "",
     ]
-    lines += _criterion_lines(truth, terrain_criterion, generate_terrain, params)
+    lines += _criterion_lines(truth)
     lines += [
         "### Evolutionary baselines (Table 5.2)",
         "",
@@ -131,7 +120,7 @@ def section(reports_dir: Path, data_dir: Path) -> str:
     ]
     random_runs = runs[runs.method == "random"]
     if not random_runs.empty:
-        answers = len(random_runs) * params.experiments.ec_draws if params else "?"
+        answers = len(random_runs) * modular["experiments"]["ec_draws"]
         lines.append(f"| Random sampling (10 designs) | {_mean_std(random_runs.best_distance)} | "
                      f"{_failures(random_runs)} | {_mean_std(random_runs.ec_distance)} | "
                      f"{int(random_runs.ec_failures.sum())} of {answers} | "
@@ -164,19 +153,20 @@ def section(reports_dir: Path, data_dir: Path) -> str:
         "Share of runs that found the exact optimum: "
         + ", ".join(f"{NAMES[m]} {found[m]:.0%}" for m in NAMES if m in found) + ".",
         "",
-        _status_line(truth),
+        _status_line(truth["statuses"]),
     ]
-    if params is not None:
-        lines += ["", "![test terrains and their best designs](figures/modular_terrains.png)", "",
+    if (Path(reports_dir) / "plots" / "modular_terrains.png").exists():
+        lines += ["", "![test terrains and their best designs](plots/modular_terrains.png)", "",
                   "Top: height maps of the test terrains (the 50 x 20 task encoding, x to the right). Bottom: each "
                   "terrain's exhaustive best design at its start pose (ports: front-left, mid-left, back-left, "
                   "back-right, mid-right, front-right; n none, l leg, w wheel, b leg-wheel)."]
     return "\n".join(lines) + "\n"
 
 
-def _criterion_lines(truth: pd.DataFrame, terrain_criterion, generate_terrain, params) -> list[str]:
-    """The terrain criterion over every terrain with an exhaustive table."""
-    per_terrain, totals = terrain_criterion(truth)
+def _criterion_lines(truth: dict) -> list[str]:
+    """The terrain criterion over every terrain with an exhaustive table (from the stage's metrics)."""
+    totals = truth["criterion"]
+    per_terrain = pd.DataFrame(totals["per_terrain"])
     lines = [
         "### Does the best design depend on the terrain? (thesis Fig. 5.1)",
         "",
@@ -191,58 +181,12 @@ def _criterion_lines(truth: pd.DataFrame, terrain_criterion, generate_terrain, p
         "|---|---|---|---|---|---|",
     ]
     for row in per_terrain.itertuples():
-        tallest = (f"{generate_terrain(row.terrain_seed, params.eval.terrain).max_height * 100:.1f}"
-                   if params else "n/a")
-        lines.append(f"| {row.terrain_seed} | {tallest} | `{row.optimum_design}` | {row.optimum:.2f} | "
+        tallest = truth["tallest_block_cm"][str(row.terrain_seed)]
+        lines.append(f"| {row.terrain_seed} | {tallest:.1f} | `{row.optimum_design}` | {row.optimum:.2f} | "
                      f"{row.average_distance:.2f} | {row.regret:.2f} |")
     return lines + [""]
 
 
-def _status_line(truth: pd.DataFrame) -> str:
-    counts = truth.status.value_counts().sort_index()
+def _status_line(statuses: dict[str, int]) -> str:
+    counts = pd.Series(statuses).sort_index()
     return "Statuses over the exhaustive table: " + ", ".join(f"{k} {v}" for k, v in counts.items()) + "."
-
-
-def _plot_terrains(summary: pd.DataFrame, params, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from robocompose.modular.terrain import generate_terrain, height_map
-
-    n = len(summary)
-    fig, axes = plt.subplots(2, n, figsize=(5 * n, 5.5), squeeze=False)
-    for k, row in enumerate(summary.itertuples()):
-        terrain = generate_terrain(row.terrain_seed, params.eval.terrain)
-        grid = height_map(terrain)
-        (x0, x1), (y0, y1) = params.eval.terrain.x_range, params.eval.terrain.y_range
-        top = axes[0, k].imshow(grid.T, origin="lower", extent=[x0, x1, y0, y1], cmap="copper", vmin=0,
-                                vmax=params.eval.terrain.max_height_range[1])
-        axes[0, k].set_title(f"terrain {row.terrain_seed} (max block {terrain.max_height * 100:.1f} cm)")
-        axes[0, k].set_xlabel("x (m)")
-        axes[0, k].set_ylabel("y (m)")
-        axes[1, k].imshow(_design_picture(row.best_design, terrain))
-        axes[1, k].set_title(f"best: {row.best_design} ({row.optimum:.2f} m)")
-        axes[1, k].axis("off")
-    fig.subplots_adjust(hspace=0.35)
-    fig.colorbar(top, ax=axes[0, :].tolist(), label="block height (m)", shrink=0.8)
-    fig.savefig(path, dpi=80)
-    plt.close(fig)
-
-
-def _design_picture(design: str, terrain) -> np.ndarray:
-    import pybullet as pb
-
-    from robocompose.modular.robot import build_robot
-    from robocompose.modular.terrain import add_terrain
-    from robocompose.sim.physics import connect
-    from robocompose.sim.render import camera_image
-
-    client = connect()
-    try:
-        add_terrain(client, terrain, visual=True)
-        build_robot(design, client, visual=True)
-        return camera_image(client, (0.3, 0.0, 0.15), distance=1.6, yaw=-60.0, pitch=-30.0)
-    finally:
-        pb.disconnect(physicsClientId=client)

@@ -13,7 +13,7 @@ import numpy as np
 import pandas as pd
 
 from robocompose.io import read_table
-from robocompose.report.timings import read_timings
+from robocompose.io.timings import read_timings
 
 THESIS_TABLE_5_4 = {20: (9.4, 1.0, 43.1), 50: (11.9, 1.5, 107.6)}  # population: (HV, HV std, minutes)
 THESIS_TABLE_5_5 = {  # method: coverage cost x 1e-2 at deployment budget 15 / 30 / 45 (None: not in the thesis)

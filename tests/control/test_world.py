@@ -92,7 +92,7 @@ PINNED_SCORES = {("robogrammar_flat", "flat"): 4.086111602347066, ("robogrammar_
 def test_scores_stay_bit_identical(design, task):
     from robocompose.control.mppi import MPPIConfig
     from robocompose.evaluation.evaluate import EvaluationConfig, evaluate
-    from robocompose.evaluation.references import REFERENCE_DESIGNS
+    from robocompose.grammar.references import REFERENCE_DESIGNS
 
     config = EvaluationConfig(mppi=MPPIConfig(samples=4, first_samples=8, horizon=4, episode=6))
     row = evaluate(derive(parse_rules(REFERENCE_DESIGNS[design])).tree, task, config, seed=0)

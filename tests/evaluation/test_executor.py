@@ -93,8 +93,8 @@ def test_enumeration_on_a_dask_cluster_is_byte_identical_to_local_processes(dask
 def test_grammar_and_modular_evaluations_on_a_dask_cluster_match_local_processes(dask_address):
     from robocompose.control.mppi import MPPIConfig
     from robocompose.evaluation.evaluate import EvaluationConfig, evaluate_designs
-    from robocompose.evaluation.references import REFERENCE_DESIGNS
     from robocompose.grammar.derivation import derive, parse_rules
+    from robocompose.grammar.references import REFERENCE_DESIGNS
     from robocompose.modular import evaluate as modular
 
     trees = [derive(parse_rules(rules)).tree for rules in REFERENCE_DESIGNS.values()]

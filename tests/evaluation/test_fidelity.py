@@ -19,8 +19,8 @@ from robocompose.evaluation.fidelity import (
     spearman,
     summarise,
 )
-from robocompose.evaluation.references import REFERENCE_DESIGNS
 from robocompose.grammar.derivation import derive, parse_rules
+from robocompose.grammar.references import REFERENCE_DESIGNS
 from robocompose.params import load_section
 
 

@@ -7,7 +7,6 @@ from robocompose.dataset.enumerate import design_row
 from robocompose.evaluation.evaluate import EvaluationConfig
 from robocompose.evaluation.executor import Executor
 from robocompose.evaluation.references import (
-    REFERENCE_DESIGNS,
     ReferencesConfig,
     best_per_task,
     candidate_designs,
@@ -15,6 +14,7 @@ from robocompose.evaluation.references import (
     record_best,
 )
 from robocompose.grammar.derivation import random_derivation
+from robocompose.grammar.references import REFERENCE_DESIGNS
 from robocompose.io import read_mcap, read_table, write_table
 
 TINY = EvaluationConfig(mppi=MPPIConfig(samples=2, first_samples=2, horizon=2, episode=4), workers=1)

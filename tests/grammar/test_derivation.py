@@ -3,7 +3,6 @@ import re
 import numpy as np
 import pytest
 
-from robocompose.evaluation.references import REFERENCE_DESIGNS
 from robocompose.grammar.derivation import (
     DerivationError,
     applicable_rules,
@@ -11,6 +10,7 @@ from robocompose.grammar.derivation import (
     parse_rules,
     random_derivation,
 )
+from robocompose.grammar.references import REFERENCE_DESIGNS
 from robocompose.grammar.rules import START_GRAPH
 
 

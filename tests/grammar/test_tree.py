@@ -51,8 +51,8 @@ def test_tokens_off_their_grammar_place_build_as_glso_builds_them():
 
 
 def test_canonical_order_is_the_same_for_every_sibling_order(reorder):
-    from robocompose.evaluation.references import REFERENCE_DESIGNS
     from robocompose.grammar.derivation import derive, parse_rules
+    from robocompose.grammar.references import REFERENCE_DESIGNS
 
     tree = derive(parse_rules(REFERENCE_DESIGNS["robogrammar_ridged"])).tree
     other = reorder(tree)

@@ -4,8 +4,8 @@ import pytest
 import torch
 
 from robocompose.cli import main
-from robocompose.evaluation.references import REFERENCE_DESIGNS
 from robocompose.grammar.derivation import derive
+from robocompose.grammar.references import REFERENCE_DESIGNS
 from robocompose.latent.model import GraphVAE, VAEConfig
 from robocompose.latent.train import save_model, save_torch
 

@@ -15,9 +15,9 @@ import pytest
 import torch
 
 from robocompose.io import read_mcap, write_table
+from robocompose.latent.curves import LOG_FIELDS, read_curves
 from robocompose.latent.model import VAEConfig
 from robocompose.latent.train import (
-    LOG_FIELDS,
     TrainConfig,
     batch_indices,
     beta_at,
@@ -25,7 +25,6 @@ from robocompose.latent.train import (
     load_model,
     log_evaluation,
     lr_at,
-    read_curves,
     reconstruction_accuracy,
     save_model,
     split,

@@ -32,6 +32,11 @@ def test_exhaustive_then_baselines_write_their_tables_and_metrics(tmp_path, monk
     metrics = json.loads(Path("reports/metrics/modular_exhaustive.json").read_text())
     assert metrics["source"] == {"1007": "committed", "1008": "simulated"} and metrics["optimum"]["1007"] == 6.0
     assert metrics["criterion"]["terrains"] == 2 and len(metrics["criterion"]["per_terrain"]) == 2
+    simulated = truth[truth.sim_steps > 0].groupby("terrain_seed").size()
+    assert metrics["simulated"] == {str(k): int(v) for k, v in simulated.items()}
+    assert set(metrics["tallest_block_cm"]) == {"1007", "1008"}
+    picture = Path("reports/plots/modular_terrains.png")  # the report's picture of the first terrains
+    assert picture.stat().st_size > 5000
     first = Path("data/modular/exhaustive.parquet").read_bytes()
     runpy.run_path(str(STAGES / "modular_exhaustive.py"), run_name="__main__")  # from the cache: same bytes
     assert Path("data/modular/exhaustive.parquet").read_bytes() == first

@@ -22,8 +22,7 @@ def _table() -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def test_section_has_table_5_1_with_thesis_numbers_and_a_verdict(tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)  # the section reads models/ of the working directory: none here, whatever runs it
+def test_section_has_table_5_1_with_thesis_numbers_and_a_verdict(tmp_path):
     data, reports = tmp_path / "data", tmp_path / "reports"
     write_table(_table(), data / "modular" / "realtime.parquet", "modular_realtime")
     (reports / "metrics").mkdir(parents=True)
@@ -48,3 +47,22 @@ def test_section_has_table_5_1_with_thesis_numbers_and_a_verdict(tmp_path, monke
 
 def test_section_says_what_is_missing(tmp_path):
     assert "Not run yet" in section(tmp_path / "reports", tmp_path / "data")
+
+
+def test_fig_5_1_is_drawn_from_the_stage_records(tmp_path):
+    data, reports = tmp_path / "data", tmp_path / "reports"
+    write_table(_table(), data / "modular" / "realtime.parquet", "modular_realtime")
+    (reports / "metrics").mkdir(parents=True)
+    (reports / "metrics" / "eggan_modular.json").write_text("{}")
+    assert "Fig. 5.1" not in section(reports, data)
+    heights = np.zeros((50, 20), dtype=np.float32)
+    heights[10:20, 5:8] = 0.125
+    records = [{"terrain_seed": 1000, "heights": heights.tolist(), "designs": ["wwwwww", "llllll", "wlwlwl"],
+                "constraint": ["w", 1], "surviving": ["llllll"]},
+               {"terrain_seed": 1001, "heights": np.zeros((50, 20)).tolist(), "designs": ["bbbbbb"],
+                "constraint": ["b", 0], "surviving": []}]
+    (data / "modular" / "fig5_1.json").write_text(json.dumps(records))
+    text = section(reports, data)
+    assert "Constraints drawn: terrain 1000: at most 1 wheels; terrain 1001: at most 0 leg-wheels." in text
+    assert "![Fig. 5.1](figures/eggan_fig5_1.png)" in text
+    assert (reports / "figures" / "eggan_fig5_1.png").stat().st_size > 5000

@@ -1,8 +1,11 @@
+import json
+
 import pandas as pd
-import yaml
 from PIL import Image
 
+from robocompose.control.mppi import MPPIConfig
 from robocompose.evaluation.cache import EvaluationCache
+from robocompose.evaluation.references import best_scores
 from robocompose.io import write_table
 from robocompose.report.evaluation import section
 
@@ -19,15 +22,17 @@ def test_section_tabulates_rewards_statuses_settings_and_gifs(tmp_path):
     write_table(pd.DataFrame(rows), data / "reference_evals.parquet", "reference_evals")
     (data / "rollouts").mkdir()
     Image.new("RGB", (8, 8)).save(data / "rollouts" / "flat.gif")
-    params = tmp_path / "params.yaml"
     cache = EvaluationCache(tmp_path / "cache.parquet")
     for row in rows:
         seconds = {"flat": 6.0, "wall": 12.0}[row["task"]] if row["sim_steps"] else 0.1
         cache.put((row["design_id"], row["task"], "h", 0), reward=row["reward"], status=row["status"],
                   sim_steps=row["sim_steps"], seconds=seconds)
     cache.save()
-    params.write_text(yaml.safe_dump({"evaluation": {"mppi": {"samples": 16, "horizon": 8}, "cache": str(cache.path)}}))
-    text = section(reports, data, params)
+    (reports / "metrics").mkdir(parents=True)
+    (reports / "metrics" / "evaluate_references.json").write_text(json.dumps({
+        "best_reward": {"flat": 5.25, "wall": 4.75}, "best_design": {"flat": "robogrammar_flat", "wall": "random_0"},
+        "best_score": best_scores(pd.DataFrame(rows))}))
+    text = section(reports, data, MPPIConfig(samples=16, horizon=8), cache.path)
     assert "| robogrammar_flat | 5.25 | 4.50 |" in text and "| random_0 | self collision | 4.75 |" in text
     assert "flat 5.25 vs 3.80; wall 4.50 vs 4.75" in text
     assert "| samples | 64 | 16 |" in text and "0.00 M / 0.00 M" in text
@@ -37,4 +42,4 @@ def test_section_tabulates_rewards_statuses_settings_and_gifs(tmp_path):
 
 
 def test_section_says_when_the_stage_has_not_run(tmp_path):
-    assert "Not run yet" in section(tmp_path, tmp_path)
+    assert "Not run yet" in section(tmp_path, tmp_path, MPPIConfig(), None)

@@ -3,6 +3,7 @@ import json
 import numpy as np
 import pandas as pd
 
+from robocompose.control.mppi import MPPIConfig
 from robocompose.evaluation.fidelity import THESIS, summarise, write_summary
 from robocompose.report.fidelity import section
 
@@ -18,11 +19,11 @@ def test_section_shows_every_measured_setting_and_the_choice(tmp_path):
     write_summary(summarise(scores, designs), tmp_path / "fidelity")
     (tmp_path / "metrics").mkdir()
     (tmp_path / "metrics" / "evaluator_fidelity.json").write_text(json.dumps({"rung": "s16_h8_e48", "reason": "r"}))
-    text = section(tmp_path)
+    text = section(tmp_path, MPPIConfig())
     assert "| flat | s16_h8_e48 | 16/64 | 8 | 48 | 107k | 1.0 | 3 of 3 | 1.00 | yes | 4.00-4.05 |" in text
     assert "| flat | thesis | 64/512 | 16 | 128 | 2229k |" in text
     assert "Selected by the rule: **s16_h8_e48**" in text
 
 
 def test_section_says_what_is_missing(tmp_path):
-    assert "Not run yet" in section(tmp_path)
+    assert "Not run yet" in section(tmp_path, MPPIConfig())

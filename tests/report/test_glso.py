@@ -1,4 +1,5 @@
 import pandas as pd
+from PIL import Image
 
 from robocompose.report.glso import claims, curves, section
 
@@ -39,6 +40,14 @@ def test_section_draws_both_figures_the_table_and_the_best_design(tmp_path):
                        for m in ("random", "mcts", "ga") for s in (0, 1)], ignore_index=True)
     write_table(steps, tmp_path / "data" / "glso" / "steps.parquet", "glso_steps")
     text = section(tmp_path / "reports", tmp_path / "data")
-    for figure in ("glso_fig8_1.png", "glso_fig8_2.png", "glso_best_flat.png"):
+    assert "flat rollout: not drawn yet" in text and "glso_best_flat.png" not in text
+    rollouts = tmp_path / "data" / "glso" / "rollouts"
+    rollouts.mkdir()
+    Image.new("RGB", (8, 8), "red").save(rollouts / "flat.png")  # as the glso stage draws them
+    Image.new("RGB", (8, 8)).save(rollouts / "flat.gif")
+    text = section(tmp_path / "reports", tmp_path / "data")
+    for figure in ("glso_fig8_1.png", "glso_fig8_2.png", "glso_best_flat.png", "glso_rollout_flat.gif"):
         assert (tmp_path / "reports" / "figures" / figure).stat().st_size > 0 and figure in text
+    picture = tmp_path / "reports" / "figures" / "glso_best_flat.png"
+    assert picture.read_bytes() == (rollouts / "flat.png").read_bytes()  # the stage's picture, copied
     assert "budget of **4 objective calls**" in text and "| MCTS |" in text and "(n=2)" in text

@@ -3,14 +3,13 @@ import pandas as pd
 import pytest
 
 from robocompose.io import ArtifactError, write_table
-from robocompose.latent.train import LOG_FIELDS, log_evaluation, log_row, training_log
+from robocompose.latent.curves import LOG_FIELDS
+from robocompose.latent.train import log_evaluation, log_row, training_log
 from robocompose.report.latent import section
 
-PARAMS = """train_vae:
-  model: {hidden: 16, latent: 4}
-  train: {steps: 200, batch_size: 8, beta_start: 100, beta_increment: 0.001, beta_every: 10, pred_weight: 20.0,
-          holdout: 0.1}
-"""
+TRAIN_VAE = {"model": {"hidden": 16, "latent": 4},
+             "train": {"steps": 200, "batch_size": 8, "beta_start": 100, "beta_increment": 0.001, "beta_every": 10,
+                       "pred_weight": 20.0, "holdout": 0.1}}
 METRIC = {"reconstruction_accuracy": 0.75, "prior_validity": 1.0, "prior_grammar_valid": 1.0,
           "prior_rest_valid": 0.8, "uniqueness": 0.9, "novelty": 0.5, "property_mse": 0.25, "prior_samples": 100,
           "unconstrained": {"reconstruction_accuracy": 0.125, "prior_validity": 0.5, "prior_grammar_valid": 0.0,
@@ -18,28 +17,27 @@ METRIC = {"reconstruction_accuracy": 0.75, "prior_validity": 1.0, "prior_grammar
 
 
 def test_section_reports_pending_without_metrics(tmp_path):
-    assert "Not run yet" in section(tmp_path, tmp_path, tmp_path / "params.yaml")
+    assert "Not run yet" in section(tmp_path, tmp_path, TRAIN_VAE)
 
 
 def test_a_corrupt_summary_is_named(tmp_path):
     (tmp_path / "training" / "vae_full").mkdir(parents=True)
     (tmp_path / "training" / "vae_full" / "metrics.json").write_text("{not json")
     with pytest.raises(ArtifactError, match="vae_full/metrics.json: not valid JSON"):
-        section(tmp_path, tmp_path, tmp_path / "params.yaml")
+        section(tmp_path, tmp_path, TRAIN_VAE)
     (tmp_path / "training" / "vae_full" / "metrics.json").write_text('{"loss": 1.0}')
     with pytest.raises(ArtifactError, match="vae_full/metrics.json: expected dvclive's summary"):
-        section(tmp_path, tmp_path, tmp_path / "params.yaml")
+        section(tmp_path, tmp_path, TRAIN_VAE)
 
 
 def test_section_shows_metrics_curves_and_landscape(tmp_path):
-    (tmp_path / "params.yaml").write_text(PARAMS)
     for name, metric in {"full": METRIC, "nopred": {**METRIC, "property_mse": None}}.items():
         with training_log(tmp_path / "training" / f"vae_{name}") as live:  # as the train_vae stage logs
             for step in (50, 100, 150, 200):
                 log_row(live, {**{k: step / 100 for k in LOG_FIELDS}, "step": step,
                                "heldout_reconstruction": 0.5 if step == 200 else np.nan})
             log_evaluation(live, metric)
-    text = section(tmp_path, tmp_path, tmp_path / "params.yaml")
+    text = section(tmp_path, tmp_path, TRAIN_VAE)
     assert "| GLSO (with property predictor) | 0.750 | 1.000" in text and "| GLSO_nopred |" in text
     assert "n/a" in text  # nopred has no property predictor
     assert "| GLSO (with property predictor) | 0.125 | 0.500 | 0.000" in text  # decoded as the original
@@ -50,6 +48,6 @@ def test_section_shows_metrics_curves_and_landscape(tmp_path):
              "explained2": 0.2, "status": ["ok", "self_collision", ""][i % 3], "reward": [4.5, None, None][i % 3]}
             for v in ("full", "nopred") for i in range(9)]
     write_table(pd.DataFrame(rows), tmp_path / "vae_landscape.parquet", "vae_landscape")
-    text = section(tmp_path, tmp_path, tmp_path / "params.yaml")
+    text = section(tmp_path, tmp_path, TRAIN_VAE)
     assert "figures/vae_landscape.png" in text and "6 of them scored" in text
     assert (tmp_path / "figures" / "vae_landscape.png").exists()

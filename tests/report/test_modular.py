@@ -1,14 +1,16 @@
+import json
+
 import pandas as pd
 
 from robocompose.io import write_table
 from robocompose.modular.robot import all_designs
+from robocompose.modular.terrain import TerrainConfig
+from robocompose.modular.truth import exhaustive_metrics
 from robocompose.report.modular import section
 
-TINY_PARAMS = """
-modular:
-  eval: {control_steps: 2, settle_steps: 5}
-  experiments: {test_terrains: [1011], truth_terrains: [1011, 1012], ga_seeds: [0, 1], gallery: 1, ec_draws: 5}
-"""
+MODULAR = {"eval": {"control_steps": 2, "sim_steps_per_control": 20, "time_step": 0.25,
+                    "terrain": {"x_range": [-1.0, 5.0], "max_height_range": [0.0, 0.4]}},
+           "experiments": {"ec_draws": 5}}
 
 
 def _tables(data):
@@ -18,7 +20,9 @@ def _tables(data):
         distance = [float(d.count(module)) for d in designs]
         truth.append(pd.DataFrame({"terrain_seed": seed, "design": designs, "fitness": distance,
                                    "distance": distance, "status": "ok", "sim_steps": 100, "seconds": 0.2}))
-    write_table(pd.concat(truth), data / "modular" / "exhaustive.parquet", "modular_exhaustive")
+    metrics = exhaustive_metrics(pd.concat(truth), {1011: "simulated", 1012: "simulated"}, 0.5, TerrainConfig())
+    (data.parent / "reports" / "metrics").mkdir(parents=True, exist_ok=True)
+    (data.parent / "reports" / "metrics" / "modular_exhaustive.json").write_text(json.dumps(metrics))
     rows = []
     for method, best in [("ga20", 5.0), ("ga50", 6.0), ("crowding", 6.0), ("random", 3.0)]:
         for seed in (0, 1):
@@ -30,16 +34,17 @@ def _tables(data):
 
 
 def test_section_says_not_run_yet_without_stage_outputs(tmp_path):
-    assert "Not run yet" in section(tmp_path / "reports", tmp_path / "data")
+    assert "Not run yet" in section(tmp_path / "reports", tmp_path / "data", MODULAR)
 
 
-def test_section_shows_the_criterion_and_ours_beside_the_thesis_counting_failures(tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)
-    (tmp_path / "params.yaml").write_text(TINY_PARAMS)
+def test_section_shows_the_criterion_and_ours_beside_the_thesis_counting_failures(tmp_path):
     (tmp_path / "reports").mkdir()
     (tmp_path / "reports" / "benchmarks.json").write_text('{"modular.steps_per_s": 5000.0}')
     _tables(tmp_path / "data")
-    text = section(tmp_path / "reports", tmp_path / "data")
+    text = section(tmp_path / "reports", tmp_path / "data", MODULAR)
+    assert "episode 2 control steps x 20 sim steps (10.0 s) on a course x in [-1, 5] m" in text
+    tallest = json.loads((tmp_path / "reports" / "metrics" / "modular_exhaustive.json").read_text())["tallest_block_cm"]
+    assert f"| 1011 | {tallest['1011']:.1f} | `wwwwww` |" in text  # the stage's terrain, not regenerated here
     # Optima wwwwww (6 m) and llllll (6 m); every all-leg-and-wheel design averages 3 m, the first port string
     # (llllll) is taken: regret 6 m on 1011, 0 on 1012, 50% of the mean optimum.
     assert "2 distinct optimal designs" in text and "`llllll`, loses 3.00 m" in text
@@ -56,4 +61,8 @@ def test_section_shows_the_criterion_and_ours_beside_the_thesis_counting_failure
     assert "| 1011 | 4096 | 6.00 | `wwwwww` | 1 | 1.00 ± 0.00 | 0.00 ± 0.00 | 0.00 ± 0.00 | 3.00 ± 0.00 |" in text
     assert "| 1012 | 4096 |" not in text  # not a test terrain: in the criterion only
     assert "GA-50 100%" in text and "GA-20 0%" in text
-    assert (tmp_path / "reports" / "figures" / "modular_terrains.png").stat().st_size > 5000
+    assert "modular_terrains.png" not in text  # the modular_exhaustive stage has not drawn it
+    (tmp_path / "reports" / "plots").mkdir()
+    (tmp_path / "reports" / "plots" / "modular_terrains.png").write_bytes(b"png")
+    assert "![test terrains and their best designs](plots/modular_terrains.png)" in section(
+        tmp_path / "reports", tmp_path / "data", MODULAR)

@@ -1,6 +1,6 @@
 import pytest
 
-from robocompose.evaluation.references import REFERENCE_DESIGNS
+from robocompose.grammar.references import REFERENCE_DESIGNS
 
 
 @pytest.mark.parametrize(("command", "out", "fragments"), [

@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 
 from robocompose.io.provenance import ROOT
-from robocompose.report.timings import read_timings, timed
+from robocompose.io.timings import read_timings, timed
 
 
 def test_timed_records_each_stage_and_keeps_others(tmp_path):

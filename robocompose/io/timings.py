@@ -11,7 +11,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from robocompose.io.atomic import read_json
+from robocompose.io.atomic import atomic_write_json, read_json
 
 TIMINGS_FILE = Path("reports/timings.json")
 
@@ -34,8 +34,6 @@ def read_timings(path: Path = TIMINGS_FILE) -> dict:
 @contextmanager
 def timed(stage: str, path: Path = TIMINGS_FILE) -> Iterator[Timing]:
     """Record `stage`'s wall time (and the figures put in the yielded dict) when it finishes."""
-    from robocompose.io import atomic_write_json
-
     timing = Timing()
     yield timing
     timing["seconds"] = round(timing.elapsed(), 1)
