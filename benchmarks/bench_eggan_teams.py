@@ -17,6 +17,7 @@ import numpy as np
 import torch
 
 from robocompose.io.provenance import ROOT
+from robocompose.search.nsga2 import NSGA2Config
 from robocompose.teams.chips import synthetic_chip
 from robocompose.teams.compose import SHIPPED_MODEL
 from robocompose.teams.decompose import DecomposeConfig, decompose_chip
@@ -24,7 +25,7 @@ from robocompose.teams.eggan_problem import query_front
 from robocompose.teams.ergodic import CoverageConfig
 from robocompose.teams.evaluator import AllocationEvaluator, chip_coverage
 from robocompose.teams.generative import load_generator
-from robocompose.teams.nsga2 import NSGA2Config, run_nsga2
+from robocompose.teams.nsga2 import allocation_nsga2
 from robocompose.teams.species import SPECIES
 
 QUERIES = 20
@@ -45,8 +46,8 @@ def run() -> dict[str, float]:
                for _ in range(QUERIES)]
     query_seconds = float(np.mean([q.generator_seconds for q in queries]))
     evaluate = AllocationEvaluator(chip_coverage(chip, decomposition, coverage), chip.chip_id, seed=0)
-    nsga2 = run_nsga2(evaluate, decomposition.n_regions, len(SPECIES), coverage.robots_per_species,
-                      NSGA2Config(population=50, generations=50, seed=0))
+    nsga2 = allocation_nsga2(evaluate, decomposition.n_regions, len(SPECIES), coverage.robots_per_species,
+                             NSGA2Config(population=50, generations=50, seed=0))
     return {"eggan.teams.query_ms": 1000 * query_seconds, "eggan.teams.decompose_ms": decompose_ms,
             "eggan.teams.speedup_vs_nsga2": nsga2.seconds / query_seconds,
             "eggan.teams.hv_share": queries[0].hypervolume / nsga2.hypervolume,

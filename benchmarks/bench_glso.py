@@ -22,7 +22,8 @@ from threadpoolctl import threadpool_limits
 from robocompose.evaluation.evaluate import EvaluationConfig, evaluate
 from robocompose.glso.bo import LatentBO
 from robocompose.glso.ghs import GraphHeuristicSearch
-from robocompose.glso.runs import GLSOConfig, SearchEnv
+from robocompose.glso.method import SearchEnv
+from robocompose.glso.runs import GLSOConfig
 from robocompose.grammar.derivation import derive, parse_rules
 from robocompose.grammar.references import REFERENCE_DESIGNS
 from robocompose.latent.model import GraphVAE, VAEConfig
@@ -56,8 +57,8 @@ def run() -> dict[str, float]:
     tree = derive(parse_rules(REFERENCE_DESIGNS["robogrammar_flat"])).tree
     evaluation_config = load_section(EvaluationConfig, "evaluation")
     before = evaluate(tree, "flat", evaluation_config, seed=0)["seconds"]
-    bo = _method_seconds(LatentBO(config.bo, 0, config.budget, env.model.config.latent), env, config.budget, synthetic)
-    ghs = _method_seconds(GraphHeuristicSearch(config.ghs, 0, config.budget), env, config.budget, synthetic)
+    bo = _method_seconds(LatentBO(config.bo, 0, config.budget, env), env, config.budget, synthetic)
+    ghs = _method_seconds(GraphHeuristicSearch(config.ghs, 0, config.budget, env), env, config.budget, synthetic)
     evaluation = (before + evaluate(tree, "flat", evaluation_config, seed=0)["seconds"]) / 2  # around the methods
     return {"glso.suggest_seconds": bo, "glso.evaluation_seconds": evaluation, "glso.suggest_share": bo / evaluation,
             "glso.ghs_step_seconds": ghs, "glso.ghs_share": ghs / evaluation}

@@ -10,11 +10,12 @@ Real rollouts go through the shared evaluation cache; a killed run resumes from 
 from functools import partial
 from pathlib import Path
 
+from robocompose.eggan.learners import baselines
 from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.executor import Executor
 from robocompose.io import atomic_write_json
 from robocompose.io.timings import timed
-from robocompose.modular.eggan_experiments import BASELINES, train_baseline, train_variant
+from robocompose.modular.eggan_experiments import train_baseline, train_variant
 from robocompose.modular.eggan_params import VARIANTS, load_eggan_modular_params
 from robocompose.modular.params import load_modular_params
 from robocompose.stage import run_stage
@@ -24,7 +25,7 @@ def main() -> None:
     modular, params = load_modular_params("params.yaml"), load_eggan_modular_params("params.yaml")
     cache = EvaluationCache(modular.cache or None)
     trainers = {**{variant: partial(train_variant, variant) for variant in VARIANTS},
-                **{name: partial(train_baseline, name) for name in BASELINES}}
+                **{name: partial(train_baseline, name) for name in baselines()}}
     metrics = {}
     with timed("train_eggan_modular") as timing, Executor(modular.workers, modular.address or None) as executor:
         for method, train_method in trainers.items():

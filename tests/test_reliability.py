@@ -371,7 +371,7 @@ FULL_DISK = textwrap.dedent("""
     from pathlib import Path
     import numpy as np, pandas as pd, torch
     from robocompose.io import McapWriter, atomic_write_json, write_table
-    from robocompose.latent.train import save_torch
+    from robocompose.io.torch_file import save_torch
 
     folder = Path(sys.argv[1])
     noise = np.random.default_rng(0).random(131_072)  # 1 MB of incompressible float64

@@ -1,36 +1,13 @@
-"""Torch files of EG-GAN and its problems (generators, Q-networks, training checkpoints) behind a checksum header.
-
-A flipped byte inside a tensor is read by torch.load without complaint; `robocompose.io.write_checked` puts the
-payload's SHA-256 in front of it, so a truncated or corrupted file is an ArtifactError naming it.
-"""
+"""Trained networks of EG-GAN and its problems (generators, Q-networks): their state and info in one torch file
+behind the checksum header of `robocompose.io.save_torch`, the info as JSON beside it."""
 
 from __future__ import annotations
 
-import io
 import os
 from pathlib import Path
 
-import torch
-
-from robocompose.io.checked import read_checked, write_checked
 from robocompose.io.errors import InputError
-
-
-def save_torch(obj: object, path: str | os.PathLike[str]) -> Path:
-    """torch.save `obj` to `path` behind the checksum header, atomically.
-
-    Serialised through memory, so the bytes do not depend on the file name (torch names the archive's
-    folder after the file it writes, which for an atomic write is a random temporary name)."""
-    buffer = io.BytesIO()
-    torch.save(obj, buffer)
-    return write_checked(path, buffer.getvalue())
-
-
-def load_torch(path: str | os.PathLike[str], weights_only: bool = True) -> object:
-    """What `save_torch` wrote, on the CPU; ArtifactError naming the file if it is truncated or corrupted.
-
-    `weights_only=False` only for the project's own checkpoints, whose checksum has just been verified."""
-    return torch.load(io.BytesIO(read_checked(path)), map_location="cpu", weights_only=weights_only)
+from robocompose.io.torch_file import load_torch, save_torch
 
 
 def save_model(info: dict, state: dict, path: str | os.PathLike[str]) -> Path:

@@ -43,10 +43,9 @@ import torch.nn.functional as F
 
 from robocompose.eggan.networks import Discriminator, Generator, NetworkConfig
 from robocompose.eggan.problem import EgganProblem, check_problem
-from robocompose.eggan.storage import load_torch, save_torch
 from robocompose.io import McapWriter, atomic_write_text
-from robocompose.io.checked import set_aside
-from robocompose.io.errors import ArtifactError, InputError
+from robocompose.io.checkpoint import load_checkpoint, save_checkpoint
+from robocompose.io.errors import InputError
 from robocompose.io.provenance import code_digest
 
 
@@ -213,17 +212,6 @@ def write_logs(rows: list[dict], csv_path: Path | None, mcap_path: Path | None, 
 
 
 
-def read_checkpoint(checkpoint: Path | None) -> dict | None:
-    """A training checkpoint's contents, or None if there is none; a corrupt one (checksum) is moved aside, so
-    the run starts afresh instead of resuming from damaged state."""
-    if checkpoint is None or not checkpoint.exists():
-        return None
-    try:
-        return load_torch(checkpoint, weights_only=False)  # our own file, its checksum verified first
-    except ArtifactError as err:
-        set_aside(checkpoint, str(err).removeprefix(f"{checkpoint}: "))
-        return None
-
 def train(problem: EgganProblem, network: NetworkConfig, config: TrainConfig, checkpoint: Path | None = None,
           csv_path: Path | None = None, mcap_path: Path | None = None, progress: bool = False) -> Trained:
     """Run Algorithm 1 for `config.iterations` iterations, resuming from `checkpoint` if it holds this run."""
@@ -239,18 +227,19 @@ def train(problem: EgganProblem, network: NetworkConfig, config: TrainConfig, ch
     opt_d = torch.optim.Adam(discriminator.parameters(), lr=config.lr_discriminator, betas=(config.beta1, 0.999))
     key = run_key(problem, network, config)
     start, rows = 0, []
-    saved = read_checkpoint(checkpoint)
+    saved = load_checkpoint(checkpoint, key)  # None unless it holds this run (a damaged one is moved aside)
+    if saved is not None and saved["iteration"] > config.iterations:
+        print(f"{checkpoint} is at iteration {saved['iteration']}, past this run's {config.iterations}: starting "
+              "afresh", flush=True)
+        saved = None
     if saved is not None:
-        if saved.get("key") == key and saved["iteration"] <= config.iterations:
-            generator.load_state_dict(saved["generator"])
-            discriminator.load_state_dict(saved["discriminator"])
-            opt_g.load_state_dict(saved["opt_g"])
-            opt_d.load_state_dict(saved["opt_d"])
-            problem.load_state_dict(saved["problem"])
-            start, rows = saved["iteration"], saved["rows"]
-            print(f"resuming from {checkpoint} at iteration {start}", flush=True)
-        else:
-            print(f"{checkpoint} holds a run with other settings: starting afresh", flush=True)
+        generator.load_state_dict(saved["generator"])
+        discriminator.load_state_dict(saved["discriminator"])
+        opt_g.load_state_dict(saved["opt_g"])
+        opt_d.load_state_dict(saved["opt_d"])
+        problem.load_state_dict(saved["problem"])
+        start, rows = saved["iteration"], saved["rows"]
+        print(f"resuming from {checkpoint} at iteration {start}", flush=True)
 
     from tqdm import tqdm
 
@@ -268,9 +257,10 @@ def train(problem: EgganProblem, network: NetworkConfig, config: TrainConfig, ch
             pending = []
             bar.set_postfix(loss_d=f"{row['loss_d']:.3f}", real=row["real_evaluations"])
         if checkpoint is not None and (done % config.checkpoint_every == 0 or done == config.iterations):
-            save_torch({"key": key, "iteration": done, "generator": generator.state_dict(),
-                        "discriminator": discriminator.state_dict(), "opt_g": opt_g.state_dict(),
-                        "opt_d": opt_d.state_dict(), "problem": problem.state_dict(), "rows": rows}, checkpoint)
+            save_checkpoint(checkpoint, key, {
+                "iteration": done, "generator": generator.state_dict(), "discriminator": discriminator.state_dict(),
+                "opt_g": opt_g.state_dict(), "opt_d": opt_d.state_dict(), "problem": problem.state_dict(),
+                "rows": rows})
             write_logs(rows, csv_path, mcap_path, topic)
         bar.update(1)
     bar.close()

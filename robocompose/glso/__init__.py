@@ -1,8 +1,7 @@
 """The GLSO experiment on grammar designs (thesis 8): latent BO on the three VAEs against random search, a graph
-GA, MCTS and GHS, all on one objective and one budget; runs as step tables (`runs.py`), `robocompose glso`."""
+GA, MCTS and GHS, all on one objective and one budget. A method implements `method.SearchMethod` and is named
+in `registry.METHODS`; runs become step tables (`runs.py`); `robocompose glso` runs one."""
 
-LATENT_METHODS = {"glso": "full", "glso_nopred": "nopred", "glso_nogram": "nogram"}  # method -> VAE variant
-METHODS = (*LATENT_METHODS, "random", "ga", "mcts", "ghs")
 FIG_8_1 = ("random", "ga", "mcts", "ghs", "glso")  # the thesis's comparison with baselines
 FIG_8_2 = ("glso", "glso_nopred", "glso_nogram")  # the thesis's ablations
 

@@ -25,7 +25,7 @@ import torch
 from bayes_opt import BayesianOptimization, SequentialDomainReductionTransformer, acquisition
 from scipy.optimize import minimize
 
-from robocompose.glso.designs import Proposal
+from robocompose.glso.method import Proposal, SearchEnv
 from robocompose.grammar.tree import DesignTree
 from robocompose.io.errors import check_field
 
@@ -83,9 +83,10 @@ def decode(model, z: np.ndarray) -> DesignTree:
 
 
 class LatentBO:
-    def __init__(self, config: BOConfig, seed: int, budget: int, latent: int) -> None:
+    def __init__(self, config: BOConfig, seed: int, budget: int, env: SearchEnv) -> None:
         self.config = config
-        self.keys = [f"z{i:03d}" for i in range(latent)]  # zero-padded: bayes_opt's key order is latent order
+        # zero-padded: bayes_opt's key order is latent order
+        self.keys = [f"z{i:03d}" for i in range(env.model.config.latent)]
         transformer = (SequentialDomainReductionTransformer(gamma_osc=config.gamma_osc, gamma_pan=config.gamma_pan,
                                                             eta=config.eta, minimum_window=config.minimum_window)
                        if config.domain_reduction else None)
@@ -100,7 +101,7 @@ class LatentBO:
         c, i = self.config, self.step - self.config.init
         return i < 0 or (c.random_every > 0 and (i + 1) % c.random_every == 0)
 
-    def propose(self, env) -> Proposal:
+    def propose(self, env: SearchEnv) -> Proposal:
         params = self.optimizer.random_sample(1)[0] if self.is_random_step() else self.optimizer.suggest()
         z = np.array([params[k] for k in self.keys], dtype=np.float64)
         return Proposal(decode(env.model, z), None, z=z)

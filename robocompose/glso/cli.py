@@ -4,20 +4,21 @@ from __future__ import annotations
 
 import argparse
 import json
-
-from robocompose.glso import LATENT_METHODS, METHODS
+from pathlib import Path
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     glso = subparsers.add_parser("glso", help="search a task for the best design with one method; JSON per step")
     glso.add_argument("--task", default="flat", help="flat, frozen_lake, ridged or wall")
-    glso.add_argument("--method", default="glso", help=f"one of {', '.join(METHODS)}")
+    glso.add_argument("--method", default="glso",
+                      help="a method of robocompose/glso/registry.py: glso (and its ablations), random, ga, mcts, ...")
     glso.add_argument("--budget", type=int, default=None, help="objective calls (default: glso.budget)")
     glso.add_argument("--seed", type=int, default=0, help="run seed")
     glso.add_argument("--model", default=None, help="the VAE of a latent method (default: glso.models)")
     glso.add_argument("--params", default="params.yaml", help="params file (sections glso and evaluation)")
-    glso.add_argument("--checkpoint", default=None, help="resume from / save to this checkpoint file")
-    glso.add_argument("--out", default=None, help="write the step table (parquet) here")
+    glso.add_argument("--checkpoint", default=None,
+                      help="save to this checkpoint file, or resume from it if it holds this run's checkpoint")
+    glso.add_argument("--out", default=None, help="write the step table here (a .parquet file)")
     glso.add_argument("--address", default=None,
                       help="run the search on a worker of this Dask scheduler (tcp://host:8786; default: params' "
                            "glso.address; \"\" = here); its lines print when it finishes")
@@ -29,23 +30,42 @@ def _remote_search(job: tuple) -> object:
     from robocompose.glso.runs import run_search
 
     spec, config, evaluation, checkpoint, model = job
-    return run_search(spec, config, evaluation, checkpoint=checkpoint, model_path=model)
+    return run_search(spec, config, evaluation, checkpoint=checkpoint, model_path=model, named_checkpoint=True)
+
+
+def check_checkpoint_path(path: Path) -> Path:
+    """`path` if a checkpoint can be read or written there (a file or a new name); else InputError.
+
+    Whether an existing file holds this run's checkpoint is checked by its header when the run starts."""
+    from robocompose.io.errors import InputError
+
+    if path.is_dir():
+        raise InputError(f"--checkpoint {path}: is a directory, expected a checkpoint file name")
+    blocking = next((p for p in path.parents if p.exists() and not p.is_dir()), None)
+    if blocking is not None:
+        raise InputError(f"--checkpoint {path}: {blocking} is a file, expected a directory")
+    return path
 
 
 def _glso(args: argparse.Namespace) -> int:
     import dataclasses
-    from pathlib import Path
+
+    from robocompose.arguments import check_output_file
+    from robocompose.io.errors import InputError
+
+    out = None if args.out is None else check_output_file(Path(args.out), ".parquet", "a parquet step table")
+    checkpoint = None if args.checkpoint is None else check_checkpoint_path(Path(args.checkpoint))
 
     from robocompose.evaluation.evaluate import EvaluationConfig
+    from robocompose.glso.registry import METHODS
     from robocompose.glso.runs import GLSOConfig, RunSpec, run_search
-    from robocompose.io.errors import InputError
     from robocompose.params import load_section
     from robocompose.tasks.terrains import get_task
 
     get_task(args.task)
     if args.method not in METHODS:
         raise InputError(f"--method: unknown method {args.method!r}; expected one of {', '.join(METHODS)}")
-    if args.model is not None and args.method not in LATENT_METHODS:
+    if args.model is not None and METHODS[args.method].variant is None:
         raise InputError(f"--model: method {args.method} does not use a VAE")
     config = load_section(GLSOConfig, "glso", args.params)
     if args.budget is not None:
@@ -62,7 +82,6 @@ def _glso(args: argparse.Namespace) -> int:
               flush=True)
 
     spec = RunSpec(args.task, args.method, args.seed)
-    checkpoint = None if args.checkpoint is None else Path(args.checkpoint)
     address = config.address if args.address is None else args.address
     if address:
         from robocompose.evaluation.executor import Executor
@@ -72,11 +91,11 @@ def _glso(args: argparse.Namespace) -> int:
             steps = next(executor.imap(_remote_search, [(spec, config, evaluation, checkpoint, model)]))
         for row in steps.to_dict("records"):
             show(row)
-        if args.out is not None:
-            write_table(steps, Path(args.out), "glso_steps")
+        if out is not None:
+            write_table(steps, out, "glso_steps")
     else:
-        steps = run_search(spec, config, evaluation, on_step=show, checkpoint=checkpoint,
-                           table=None if args.out is None else Path(args.out), model_path=model)
+        steps = run_search(spec, config, evaluation, on_step=show, checkpoint=checkpoint, table=out, model_path=model,
+                           named_checkpoint=True)
     best = steps.loc[steps["score"].idxmax()]
     print(json.dumps({"best": {"design_id": best.design_id, "rules": list(best.rules), "score": best.score,
                                "status": best.status, "step": int(best.step), "parents": list(best.parents),

@@ -1,6 +1,6 @@
-"""What every GLSO search method shares: a proposal, the pybullet checks of a design, random grammar designs.
+"""What the GLSO search methods share: the pybullet checks of a design, random grammar designs.
 
-A method proposes one complete design at a time (`Proposal`); the run (`runs.py`) spends one objective
+A method proposes one complete design at a time (`method.Proposal`); the run (`runs.py`) spends one objective
 call on it and tells the method its score. Which designs a method may propose follows its original:
 - grammar methods (random search, MCTS, GHS) redraw a derivation that is incomplete at the depth limit or
   self-penetrates when placed (RoboGrammar's `get_result` is None: no evaluation is spent on it);
@@ -13,26 +13,11 @@ call on it and tells the method its score. Which designs a method may propose fo
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Any
-
-import numpy as np
-
+from robocompose.glso.method import Proposal
 from robocompose.grammar.derivation import MAX_DEPTH
 from robocompose.grammar.tree import DesignTree
 
 MAX_TRIES = 1000  # redraws before a method gives up on finding a valid design (RoboGrammar's max_tries)
-
-
-@dataclass
-class Proposal:
-    """One design a method wants evaluated. `rules` is its grammar derivation (None if the grammar cannot
-    make it), `z` its latent point (latent methods), `info` what the method needs back when told."""
-
-    tree: DesignTree
-    rules: tuple[int, ...] | None
-    z: np.ndarray | None = None
-    info: Any = field(default=None, repr=False)
 
 
 _CLIENT: int | None = None

@@ -27,8 +27,9 @@ import numpy as np
 import torch
 from torch import nn
 
-from robocompose.glso.designs import MAX_TRIES, Proposal, self_colliding
+from robocompose.glso.designs import MAX_TRIES, self_colliding
 from robocompose.glso.mcts import successors
+from robocompose.glso.method import Proposal, SearchEnv
 from robocompose.grammar.derivation import MAX_DEPTH, graph_to_tree
 from robocompose.grammar.rules import (
     NONTERMINAL_EDGE_LABELS,
@@ -136,7 +137,7 @@ def exp_decay(start: float, end: float, decay: float, e: int, total: int) -> flo
 
 
 class GraphHeuristicSearch:
-    def __init__(self, config: GHSConfig, seed: int, budget: int) -> None:
+    def __init__(self, config: GHSConfig, seed: int, budget: int, env: SearchEnv) -> None:
         self.config = config
         self.budget = budget
         self.rng = np.random.default_rng([seed, 0x474853])  # "GHS"
@@ -172,7 +173,7 @@ class GraphHeuristicSearch:
             return None
         return states, rules
 
-    def propose(self, env) -> Proposal:
+    def propose(self, env: SearchEnv) -> Proposal:
         c, e = self.config, self.iteration
         eps = exp_decay(c.eps_start, c.eps_end, c.eps_decay, e, self.budget)
         eps_sample = exp_decay(c.eps_sample_start, c.eps_sample_end, c.eps_sample_decay, e, self.budget)

@@ -19,7 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robocompose.glso.designs import MAX_TRIES, Proposal, random_grammar_design, run_stream, self_colliding
+from robocompose.glso.designs import MAX_TRIES, random_grammar_design, run_stream, self_colliding
+from robocompose.glso.method import Proposal, SearchEnv
 from robocompose.grammar.derivation import MAX_DEPTH
 from robocompose.grammar.tree import N_TOKENS, DesignTree, split_token
 from robocompose.io.errors import check_field
@@ -91,7 +92,7 @@ def mutate(tree: DesignTree, rng: np.random.Generator, config: GAConfig) -> Desi
 
 
 class GraphGA:
-    def __init__(self, config: GAConfig, seed: int, budget: int) -> None:
+    def __init__(self, config: GAConfig, seed: int, budget: int, env: SearchEnv) -> None:
         self.config = config
         self.rng = np.random.default_rng([seed, 0x4741])  # "GA"
         self.population: list[tuple[Proposal, float]] = []  # evaluated members of the current generation
@@ -115,7 +116,7 @@ class GraphGA:
                 raise RuntimeError(f"GA: no buildable child in {MAX_TRIES} mutations")
         self.generation += 1
 
-    def propose(self, env) -> Proposal:
+    def propose(self, env: SearchEnv) -> Proposal:
         if not self.queue:
             if self.generation == 0 and len(self.population) < self.config.population:
                 proposal, self.k = random_grammar_design(self.stream, self.k, self.config.max_depth)

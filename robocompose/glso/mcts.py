@@ -26,7 +26,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from robocompose.glso.designs import MAX_TRIES, Proposal, self_colliding
+from robocompose.glso.designs import MAX_TRIES, self_colliding
+from robocompose.glso.method import Proposal, SearchEnv
 from robocompose.grammar.derivation import MAX_DEPTH, graph_to_tree
 from robocompose.grammar.rules import RULES, START_GRAPH, Graph, apply_rule, first_match
 
@@ -65,7 +66,7 @@ def successors(graph: Graph, n_rules: int, max_depth: int) -> dict[int, Graph]:
 
 
 class TreeSearch:
-    def __init__(self, config: MCTSConfig, seed: int, budget: int) -> None:
+    def __init__(self, config: MCTSConfig, seed: int, budget: int, env: SearchEnv) -> None:
         self.config = config
         self.rng = np.random.default_rng([seed, 0x4D435453])  # "MCTS"
         self.nodes: dict[Graph, Node] = {}
@@ -92,7 +93,7 @@ class TreeSearch:
             action = max(actions, key=lambda a: self._uct(node, a))
         return action, children[action]
 
-    def propose(self, env) -> Proposal:
+    def propose(self, env: SearchEnv) -> Proposal:
         while True:
             states, rules = [START_GRAPH], []
             self.nodes.setdefault(START_GRAPH, Node())

@@ -7,7 +7,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from robocompose.glso.designs import Proposal, random_grammar_design, run_stream
+from robocompose.glso.designs import random_grammar_design, run_stream
+from robocompose.glso.method import Proposal, SearchEnv
 from robocompose.grammar.derivation import MAX_DEPTH
 
 
@@ -17,12 +18,12 @@ class RandomConfig:
 
 
 class RandomSearch:
-    def __init__(self, config: RandomConfig, seed: int, budget: int) -> None:
+    def __init__(self, config: RandomConfig, seed: int, budget: int, env: SearchEnv) -> None:
         self.config = config
         self.stream = run_stream(seed, "random")  # not the dataset's stream: fresh designs
         self.k = 0  # next candidate of the stream
 
-    def propose(self, env) -> Proposal:
+    def propose(self, env: SearchEnv) -> Proposal:
         proposal, self.k = random_grammar_design(self.stream, self.k, self.config.max_depth)
         return proposal
 

@@ -1,4 +1,5 @@
-"""GLSO search runs: seven methods on one objective and one budget; runs as step tables; resumable; fanned out.
+"""GLSO search runs: the registered methods on one objective and one budget; runs as step tables; resumable;
+fanned out.
 
     from robocompose.glso.runs import GLSOConfig, RunSpec, run_search, run_all
     steps = run_search(RunSpec("flat", "glso", seed=0), config, evaluation)     # one run -> step table
@@ -10,12 +11,15 @@ the grammar methods and the GA reject them before evaluation, as their originals
 the same budget, the same evaluator settings and the same controller seed (`evaluation.seed`); a design
 seen again in a run costs a call and returns its cached score (evaluations are deterministic).
 
-Resumption: after every call the run's method state (its RNG, search tree, network, optimiser; pickled
-whole) and its rows are written atomically to the checkpoint, then its step table. A run killed at any
-point resumes from the last checkpoint and ends with the same table as an uninterrupted run. The tables
-hold no wall times (`run_job` returns a run's seconds; the stage keeps them in reports/timings.json). The
-checkpoint key covers the run, the budget, the method's settings, the evaluator's settings hash, the VAE
-file and the code; a stale checkpoint is started over.
+Methods: `registry.METHODS` names them; each is a `method.SearchMethod` with its settings in `glso.<section>`.
+
+Resumption: after every call the run's method (its RNG, search tree, network, optimiser: the object, pickled
+whole) and its rows are written atomically to the checkpoint (`robocompose.io.checkpoint`), then its step
+table. A run killed at any point resumes from the last checkpoint and ends with the same table as an
+uninterrupted run. The tables hold no wall times (`run_job` returns a run's seconds; the stage keeps them in
+reports/timings.json). The checkpoint key covers the run, the budget, the method's settings, the evaluator's
+settings hash, the VAE file and the code; the stage starts a stale checkpoint over, a checkpoint file the
+user names (`robocompose glso --checkpoint`) must hold this run or be new.
 """
 
 from __future__ import annotations
@@ -23,7 +27,6 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-import pickle
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -36,15 +39,12 @@ import pandas as pd
 from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.evaluate import EvaluationConfig, evaluate, objective
 from robocompose.evaluation.executor import Executor
-from robocompose.glso import LATENT_METHODS, METHODS, best_designs
-from robocompose.glso.bo import BOConfig, LatentBO
-from robocompose.glso.designs import Proposal
-from robocompose.glso.ghs import GHSConfig, GraphHeuristicSearch
-from robocompose.glso.graph_ga import GAConfig, GraphGA
-from robocompose.glso.mcts import MCTSConfig, TreeSearch
-from robocompose.glso.random_search import RandomConfig, RandomSearch
+from robocompose.glso import best_designs
+from robocompose.glso.method import Proposal, SearchEnv, SearchMethod
+from robocompose.glso.registry import METHODS, settings_sections
 from robocompose.grammar.tree import DesignTree
-from robocompose.io import atomic_path, read_table, write_table
+from robocompose.io import read_table, write_table
+from robocompose.io.checkpoint import load_checkpoint, save_checkpoint
 from robocompose.io.errors import ArtifactError, check_field
 from robocompose.io.provenance import code_digest
 from robocompose.params import build_config
@@ -52,27 +52,21 @@ from robocompose.tasks.terrains import get_task
 
 
 @dataclass(frozen=True)
-class GLSOConfig:
-    """The `glso:` section of params.yaml."""
+class RunSettings:
+    """The `glso:` section of params.yaml but for the methods' own sections (`GLSOConfig` adds those)."""
 
     tasks: list = field(default_factory=lambda: ["flat", "frozen_lake", "ridged", "wall"])
     methods: list = field(default_factory=lambda: list(METHODS))
     seeds: list = field(default_factory=lambda: [0, 1, 2])  # run seeds (thesis: 3)
     budget: int = 550  # objective calls per run (GLSO: 50 random + 500 BO steps)
     models: str = "models/vae_{variant}.pt"  # where the VAE of each latent method is ({variant}: full, ...)
-    bo: BOConfig = field(default_factory=BOConfig)
-    random: RandomConfig = field(default_factory=RandomConfig)
-    ga: GAConfig = field(default_factory=GAConfig)
-    mcts: MCTSConfig = field(default_factory=MCTSConfig)
-    ghs: GHSConfig = field(default_factory=GHSConfig)
     workers: int = 0  # runs in parallel on local processes (0 = all cores); each run evaluates in its process
     address: str = ""  # a running Dask scheduler (tcp://host:8786) to fan the runs out over; "" = local
 
     def __post_init__(self) -> None:
-        for name, cls in (("bo", BOConfig), ("random", RandomConfig), ("ga", GAConfig), ("mcts", MCTSConfig),
-                          ("ghs", GHSConfig)):
-            if isinstance(getattr(self, name), dict):
-                object.__setattr__(self, name, build_config(cls, getattr(self, name), f"glso.{name}"))
+        for section, cls in settings_sections().items():
+            if isinstance(getattr(self, section), dict):
+                object.__setattr__(self, section, build_config(cls, getattr(self, section), f"glso.{section}"))
         unknown = [m for m in self.methods if m not in METHODS]
         check_field(not unknown, "methods", f"some of {list(METHODS)}", unknown[:1])
         for task in self.tasks:
@@ -82,8 +76,20 @@ class GLSOConfig:
         check_field("{variant}" in self.models, "models", "a path with {variant} in it", self.models)
 
     def model_path(self, method: str) -> Path | None:
-        variant = LATENT_METHODS.get(method)
-        return None if variant is None else Path(self.models.format(variant=variant))
+        """The VAE file a method searches (None for a method without one)."""
+        return METHODS[method].model_path(self.models)
+
+    def settings(self, method: str) -> Any:
+        """A method's settings (its section's dataclass)."""
+        return getattr(self, METHODS[method].section)
+
+
+# The `glso:` section of params.yaml: RunSettings and one field per registered method section (`bo`, `ga`, ...:
+# that section's dataclass, made from its mapping in params.yaml), so that a new method needs no edit here.
+GLSOConfig = dataclasses.make_dataclass(
+    "GLSOConfig", [(section, cls.__name__, field(default_factory=cls)) for section, cls in settings_sections().items()],
+    bases=(RunSettings,), frozen=True,
+    namespace={"__module__": __name__, "__doc__": "The `glso:` section of params.yaml."})
 
 
 @dataclass(frozen=True)
@@ -97,26 +103,9 @@ class RunSpec:
         return f"{self.task}_{self.method}_seed{self.seed}"
 
 
-@dataclass
-class SearchEnv:
-    """What a method reads but does not own (never pickled with it): the task and the VAE (latent methods)."""
-
-    task: str
-    model: Any = None
-
-
-def make_method(spec: RunSpec, config: GLSOConfig, env: SearchEnv):
+def make_method(spec: RunSpec, config: GLSOConfig, env: SearchEnv) -> SearchMethod:
     """The method object of a run, fresh (its state is everything the checkpoint pickles)."""
-    if spec.method in LATENT_METHODS:
-        return LatentBO(config.bo, spec.seed, config.budget, env.model.config.latent)
-    cls, settings = {"random": (RandomSearch, config.random), "ga": (GraphGA, config.ga),
-                     "mcts": (TreeSearch, config.mcts), "ghs": (GraphHeuristicSearch, config.ghs)}[spec.method]
-    return cls(settings, spec.seed, config.budget)
-
-
-def method_settings(spec: RunSpec, config: GLSOConfig) -> dict:
-    name = "bo" if spec.method in LATENT_METHODS else spec.method
-    return dataclasses.asdict(getattr(config, name))
+    return METHODS[spec.method].cls(config.settings(spec.method), spec.seed, config.budget, env)
 
 
 class Objective:
@@ -141,7 +130,7 @@ class Objective:
 def run_key(spec: RunSpec, config: GLSOConfig, evaluation: EvaluationConfig, model_path: Path | None) -> str:
     """What a checkpoint must match to be resumed."""
     model = hashlib.sha256(model_path.read_bytes()).hexdigest()[:16] if model_path else None
-    text = json.dumps([dataclasses.asdict(spec), config.budget, method_settings(spec, config),
+    text = json.dumps([dataclasses.asdict(spec), config.budget, dataclasses.asdict(config.settings(spec.method)),
                        evaluation.settings_hash(spec.task), evaluation.seed, model,
                        code_digest("robocompose.glso.runs")],
                       sort_keys=True)
@@ -164,12 +153,13 @@ def step_row(spec: RunSpec, step: int, proposal: Proposal, result: dict, score: 
 def run_search(spec: RunSpec, config: GLSOConfig, evaluation: EvaluationConfig,
                objective_fn: Callable[[DesignTree], dict] | None = None, checkpoint: Path | None = None,
                table: Path | None = None, on_step: Callable[[dict], None] | None = None,
-               model_path: Path | None = None) -> pd.DataFrame:
+               model_path: Path | None = None, named_checkpoint: bool = False) -> pd.DataFrame:
     """One run of `config.budget` objective calls: its step table (resumed from `checkpoint` if it matches).
 
     `objective_fn(tree)` returns an evaluator row {reward, status, ...} (default: the real evaluator through
     `evaluation`'s cache); `on_step(row)` sees each new row after it is checkpointed; `model_path`
-    overrides the latent method's VAE file.
+    overrides the latent method's VAE file. `named_checkpoint`: the user named `checkpoint`, so a file there
+    that is not this run's checkpoint is an InputError (else it is started over with a warning).
     """
     import torch
     from threadpoolctl import threadpool_limits
@@ -186,13 +176,8 @@ def run_search(spec: RunSpec, config: GLSOConfig, evaluation: EvaluationConfig,
 
         env.model = load_model(model_path)
     key = run_key(spec, config, evaluation, model_path)
-    method, rows = None, []
-    if checkpoint is not None and checkpoint.exists():
-        saved = pickle.loads(checkpoint.read_bytes())  # {key, state}: the state is unpickled only if the key
-        if saved["key"] == key:  # matches (an old checkpoint's classes may no longer exist)
-            method, rows = pickle.loads(saved["state"])
-    if method is None:
-        method = make_method(spec, config, env)
+    saved = load_checkpoint(checkpoint, key, named=named_checkpoint)  # the key is checked before unpickling
+    method, rows = saved if saved is not None else (make_method(spec, config, env), [])
     if objective_fn is None:
         objective_fn = Objective(env.task, evaluation, evaluation.open_cache())
     seen = {row["design_id"] for row in rows}
@@ -207,8 +192,7 @@ def run_search(spec: RunSpec, config: GLSOConfig, evaluation: EvaluationConfig,
         seen.add(proposal.tree.design_id)
         rows.append(step_row(spec, step, proposal, result, score, repeat, best))
         if checkpoint is not None:
-            with atomic_path(checkpoint) as tmp:
-                tmp.write_bytes(pickle.dumps({"key": key, "state": pickle.dumps((method, rows))}))
+            save_checkpoint(checkpoint, key, (method, rows), pickled=True)
         if table is not None:
             write_table(pd.DataFrame(rows), table, "glso_steps")
         if on_step is not None:

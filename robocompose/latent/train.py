@@ -10,10 +10,8 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import io
 import math
 import os
-import pickle
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -22,9 +20,11 @@ import numpy as np
 import torch
 
 from robocompose.grammar.tree import DesignTree
-from robocompose.io import ArtifactError, McapWriter, read_checked, read_table, set_aside, write_checked
+from robocompose.io import ArtifactError, McapWriter, read_table
+from robocompose.io.checkpoint import load_checkpoint, save_checkpoint
 from robocompose.io.errors import InputError
 from robocompose.io.provenance import code_digest, settings_digest
+from robocompose.io.torch_file import load_torch, save_torch
 from robocompose.latent.batch import collate
 from robocompose.latent.constraints import Replay, replay
 from robocompose.latent.curves import CURVES, LOG_FIELDS
@@ -166,21 +166,6 @@ def run_key(model_config: VAEConfig, config: TrainConfig, designs: Designs, trai
                             code_digest("robocompose.latent.train")])
 
 
-def save_torch(obj: dict, path: str | Path) -> Path:
-    """torch.save `obj` to `path` behind a SHA-256 header (robocompose.io.write_checked), atomically.
-
-    Serialised through memory, so the bytes do not depend on the file name (torch names the archive's
-    folder after the file it writes, here a random temporary name) and are the same on every run."""
-    buffer = io.BytesIO()
-    torch.save(obj, buffer)
-    return write_checked(path, buffer.getvalue())
-
-
-def load_torch(path: str | Path, weights_only: bool = True) -> dict:
-    """What `save_torch` wrote; ArtifactError naming the file if it is truncated or corrupted."""
-    return torch.load(io.BytesIO(read_checked(path)), map_location="cpu", weights_only=weights_only)
-
-
 def save_model(model: GraphVAE, path: str | Path) -> Path:
     return save_torch({"config": dataclasses.asdict(model.config), "state": model.state_dict()}, path)
 
@@ -196,13 +181,8 @@ def load_model(path: str | Path) -> GraphVAE:
         raise InputError(f"{path}: no such model file ({expected}; train one with `dvc repro train_vae`)")
     try:
         saved = load_torch(path)  # the checksum first: a cut or flipped file never reaches torch.load
-    except ArtifactError as err:
+    except ArtifactError as err:  # cut, flipped, no torch archive, or objects other than tensors
         raise InputError(f"{err} ({expected})") from None
-    except pickle.UnpicklingError:
-        raise InputError(f"{path}: holds Python objects other than tensors and plain values, which are not loaded "
-                         f"(models load with weights_only=True; {expected})") from None
-    except Exception as err:  # an intact checksum over a payload that is no torch archive: torch raises many types
-        raise InputError(f"{path}: damaged torch archive ({type(err).__name__}; {expected})") from None
     if not isinstance(saved, dict) or not {"config", "state"} <= set(saved):
         raise InputError(f"{path}: not a robocompose model ({expected}, a dict with 'config' and 'state')")
     try:
@@ -249,6 +229,10 @@ def log_evaluation(live: Live, metrics: dict, prefix: str = "evaluation") -> Non
 def write_logs(rows: list[dict], live: Live, mcap_path: Path) -> None:
     """At a checkpoint: dvclive's summary of the rows logged so far, and an MCAP log (one `/vae/train` message
     per row) for Foxglove."""
+    # dvclive keeps the summary's keys in the order they were first logged: a straight run logs `step` before the
+    # first held-out check, a resumed one replays that check first; sorted, both write the same metrics.json
+    live.summary["step"] = live.step
+    live.summary = dict(sorted(live.summary.items()))
     live.make_summary()
     with McapWriter(mcap_path) as log:
         for row in rows:
@@ -274,22 +258,18 @@ def train(model_config: VAEConfig, config: TrainConfig, designs: Designs, checkp
     optimizer = torch.optim.Adam(model.parameters(), lr=config.lr, fused=True)  # one kernel, not one loop per tensor
     key = run_key(model_config, config, designs, train_set)
     start, rows = 0, []
-    saved = None
-    if checkpoint.exists():
-        try:
-            saved = load_torch(checkpoint, weights_only=True)
-        except ArtifactError as err:  # a checkpoint only saves time: keep the file, start afresh
-            set_aside(checkpoint, str(err).removeprefix(f"{checkpoint}: "))
+    saved = load_checkpoint(checkpoint, key)  # None unless it holds this run (a damaged one is moved aside)
+    if saved is not None and saved["step"] > config.steps:
+        print(f"{checkpoint} is at step {saved['step']}, past this run's {config.steps} steps: starting afresh",
+              flush=True)
+        saved = None
     if saved is not None:
-        if saved["key"] == key and saved["step"] <= config.steps:
-            model.load_state_dict(saved["model"])
-            optimizer.load_state_dict(saved["optimizer"])
-            start, rows = saved["step"], saved["rows"]
-            print(f"resuming from {checkpoint} at step {start}", flush=True)
-            for row in rows:
-                log_row(live, row)
-        else:
-            print(f"{checkpoint} holds a run with other settings: starting afresh", flush=True)
+        model.load_state_dict(saved["model"])
+        optimizer.load_state_dict(saved["optimizer"])
+        start, rows = saved["step"], saved["rows"]
+        print(f"resuming from {checkpoint} at step {start}", flush=True)
+        for row in rows:
+            log_row(live, row)
 
     from tqdm import tqdm
 
@@ -324,8 +304,8 @@ def train(model_config: VAEConfig, config: TrainConfig, designs: Designs, checkp
             running = {}
             bar.set_postfix(loss=f"{row['loss']:.2f}", rec=f"{row['heldout_reconstruction']:.2f}")
         if done % config.checkpoint_every == 0 or done == config.steps:
-            save_torch({"key": key, "step": done, "model": model.state_dict(),
-                        "optimizer": optimizer.state_dict(), "rows": rows}, checkpoint)
+            save_checkpoint(checkpoint, key, {"step": done, "model": model.state_dict(),
+                                              "optimizer": optimizer.state_dict(), "rows": rows})
             write_logs(rows, live, mcap_path)
         bar.update(1)
     bar.close()

@@ -23,18 +23,13 @@ import dataclasses
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pandas as pd
-import torch
 
-from robocompose.eggan.dqn import DQNConfig, best_designs, load_dqn, save_dqn, train_dqn
-from robocompose.eggan.fit2form import Fit2formConfig, train_fit2form
-from robocompose.eggan.molgan import MolganConfig, train_molgan
-from robocompose.eggan.query import generate, load_generator, rank_distinct, save_generator
+from robocompose.eggan.learners import LEARNERS, Learner, baselines
+from robocompose.eggan.query import save_generator
 from robocompose.eggan.train import train
 from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.executor import Executor
@@ -87,83 +82,48 @@ def train_variant(variant: str, modular: ModularParams, params: EgganModularPara
     return metrics
 
 
-def generator_proposer(generator: torch.nn.Module, samples: int) -> Proposer:
-    """EG-GAN's answer: the most probable distinct designs among `samples` draws (more draws if too few)."""
-
-    def propose(problem: ModularEgganProblem, terrain_seed: int, query_seed: int, candidates: int) -> list[str]:
-        tensor = problem.encode_task(terrain_seed)
-        ranked = []
-        for chunk in range(16):  # a sharp generator may need more than one batch for `candidates` distinct designs
-            sampled, output = generate(generator, problem, terrain_seed, samples * (chunk + 1), seed=query_seed,
-                                       task_tensor=tensor)
-            ranked = rank_distinct(problem, sampled, output, candidates)
-            if len(ranked) == candidates:
-                break
-        return [r.design for r in ranked]
-
-    return propose
+# Table 5.1's rows, in its order: the learned baselines, random sampling, EG-GAN's two variants
+REALTIME_METHODS = (*baselines(), "random", "ga", "crowding")
 
 
-def dqn_proposer(net: torch.nn.Module) -> Proposer:
-    """Whitman's DQN's answer: its greedy design, then the designs a best-first search on its Q reaches next
-    (`robocompose.eggan.dqn.best_designs`); the same candidates for every query of a terrain (no randomness)."""
-
-    def propose(problem: ModularEgganProblem, terrain_seed: int, query_seed: int, candidates: int) -> list[str]:
-        return [design for design, _ in best_designs(net, problem, terrain_seed, candidates)]
-
-    return propose
+def method_title(method: str) -> str:
+    """The thesis's name of a row of Table 5.1."""
+    return "Random sampling" if method == "random" else VARIANTS.get(method) or LEARNERS[method].title
 
 
-REALTIME_METHODS = {"fit2form": "Fit2form", "dqn": "DQN", "molgan": "MolGAN", "random": "Random sampling",
-                    "ga": "EG-GAN", "crowding": "EG-GAN-crowding"}  # Table 5.1's rows, in its order
+def learner_of(method: str) -> Learner:
+    """The learner of a learned row of Table 5.1 (an EG-GAN variant is the EG-GAN learner)."""
+    return LEARNERS["eggan"] if method in VARIANTS else LEARNERS[method]
 
 
 def realtime_proposers(problem: ModularEgganProblem, params: EgganModularParams, models: Path) -> dict[str, Proposer]:
-    """Every real-time method of Table 5.1 that has a trained model under `models` (random sampling always)."""
+    """Every real-time method of Table 5.1, each learned one from its trained model under `models`."""
     proposers: dict[str, Proposer] = {}
     for method in REALTIME_METHODS:
         path = models / f"eggan_modular_{method}.pt"
         if method == "random":
             proposers[method] = random_proposer
-        elif method == "dqn" and path.exists():
-            proposers[method] = dqn_proposer(load_dqn(path, problem)[0])
         elif path.exists():
-            proposers[method] = generator_proposer(load_generator(path, problem)[0], params.protocol.samples)
+            learner = learner_of(method)
+            proposers[method] = learner.answer(learner.load(path, problem)[0], params.protocol.samples)
         else:
-            raise FileNotFoundError(f"{path}: no trained {REALTIME_METHODS[method]} model (run train_eggan_modular)")
+            raise FileNotFoundError(f"{path}: no trained {method_title(method)} model (run train_eggan_modular)")
     return proposers
-
-
-@dataclass(frozen=True)
-class Baseline:
-    """A learned baseline of Table 5.1: its title, config class, trainer, file writer and extra metrics."""
-
-    title: str
-    config: type
-    train: Callable  # (problem, network, config, progress) -> (model, log rows)
-    save: Callable  # (model, problem, path, meta) -> path
-    extra: Callable[[Any, list[dict]], dict]  # (config, log rows) -> metrics beside the common ones
-
-
-BASELINES = {
-    "fit2form": Baseline("Fit2form", Fit2formConfig, train_fit2form, save_generator, lambda config, rows: {}),
-    "dqn": Baseline("DQN", DQNConfig, train_dqn, save_dqn, lambda config, rows: {"episodes": rows[-1]["episodes"]}),
-    "molgan": Baseline("MolGAN", MolganConfig, train_molgan, save_generator, lambda config, rows: {"lam": config.lam}),
-}
 
 
 def train_baseline(name: str, modular: ModularParams, params: EgganModularParams, cache: EvaluationCache | None,
                    executor: Executor | None, out: Path, progress: bool = False) -> dict:
-    """One learned baseline (`BASELINES`) on the same problem and budget of real rollouts as EG-GAN; writes
-    out/eggan_modular_NAME.{pt,json} and returns its metrics."""
-    baseline = BASELINES[name]
-    config = build_config(baseline.config, params.baselines.get(name, {}), f"eggan_modular.baselines.{name}")
+    """One learned baseline (`robocompose.eggan.learners.baselines()`) on the same problem and budget of real
+    rollouts as EG-GAN; writes out/eggan_modular_NAME.{pt,json} and returns its metrics."""
+    learner = LEARNERS[name]
+    training = learner.training
+    config = build_config(training.settings, params.baselines.get(name, {}), f"eggan_modular.baselines.{name}")
     problem = make_problem(modular, params, cache, executor, config.iterations * config.tasks)
-    model, rows = baseline.train(problem, params.network, config, progress)
-    metrics = {"method": baseline.title, "iterations": config.iterations, **baseline.extra(config, rows),
+    model, rows = training.train(problem, params.network, config, progress)
+    metrics = {"method": learner.title, "iterations": config.iterations, **training.metrics(config, rows),
                "real_evaluations": problem.real_evaluations, "surrogate_heldout": problem.surrogate_error(),
                "final": rows[-1]}
-    baseline.save(model, problem, out / f"eggan_modular_{name}.pt",
+    training.save(model, problem, out / f"eggan_modular_{name}.pt",
                   {"settings_hash": modular.eval.settings_hash(), "train": dataclasses.asdict(config),
                    "metrics": metrics})
     return metrics

@@ -74,9 +74,9 @@ def _setup(args: argparse.Namespace):
 
 def _nsga2(args: argparse.Namespace) -> None:
     from robocompose.evaluation.executor import Executor
+    from robocompose.search.nsga2 import NSGA2Config
     from robocompose.teams.ergodic import CoverageConfig
     from robocompose.teams.experiments import _nsga2_run
-    from robocompose.teams.nsga2 import NSGA2Config
 
     chip, decomposition = _chip(args)
     config = NSGA2Config(population=args.pop, generations=args.generations, seed=args.seed)

@@ -43,11 +43,12 @@ from robocompose.eggan.networks import Generator
 from robocompose.eggan.problem import Objective, Sampled
 from robocompose.eggan.query import generate
 from robocompose.io.provenance import code_digest
+from robocompose.search.nsga2 import non_dominated, nsga2_generation
 from robocompose.teams.chips import Chip
 from robocompose.teams.decompose import Decomposition, terrain_features
 from robocompose.teams.ergodic import ChipCoverage, CoverageConfig, allocation_id
 from robocompose.teams.evaluator import AllocationEvaluator, chip_coverage
-from robocompose.teams.nsga2 import AllocationProblem, hypervolume, non_dominated, nsga2_generation
+from robocompose.teams.nsga2 import AllocationProblem, team_hypervolume
 from robocompose.teams.species import SPECIES, allocation_to_counts, deployment_cost
 
 
@@ -214,4 +215,4 @@ def query_front(generator: Generator, chip: Chip, decomposition: Decomposition, 
     objectives = evaluate(distinct)
     keep = non_dominated(objectives)
     keep = keep[np.argsort(objectives[keep, 1], kind="stable")]
-    return QueryFront(objectives[keep], distinct[keep], hypervolume(objectives[keep]), seconds, len(distinct))
+    return QueryFront(objectives[keep], distinct[keep], team_hypervolume(objectives[keep]), seconds, len(distinct))

@@ -25,12 +25,13 @@ import torch
 
 from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.executor import Executor
+from robocompose.search.nsga2 import NSGA2Config
 from robocompose.teams.baselines import no_decomposition_costs, random_allocation, random_species_counts, random_teams
 from robocompose.teams.chips import Chip, read_chip
 from robocompose.teams.decompose import Decomposition, chip_decomposition
 from robocompose.teams.ergodic import CoverageConfig
 from robocompose.teams.evaluator import AllocationEvaluator, chip_coverage
-from robocompose.teams.nsga2 import NSGA2Config, NSGA2Result, run_nsga2
+from robocompose.teams.nsga2 import NSGA2Result, allocation_nsga2
 from robocompose.teams.params import ExperimentsConfig
 from robocompose.teams.species import SPECIES, deployment_cost
 
@@ -47,7 +48,7 @@ def _nsga2_run(task: tuple[Chip, Decomposition, CoverageConfig, NSGA2Config, int
     chip, decomposition, coverage, nsga2, threads = task
     torch.set_num_threads(threads)
     evaluate = AllocationEvaluator(chip_coverage(chip, decomposition, coverage), chip.chip_id, nsga2.seed)
-    result = run_nsga2(evaluate, decomposition.n_regions, len(SPECIES), coverage.robots_per_species, nsga2)
+    result = allocation_nsga2(evaluate, decomposition.n_regions, len(SPECIES), coverage.robots_per_species, nsga2)
     return result, evaluate.cache
 
 

@@ -22,10 +22,10 @@ import numpy as np
 import pandas as pd
 
 from robocompose.eggan.networks import Generator, NetworkConfig
-from robocompose.eggan.storage import load_torch, save_torch
 from robocompose.eggan.train import TrainConfig, Trained, train
 from robocompose.io import InputError
 from robocompose.io.provenance import ROOT
+from robocompose.io.torch_file import load_torch, save_torch
 from robocompose.teams.baselines import joint_plan
 from robocompose.teams.chips import Chip
 from robocompose.teams.decompose import Decomposition

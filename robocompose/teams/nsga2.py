@@ -1,21 +1,12 @@
-"""NSGA-II on team allocations (thesis 5.2, Table 5.4), with pymoo.
+"""NSGA-II on team allocations (thesis 5.2, Table 5.4): the team-formation problem bound to the generic
+`robocompose.search.nsga2` (its operators and loop).
 
 Genome: the K x O allocation fractions, flattened, each in [0, 1]; species.allocation_to_counts turns
 them into robots (a species asked for more than all its robots is scaled down to all of them).
 Objectives, both minimised: coverage cost (area-weighted ergodic metric per region, ergodic.py) and
-deployment cost (robots deployed).
-Operators as in the thesis: single-point arithmetic crossover applied with probability 0.5 (a cut
-point c is drawn; genes from c on become the blends a p1 + (1 - a) p2 and (1 - a) p1 + a p2 with
-a ~ U(0, 1), genes before c are copied) and uniform mutation (each gene is redrawn uniformly in [0, 1]
-with probability 0.1); pymoo's NSGA-II survival (non-dominated sorting, crowding distance, elitist
-truncation of parents + children) and, as in the thesis's Algorithm 3, roulette-wheel selection of
-the parents: the population is ordered by NSGA-II's crowded comparison (Pareto rank, then larger
-crowding distance first) and the individual at position j of n gets a slice of the wheel
-proportional to n - j (linear rank weights, as the group's public GA; a multi-objective population
-has no scalar fitness to make slices of, rank is what Algorithm 3 assigns). The initial
-population (not given by the thesis) deploys a uniform share s ~ U(0, 1) of each species, split over
-the regions by a flat Dirichlet draw, so it spans every deployment cost from 0 to 60 (uniform
-genes would deploy nearly the whole bank).
+deployment cost (robots deployed). The initial population (not given by the thesis) deploys a uniform
+share s ~ U(0, 1) of each species, split over the regions by a flat Dirichlet draw, so it spans every
+deployment cost from 0 to 60 (uniform genes would deploy nearly the whole bank).
 
 Hypervolume: reference point (0.25, 60) on (coverage cost, deployment cost), the thesis's. The
 coverage cost is ergodic.py's: the area-weighted ergodic metric in units of one random glance per
@@ -27,43 +18,16 @@ grows with coverage at a fixed robot count, not only with fewer robots. 60 is th
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from pymoo.algorithms.moo.nsga2 import NSGA2
-from pymoo.core.crossover import Crossover
-from pymoo.core.mutation import Mutation
-from pymoo.core.population import Population
-from pymoo.core.problem import Problem
 from pymoo.core.sampling import Sampling
-from pymoo.core.selection import Selection
-from pymoo.indicators.hv import HV
-from pymoo.operators.survival.rank_and_crowding import RankAndCrowding
-from pymoo.optimize import minimize
-from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting
 
-from robocompose.io.errors import check_field
+from robocompose.search.nsga2 import GenomeProblem, NSGA2Config, hypervolume, run_nsga2
 from robocompose.teams.species import allocation_to_counts
 
 REFERENCE_POINT = (0.25, 60.0)
-
-
-@dataclass(frozen=True)
-class NSGA2Config:
-    population: int = 50  # individuals per generation (thesis: 20 and 50)
-    generations: int = 50  # generations (thesis: 50)
-    crossover_probability: float = 0.5  # share of matings that cross over
-    mutation_rate: float = 0.1  # per-gene probability of a uniform redraw
-    seed: int = 0  # seeds pymoo's Generator
-
-    def __post_init__(self) -> None:
-        check_field(self.population >= 2, "population", "an integer >= 2", self.population)
-        check_field(self.generations >= 1, "generations", "an integer >= 1", self.generations)
-        for name in ("crossover_probability", "mutation_rate"):
-            check_field(0 <= getattr(self, name) <= 1, name, "a probability in [0, 1]", getattr(self, name))
-        check_field(self.seed >= 0, "seed", "an integer >= 0", self.seed)
 
 
 class DeploymentShareSampling(Sampling):
@@ -74,45 +38,8 @@ class DeploymentShareSampling(Sampling):
         return (share * split.transpose(0, 2, 1)).reshape(n_samples, -1)
 
 
-class RankRouletteSelection(Selection):
-    """Roulette wheel over the crowded-comparison order (Algorithm 3): slice of position j of n = n - j."""
-
-    def _do(self, problem, pop, n_select, n_parents, *args, random_state=None, **kwargs):
-        rank, crowding = pop.get("rank"), pop.get("crowding")  # set by the rank-and-crowding survival
-        order = np.lexsort((-crowding, rank))  # best first
-        slices = np.empty(len(pop))
-        slices[order] = np.arange(len(pop), 0, -1, dtype=np.float64)  # (n,) n for the best .. 1
-        picks = random_state.choice(len(pop), size=n_select * n_parents, p=slices / slices.sum())
-        return picks.reshape(n_select, n_parents)
-
-
-class SinglePointArithmeticCrossover(Crossover):
-    def __init__(self, prob: float):
-        super().__init__(n_parents=2, n_offsprings=2, prob=prob)
-
-    def _do(self, problem, X, *args, random_state=None, **kwargs):  # X: (2, n_matings, n_var)
-        _, n_matings, n_var = X.shape
-        cut = random_state.integers(0, n_var, size=n_matings)  # (n_matings,)
-        blend = random_state.random(n_matings)[:, None]  # (n_matings, 1)
-        tail = np.arange(n_var)[None, :] >= cut[:, None]  # (n_matings, n_var)
-        first, second = X
-        return np.stack([np.where(tail, blend * first + (1 - blend) * second, first),
-                         np.where(tail, (1 - blend) * first + blend * second, second)])
-
-
-class UniformMutation(Mutation):
-    def __init__(self, rate: float):
-        super().__init__(prob=1.0)
-        self.rate = rate
-
-    def _do(self, problem, X, *args, random_state=None, **kwargs):  # X: (n, n_var)
-        redraw = random_state.random(X.shape) < self.rate
-        fresh = problem.xl + random_state.random(X.shape) * (problem.xu - problem.xl)
-        return np.where(redraw, fresh, X)
-
-
-class AllocationProblem(Problem):
-    """pymoo problem: genome (K*O fractions) -> [coverage cost, deployment cost] via `evaluate`."""
+class AllocationProblem(GenomeProblem):
+    """Genome (K*O fractions) -> [coverage cost, deployment cost] via `evaluate` of the robot counts."""
 
     def __init__(self, n_regions: int, n_species: int, robots_per_species: int,
                  evaluate: Callable[[np.ndarray], np.ndarray]):
@@ -125,22 +52,13 @@ class AllocationProblem(Problem):
         """(B, K, O) robot counts of (B, K*O) genomes."""
         return allocation_to_counts(X.reshape(-1, *self.shape), self.robots_per_species)
 
-    def _evaluate(self, X, out, *args, **kwargs):
-        out["F"] = self.evaluate_counts(self.counts(X))
+    def objectives(self, X: np.ndarray) -> np.ndarray:
+        return self.evaluate_counts(self.counts(X))
 
 
-def non_dominated(objectives: np.ndarray) -> np.ndarray:
-    """Indices of the mutually non-dominated rows of (n, 2) minimised objectives (first of duplicates)."""
-    _, first = np.unique(objectives, axis=0, return_index=True)
-    first = np.sort(first)
-    front = NonDominatedSorting().do(objectives[first], only_non_dominated_front=True)
-    return first[np.sort(front)]
-
-
-def hypervolume(front: np.ndarray, reference: tuple[float, float] = REFERENCE_POINT) -> float:
-    """Area dominated by (n, 2) minimised objectives inside the box up to `reference`."""
-    inside = front[(front < np.asarray(reference)).all(1)]
-    return float(HV(ref_point=np.asarray(reference))(inside)) if len(inside) else 0.0
+def team_hypervolume(front: np.ndarray) -> float:
+    """Area dominated by (n, 2) [coverage cost, deployment cost] inside the thesis's box up to REFERENCE_POINT."""
+    return hypervolume(front, REFERENCE_POINT)
 
 
 @dataclass
@@ -152,46 +70,10 @@ class NSGA2Result:
     evaluations: int  # objective evaluations requested by NSGA-II (cached or not)
 
 
-def run_nsga2(evaluate: Callable[[np.ndarray], np.ndarray], n_regions: int, n_species: int,
-              robots_per_species: int, config: NSGA2Config) -> NSGA2Result:
-    """Run NSGA-II; `evaluate` maps (B, K, O) counts to (B, 2) objectives."""
+def allocation_nsga2(evaluate: Callable[[np.ndarray], np.ndarray], n_regions: int, n_species: int,
+                     robots_per_species: int, config: NSGA2Config) -> NSGA2Result:
+    """Run NSGA-II on the allocations of one chip; `evaluate` maps (B, K, O) counts to (B, 2) objectives."""
     problem = AllocationProblem(n_regions, n_species, robots_per_species, evaluate)
-    algorithm = NSGA2(pop_size=config.population, sampling=DeploymentShareSampling(),
-                      selection=RankRouletteSelection(),
-                      crossover=SinglePointArithmeticCrossover(config.crossover_probability),
-                      mutation=UniformMutation(config.mutation_rate), eliminate_duplicates=True)
-    started = time.perf_counter()
-    result = minimize(problem, algorithm, ("n_gen", config.generations), seed=config.seed, verbose=False)
-    seconds = time.perf_counter() - started
-    population = result.pop
-    objectives, counts = population.get("F"), problem.counts(population.get("X"))
-    keep = non_dominated(objectives)
-    keep = keep[np.argsort(objectives[keep, 1], kind="stable")]
-    return NSGA2Result(objectives[keep], counts[keep], hypervolume(objectives[keep]), seconds,
-                       int(result.algorithm.evaluator.n_eval))
-
-
-def nsga2_generation(genomes: np.ndarray, objectives: np.ndarray, problem: AllocationProblem,
-                     crossover_probability: float, mutation_rate: float, rng: np.random.Generator
-                     ) -> tuple[np.ndarray, np.ndarray]:
-    """One NSGA-II generation on a given population (Algorithm 3's loop body, EG-GAN's data creation).
-
-    (B, n_var) genomes with (B, 2) objectives: rank and crowding distance, roulette-wheel selection of
-    B/2 parent pairs, single-point arithmetic crossover with probability `crossover_probability` (else
-    the parents are copied), uniform mutation, evaluation of the B children by `problem`, and the
-    elitist survival of B of the 2B parents and children. Returns the survivors' genomes and objectives.
-    """
-    survival = RankAndCrowding()
-    population = survival.do(problem, Population.new(X=genomes, F=objectives), n_survive=len(genomes),
-                             random_state=rng)  # sets rank and crowding
-    parents = RankRouletteSelection()._do(problem, population, len(genomes) // 2, 2, random_state=rng)
-    pairs = population.get("X")[parents.T]  # (2, B/2, n_var)
-    crossed = SinglePointArithmeticCrossover(crossover_probability)._do(problem, pairs, random_state=rng)
-    keep = rng.random(pairs.shape[1]) >= crossover_probability  # (B/2,) matings that copy their parents
-    children = np.where(keep[None, :, None], pairs, crossed).reshape(-1, pairs.shape[-1])  # (B, n_var)
-    children = UniformMutation(mutation_rate)._do(problem, children, random_state=rng)
-    child_objectives = problem.evaluate_counts(problem.counts(children))
-    merged = Population.new(X=np.concatenate([population.get("X"), children]),
-                            F=np.concatenate([population.get("F"), child_objectives]))
-    survivors = survival.do(problem, merged, n_survive=len(genomes), random_state=rng)
-    return survivors.get("X"), survivors.get("F")
+    front = run_nsga2(problem, DeploymentShareSampling(), config)
+    return NSGA2Result(front.objectives, problem.counts(front.genomes), team_hypervolume(front.objectives),
+                       front.seconds, front.evaluations)

@@ -16,15 +16,16 @@ import torch
 
 from robocompose.eggan.networks import NetworkConfig
 from robocompose.eggan.query import generate, rank_distinct
-from robocompose.eggan.storage import load_torch
 from robocompose.eggan.train import (
     TrainConfig,
     bgan_generator_loss,
     discriminator_loss,
     gan_generator_loss,
+    run_key,
     train,
     write_logs,
 )
+from robocompose.io.checkpoint import load_checkpoint
 from tests.eggan.conftest import MatchProblem
 
 NETWORK = NetworkConfig(latent=16)
@@ -104,6 +105,12 @@ train(MatchProblem(), NetworkConfig(latent=8, hidden=16), config, Path(sys.argv[
 """
 
 
+def _checkpoint(path: Path) -> dict:
+    """The script's checkpoint at `path` (read with the key of the script's run)."""
+    config = TrainConfig(iterations=40, batch=16, tasks=4, samples=4, log_every=5, checkpoint_every=10)
+    return load_checkpoint(path, run_key(MatchProblem(), NetworkConfig(latent=8, hidden=16), config), named=True)
+
+
 def _run(tmp: Path, name: str, slow: bool, kill_after_checkpoint: bool) -> Path:
     script = tmp / f"{name}.py"
     script.write_text(RESUME_SCRIPT.format(root=str(Path(__file__).resolve().parents[2]), slow=slow))
@@ -117,7 +124,7 @@ def _run(tmp: Path, name: str, slow: bool, kill_after_checkpoint: bool) -> Path:
             time.sleep(0.02)
         process.send_signal(signal.SIGKILL)
         process.wait()
-        assert load_torch(checkpoint, weights_only=False)["iteration"] < 40  # really interrupted
+        assert _checkpoint(checkpoint)["iteration"] < 40  # really interrupted
         process = subprocess.Popen([sys.executable, str(script), str(checkpoint), str(csv)], env=env,
                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     assert process.wait(timeout=300) == 0
@@ -125,8 +132,8 @@ def _run(tmp: Path, name: str, slow: bool, kill_after_checkpoint: bool) -> Path:
 
 
 def test_killed_training_resumes_to_the_same_checkpoint(tmp_path):
-    straight = load_torch(_run(tmp_path, "straight", False, False), weights_only=False)
-    resumed = load_torch(_run(tmp_path, "resumed", True, True), weights_only=False)
+    straight = _checkpoint(_run(tmp_path, "straight", False, False))
+    resumed = _checkpoint(_run(tmp_path, "resumed", True, True))
     assert straight["iteration"] == resumed["iteration"] == 40
     for part in ("generator", "discriminator"):
         for name, value in straight[part].items():
@@ -136,12 +143,14 @@ def test_killed_training_resumes_to_the_same_checkpoint(tmp_path):
     assert (tmp_path / "straight.csv").read_bytes() == (tmp_path / "resumed.csv").read_bytes()
 
 
-def test_a_checkpoint_of_other_settings_is_not_resumed(tmp_path, match_problem, capsys):
+def test_a_checkpoint_of_other_settings_is_not_resumed(tmp_path, match_problem):
     checkpoint = tmp_path / "run.pt"
     small = TrainConfig(iterations=10, batch=16, tasks=4, samples=4, log_every=5, checkpoint_every=5)
     train(match_problem, NetworkConfig(latent=8, hidden=16), small, checkpoint)
-    train(MatchProblem(), NetworkConfig(latent=8, hidden=16), TrainConfig(**{**small.__dict__, "seed": 1}), checkpoint)
-    assert "starting afresh" in capsys.readouterr().out
+    other = TrainConfig(**{**small.__dict__, "seed": 1})
+    with pytest.warns(UserWarning, match="a checkpoint of another run or other code .*starting afresh"):
+        resumed = train(MatchProblem(), NetworkConfig(latent=8, hidden=16), other, checkpoint)
+    assert resumed.rows == train(MatchProblem(), NetworkConfig(latent=8, hidden=16), other).rows
 
 
 def test_training_log_validates_against_its_schema(tmp_path, valid_foxglove_log):

@@ -1,8 +1,11 @@
 import numpy as np
 
 from robocompose.glso.bo import BOConfig, LatentBO, decode
-from robocompose.glso.designs import Proposal
+from robocompose.glso.method import Proposal, SearchEnv
+from robocompose.latent.model import GraphVAE, VAEConfig
 from robocompose.latent.train import load_model
+
+LATENT_2 = SearchEnv("flat", GraphVAE(VAEConfig(hidden=8, latent=2, max_nodes=20)))  # BO sizes itself by the VAE
 
 
 def _drive(bo: LatentBO, steps: int) -> list[np.ndarray]:
@@ -16,7 +19,7 @@ def _drive(bo: LatentBO, steps: int) -> list[np.ndarray]:
 
 
 def test_random_steps_are_the_initial_points_and_every_tenth_step_after():
-    bo = LatentBO(BOConfig(init=5, random_every=10), seed=0, budget=40, latent=2)
+    bo = LatentBO(BOConfig(init=5, random_every=10), seed=0, budget=40, env=LATENT_2)
     schedule = []
     for step in range(30):
         bo.step = step
@@ -25,7 +28,7 @@ def test_random_steps_are_the_initial_points_and_every_tenth_step_after():
 
 
 def test_domain_reduction_shrinks_the_bounds_after_the_initial_points_only():
-    bo = LatentBO(BOConfig(init=4), seed=0, budget=12, latent=2)
+    bo = LatentBO(BOConfig(init=4), seed=0, budget=12, env=LATENT_2)
     _drive(bo, 4)
     assert np.allclose(bo.optimizer.space.bounds, [[-3, 3], [-3, 3]])
     points = _drive(bo, 6)
@@ -35,7 +38,7 @@ def test_domain_reduction_shrinks_the_bounds_after_the_initial_points_only():
 
 
 def test_best_so_far_comes_from_the_whole_history_not_optimizer_max():
-    bo = LatentBO(BOConfig(init=3), seed=1, budget=20, latent=2)
+    bo = LatentBO(BOConfig(init=3), seed=1, budget=20, env=LATENT_2)
     _drive(bo, 14)
     history = max(bo.optimizer.space.target)
     inside = bo.optimizer.max  # only points inside the current (reduced) bounds

@@ -45,3 +45,79 @@ def test_cli_runs_the_search_on_a_dask_worker_and_prints_what_a_local_run_prints
     local = capsys.readouterr().out
     assert main([*argv, "--address", dask_address]) == 0
     assert capsys.readouterr().out == local and len(local.splitlines()) == 4
+
+
+def _search_argv(params, *extra):
+    return ["glso", "--task", "flat", "--method", "random", "--budget", "3", "--params", params, *extra]
+
+
+@pytest.mark.parametrize("out, message", [
+    ("folder", "folder: is a directory, expected a file name ending in .parquet"),
+    ("steps.csv", "steps.csv: expected a .parquet file name"),
+    ("blocker/steps.parquet", "blocker is not a directory"),
+])
+def test_a_bad_out_path_fails_in_one_line_before_the_search_runs(out, message, params, tmp_path, capsys):
+    (tmp_path / "folder").mkdir()
+    (tmp_path / "blocker").write_text("a file")
+    assert main(_search_argv(params, "--out", str(tmp_path / out))) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""  # no step ran: the path is checked first
+    assert message in captured.err and len(captured.err.strip().splitlines()) == 1
+    assert not (tmp_path / "steps.csv").exists()
+
+
+def test_out_writes_the_step_table_as_parquet(params, tmp_path, capsys):
+    from robocompose.io import read_table
+
+    assert main(_search_argv(params, "--out", str(tmp_path / "steps.parquet"))) == 0
+    steps = [json.loads(line) for line in capsys.readouterr().out.splitlines()[:-1]]
+    assert list(read_table(tmp_path / "steps.parquet", "glso_steps")["design_id"]) == [s["design_id"] for s in steps]
+
+
+class Marker:
+    def __init__(self, path):
+        self.path = str(path)
+
+    def __reduce__(self):
+        import os
+
+        return os.system, (f"touch {self.path}",)
+
+
+def test_a_crafted_pickle_as_checkpoint_does_not_run_and_gives_one_line(params, tmp_path, capsys):
+    import pickle
+
+    marker, crafted = tmp_path / "marker", tmp_path / "run.pkl"
+    crafted.write_bytes(pickle.dumps({"key": "whatever", "state": pickle.dumps(Marker(marker))}))
+    assert main(_search_argv(params, "--checkpoint", str(crafted))) == 2
+    captured = capsys.readouterr()
+    assert not marker.exists() and captured.out == ""
+    assert f"{crafted}: not a robocompose checkpoint" in captured.err and len(captured.err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("kind", ["text", "directory", "under_a_file", "other_run"])
+def test_a_checkpoint_that_is_not_this_runs_gives_one_line(kind, params, tmp_path, capsys):
+    path = tmp_path / "run.pkl"
+    if kind == "text":
+        path.write_text("not a checkpoint\n")
+    elif kind == "directory":
+        path.mkdir()
+    elif kind == "under_a_file":
+        path.write_text("a file")
+        path = path / "run.pkl"
+    else:  # the checkpoint of seed 1 named for seed 0: refused, not overwritten
+        assert main(_search_argv(params, "--seed", "1", "--checkpoint", str(path))) == 0
+        capsys.readouterr()
+    before = path.read_bytes() if path.is_file() else None
+    assert main(_search_argv(params, "--checkpoint", str(path))) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and len(captured.err.strip().splitlines()) == 1 and str(path) in captured.err
+    assert (path.read_bytes() if path.is_file() else None) == before
+
+
+def test_a_run_resumes_from_its_own_checkpoint(params, tmp_path, capsys):
+    checkpoint = tmp_path / "run.pkl"
+    assert main(_search_argv(params, "--checkpoint", str(checkpoint))) == 0
+    first = capsys.readouterr().out
+    assert main(_search_argv(params, "--checkpoint", str(checkpoint))) == 0  # finished: nothing left to run
+    assert capsys.readouterr().out == first.splitlines()[-1] + "\n"  # only the best line: no step was re-run

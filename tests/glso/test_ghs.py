@@ -25,7 +25,7 @@ def test_features_describe_nodes_and_the_joints_into_them():
 
 
 def test_v_hat_is_the_best_reward_below_each_state_and_training_fits_it():
-    search = GraphHeuristicSearch(GHSConfig(num_samples=2, opt_iter=25, lr=1e-2), seed=0, budget=8)
+    search = GraphHeuristicSearch(GHSConfig(num_samples=2, opt_iter=25, lr=1e-2), seed=0, budget=8, env=None)
     first = search.propose(None)
     search.tell(first, 5.0)
     second = search.propose(None)
@@ -42,7 +42,7 @@ def test_v_hat_is_the_best_reward_below_each_state_and_training_fits_it():
 
 
 def test_the_proposed_design_is_the_sample_with_the_highest_prediction():
-    search = GraphHeuristicSearch(GHSConfig(num_samples=4), seed=2, budget=100)
+    search = GraphHeuristicSearch(GHSConfig(num_samples=4), seed=2, budget=100, env=None)
     search.rng = np.random.default_rng(0)
     search.config = GHSConfig(num_samples=4, eps_sample_start=0.0, eps_sample_end=0.0)  # always 4 samples
     proposal = search.propose(None)

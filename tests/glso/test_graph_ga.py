@@ -32,7 +32,7 @@ def test_remove_never_leaves_the_root_alone_and_add_respects_max_nodes():
 
 
 def test_generations_cull_the_worst_and_refill_from_survivors():
-    ga = GraphGA(GAConfig(population=4, cull_fraction=0.5), seed=0, budget=8)
+    ga = GraphGA(GAConfig(population=4, cull_fraction=0.5), seed=0, budget=8, env=None)
     scores = iter([1.0, 4.0, 2.0, 3.0, 0.5, 0.6])
     initial = []
     for _ in range(4):

@@ -26,7 +26,7 @@ def test_successors_follow_the_grammar_and_stop_at_the_depth_limit():
 
 
 def test_every_root_action_is_tried_once_before_any_is_repeated_and_one_node_is_added_per_iteration():
-    search = TreeSearch(MCTSConfig(), seed=0, budget=10)
+    search = TreeSearch(MCTSConfig(), seed=0, budget=10, env=None)
     n_root = len(successors(START_GRAPH, 0, 40))
     proposals = _run(search, n_root)
     assert sorted(p.rules[0] for p in proposals) == sorted(successors(START_GRAPH, 0, 40))
@@ -34,7 +34,7 @@ def test_every_root_action_is_tried_once_before_any_is_repeated_and_one_node_is_
 
 
 def test_backpropagation_keeps_visit_counts_maxima_and_amaf():
-    search = TreeSearch(MCTSConfig(), seed=1, budget=10)
+    search = TreeSearch(MCTSConfig(), seed=1, budget=10, env=None)
     proposals = _run(search, 6, score=lambda p: float(len(p.rules)))
     root = search.nodes[START_GRAPH]
     assert root.visits == 6 and root.action_visits.sum() == 6
@@ -44,7 +44,7 @@ def test_backpropagation_keeps_visit_counts_maxima_and_amaf():
 
 
 def test_selection_blends_max_and_amaf_with_the_amaf_weight():
-    search = TreeSearch(MCTSConfig(amaf_threshold=10.0), seed=0, budget=10)
+    search = TreeSearch(MCTSConfig(amaf_threshold=10.0), seed=0, budget=10, env=None)
     _run(search, 12)
     node = search.nodes[START_GRAPH]
     children = successors(START_GRAPH, 0, 40)
@@ -55,13 +55,13 @@ def test_selection_blends_max_and_amaf_with_the_amaf_weight():
 
 
 def test_mcts_is_reproducible_per_seed():
-    a = [p.tree.design_id for p in _run(TreeSearch(MCTSConfig(), 3, 5), 5)]
-    b = [p.tree.design_id for p in _run(TreeSearch(MCTSConfig(), 3, 5), 5)]
+    a = [p.tree.design_id for p in _run(TreeSearch(MCTSConfig(), 3, 5, None), 5)]
+    b = [p.tree.design_id for p in _run(TreeSearch(MCTSConfig(), 3, 5, None), 5)]
     assert a == b and np.unique(a).size > 1
 
 
 def test_a_new_nodes_simulation_starts_with_its_first_untried_rule():
-    search = TreeSearch(MCTSConfig(), seed=0, budget=10)
+    search = TreeSearch(MCTSConfig(), seed=0, budget=10, env=None)
     first = search.propose(None)  # the start graph's rule, then the expanded node's lowest applicable rule
     expanded = successors(START_GRAPH, 0, 40)[first.rules[0]]
     assert expanded in search.nodes and first.rules[1] == min(successors(expanded, 1, 40))

@@ -7,7 +7,7 @@ from robocompose.sim.physics import connect
 
 
 def test_random_designs_pass_the_dataset_filters_and_derive_from_their_rules():
-    search, client = RandomSearch(RandomConfig(), seed=0, budget=5), connect()
+    search, client = RandomSearch(RandomConfig(), seed=0, budget=5, env=None), connect()
     for _ in range(5):
         p = search.propose(None)
         assert p.tree.n_links >= MIN_LINKS and len(p.rules) <= 40
@@ -16,5 +16,5 @@ def test_random_designs_pass_the_dataset_filters_and_derive_from_their_rules():
 
 
 def test_each_run_seed_draws_its_own_designs():
-    a, b = (RandomSearch(RandomConfig(), seed=s, budget=3) for s in (0, 1))
+    a, b = (RandomSearch(RandomConfig(), seed=s, budget=3, env=None) for s in (0, 1))
     assert [a.propose(None).tree.design_id for _ in range(3)] != [b.propose(None).tree.design_id for _ in range(3)]

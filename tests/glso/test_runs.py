@@ -6,8 +6,8 @@ import pytest
 
 from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.evaluate import INVALID_SCORE, EvaluationConfig, objective
-from robocompose.glso import METHODS
 from robocompose.glso.designs import self_colliding
+from robocompose.glso.registry import METHODS
 from robocompose.glso.runs import GLSOConfig, Objective, RunSpec, run_search, summarise
 from robocompose.grammar.tree import DesignTree
 from robocompose.io import read_table

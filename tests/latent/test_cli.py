@@ -6,8 +6,9 @@ import torch
 from robocompose.cli import main
 from robocompose.grammar.derivation import derive
 from robocompose.grammar.references import REFERENCE_DESIGNS
+from robocompose.io.torch_file import save_torch
 from robocompose.latent.model import GraphVAE, VAEConfig
-from robocompose.latent.train import save_model, save_torch
+from robocompose.latent.train import save_model
 
 
 @pytest.fixture(scope="module")

@@ -157,6 +157,8 @@ def test_killed_run_resumes_to_the_same_model(tmp_path, write_designs):
     assert resumed == whole  # same weights to the last bit, same accuracy
     curves = sorted(p.relative_to(tmp_path / "whole") for p in (tmp_path / "whole" / "live").rglob("*.*"))
     assert curves == sorted(p.relative_to(tmp_path / "killed") for p in (tmp_path / "killed" / "live").rglob("*.*"))
+    for name in ("metrics.json", "plots/metrics/train/loss.tsv"):  # a resumed run's summary keys in the same order
+        assert (tmp_path / "whole" / "live" / name).read_bytes() == (tmp_path / "killed" / "live" / name).read_bytes()
     for path in curves:  # the dvclive files of the resumed run are those of the uninterrupted one, byte for byte
         assert (tmp_path / "killed" / path).read_bytes() == (tmp_path / "whole" / path).read_bytes(), path
 

@@ -11,8 +11,8 @@ import torch
 from robocompose.cli import main
 from robocompose.eggan.networks import Generator, NetworkConfig
 from robocompose.eggan.query import load_generator, model_code_digest, save_generator
-from robocompose.eggan.storage import save_torch
 from robocompose.io import InputError
+from robocompose.io.torch_file import save_torch
 from robocompose.modular.compose import SHIPPED_MODEL, parse_caps
 from robocompose.modular.eggan_problem import FitnessConfig, ModularEgganProblem
 from robocompose.modular.evaluate import EvalSettings, FitnessRule

@@ -13,11 +13,12 @@ import json
 import pytest
 
 from robocompose.eggan.dqn import load_dqn
+from robocompose.eggan.learners import dqn_answer
 from robocompose.modular import eggan_problem
 from robocompose.modular.eggan_experiments import (
     REALTIME_METHODS,
-    dqn_proposer,
     make_problem,
+    method_title,
     realtime_proposers,
     train_baseline,
 )
@@ -56,7 +57,9 @@ def test_molgan_baseline_trains_on_the_shared_budget_and_answers_queries(tmp_pat
     assert 20 < metrics["real_evaluations"] <= 40 and metrics["method"] == "MolGAN" and metrics["lam"] == 0.5
     saved = json.loads((tmp_path / "eggan_modular_molgan.json").read_text())
     assert saved["train"]["n_critic"] == 2 and "train_seconds" not in saved["metrics"]  # the file's bytes: params only
-    assert REALTIME_METHODS["molgan"] == "MolGAN"
+    assert REALTIME_METHODS == ("fit2form", "dqn", "molgan", "random", "ga", "crowding")  # Table 5.1's rows
+    assert [method_title(m) for m in REALTIME_METHODS] == ["Fit2form", "DQN", "MolGAN", "Random sampling", "EG-GAN",
+                                                           "EG-GAN-crowding"]
     for method in ("fit2form", "ga", "crowding"):  # the other generators' files, stood in by MolGAN's
         (tmp_path / f"eggan_modular_{method}.pt").write_bytes((tmp_path / "eggan_modular_molgan.pt").read_bytes())
     train_baseline("dqn", MODULAR, params, None, None, tmp_path)  # the protocol wants every method's model
@@ -81,8 +84,8 @@ def test_dqn_baseline_spends_the_budget_and_proposes_ten_distinct_symmetric_desi
     saved = json.loads((tmp_path / "eggan_modular_dqn.json").read_text())
     assert saved["decision_groups"] == [[0, 5], [1, 4], [2, 3]] and "train_seconds" not in saved["metrics"]
     problem = make_problem(MODULAR, params, None, None)
-    propose = dqn_proposer(load_dqn(tmp_path / "eggan_modular_dqn.pt", problem)[0])
-    answer = propose(problem, 1000, query_seed=7, candidates=10)
+    propose = dqn_answer(load_dqn(tmp_path / "eggan_modular_dqn.pt", problem)[0], 64)
+    answer = propose(problem, 1000, 7, 10)
     assert len(answer) == len(set(answer)) == 10
     assert all(design == design[::-1] for design in answer)  # port order runs around the rim: mirrored = reversed
-    assert propose(problem, 1000, query_seed=8, candidates=10) == answer  # the greedy search has no randomness
+    assert propose(problem, 1000, 8, 10) == answer  # the greedy search has no randomness

@@ -4,12 +4,13 @@ import torch
 
 from robocompose.eggan.networks import NetworkConfig
 from robocompose.eggan.train import TrainConfig, train
+from robocompose.search.nsga2 import hypervolume, non_dominated
 from robocompose.teams.chips import synthetic_chip
 from robocompose.teams.decompose import DecomposeConfig, decompose_chip
 from robocompose.teams.eggan_problem import TeamsProblem, query_front, with_depot_row
 from robocompose.teams.ergodic import CoverageConfig
 from robocompose.teams.evaluator import chip_coverage
-from robocompose.teams.nsga2 import hypervolume, non_dominated
+from robocompose.teams.nsga2 import team_hypervolume
 
 TINY = CoverageConfig(iterations=3, n_observations=5)
 NETWORK = NetworkConfig(latent=4, hidden=16)
@@ -83,4 +84,4 @@ def test_query_front_is_measured_and_non_dominated(chips):
     assert non_dominated(query.front).tolist() == list(range(len(query.front)))
     measured, _, _ = chip_coverage(chip, decomposition, TINY).evaluate(query.counts, seed=0)
     np.testing.assert_allclose(query.front[:, 0], measured, rtol=1e-5)
-    assert query.hypervolume == hypervolume(query.front) and query.generator_seconds > 0
+    assert query.hypervolume == team_hypervolume(query.front) and query.generator_seconds > 0

@@ -16,7 +16,7 @@ from robocompose.teams.ergodic import (
     rollout,
 )
 from robocompose.teams.evaluator import chip_coverage
-from robocompose.teams.nsga2 import REFERENCE_POINT, hypervolume
+from robocompose.teams.nsga2 import REFERENCE_POINT, team_hypervolume
 from robocompose.teams.species import SPEED_SCALE
 
 SMALL = CoverageConfig(iterations=15, n_observations=10)
@@ -145,8 +145,8 @@ def test_reference_point_bounds_covering_allocations_and_hypervolume_rises_with_
         fronts[iterations] = np.stack([costs, aerial.sum((1, 2))], -1)
     assert (fronts[25][:, 0] < fronts[0][:, 0]).all()  # the optimiser improves coverage ...
     assert (fronts[25][:, 0] < REFERENCE_POINT[0]).all()  # ... inside the box
-    gain = hypervolume(fronts[25]) - hypervolume(fronts[0])
-    assert gain > 0.01 * hypervolume(fronts[25])  # coverage, not only the robot count, moves HV
+    gain = team_hypervolume(fronts[25]) - team_hypervolume(fronts[0])
+    assert gain > 0.01 * team_hypervolume(fronts[25])  # coverage, not only the robot count, moves HV
     one_empty = aerial[3:].copy()
     one_empty[0, 0] = 0
     cost, _, _ = chip_coverage(chip, decomposition, CoverageConfig(iterations=25)).evaluate(one_empty, seed=0)

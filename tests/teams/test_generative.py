@@ -4,10 +4,10 @@ import pytest
 import torch
 
 from robocompose.eggan.networks import NetworkConfig
-from robocompose.eggan.storage import load_torch, save_torch
 from robocompose.eggan.train import TrainConfig, train
 from robocompose.io import InputError
 from robocompose.io.provenance import ROOT
+from robocompose.io.torch_file import load_torch, save_torch
 from robocompose.teams.chips import synthetic_chip
 from robocompose.teams.compose import SHIPPED_MODEL
 from robocompose.teams.decompose import DecomposeConfig, decompose_chip

@@ -1,0 +1,53 @@
+"""The GLSO search methods by name: a new method is its own file (a `method.SearchMethod` and the dataclass of
+its settings) plus one line here. Its settings are read from `glso.<section>` of params.yaml (methods may share
+a section, as the three latent ablations share `bo`), its name is what `glso.methods` and `--method` take.
+
+Importing this module imports every method (torch, bayes_opt): the command line's parser does not.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from robocompose.glso.bo import BOConfig, LatentBO
+from robocompose.glso.ghs import GHSConfig, GraphHeuristicSearch
+from robocompose.glso.graph_ga import GAConfig, GraphGA
+from robocompose.glso.mcts import MCTSConfig, TreeSearch
+from robocompose.glso.method import SearchMethod
+from robocompose.glso.random_search import RandomConfig, RandomSearch
+
+
+@dataclass(frozen=True)
+class Method:
+    """A registered search method: its class, its settings' dataclass and params section, and the VAE it
+    searches (`variant` fills the {variant} of `glso.models`; None for a method without a VAE)."""
+
+    cls: type[SearchMethod]
+    settings: type
+    section: str
+    variant: str | None = None
+
+    def model_path(self, models: str) -> Path | None:
+        return None if self.variant is None else Path(models.format(variant=self.variant))
+
+
+METHODS: dict[str, Method] = {  # in the order of the thesis's Fig. 8.1 and 8.2 legends
+    "glso": Method(LatentBO, BOConfig, "bo", variant="full"),
+    "glso_nopred": Method(LatentBO, BOConfig, "bo", variant="nopred"),  # ablation: the VAE without predictor
+    "glso_nogram": Method(LatentBO, BOConfig, "bo", variant="nogram"),  # ablation: the VAE without grammar
+    "random": Method(RandomSearch, RandomConfig, "random"),
+    "ga": Method(GraphGA, GAConfig, "ga"),
+    "mcts": Method(TreeSearch, MCTSConfig, "mcts"),
+    "ghs": Method(GraphHeuristicSearch, GHSConfig, "ghs"),
+}
+
+
+def settings_sections() -> dict[str, type]:
+    """Params section -> settings dataclass, over every registered method (each section once)."""
+    sections: dict[str, type] = {}
+    for name, method in METHODS.items():
+        if sections.setdefault(method.section, method.settings) is not method.settings:
+            raise TypeError(f"glso method {name}: section {method.section!r} already holds "
+                            f"{sections[method.section].__name__}, not {method.settings.__name__}")
+    return sections

@@ -1,0 +1,69 @@
+import dataclasses
+import inspect
+
+import pytest
+
+from robocompose.evaluation.evaluate import EvaluationConfig
+from robocompose.glso.bo import BOConfig
+from robocompose.glso.designs import random_grammar_design, run_stream
+from robocompose.glso.method import Proposal, SearchEnv
+from robocompose.glso.random_search import RandomConfig
+from robocompose.glso.registry import METHODS, Method, settings_sections
+from robocompose.glso.runs import GLSOConfig, RunSpec, run_search
+from robocompose.io.errors import InputError
+from robocompose.params import build_config
+from tests.glso.conftest import fake_objective
+
+
+def test_the_registry_holds_the_thesis_methods_and_the_latent_ones_name_their_vae():
+    assert list(METHODS) == ["glso", "glso_nopred", "glso_nogram", "random", "ga", "mcts", "ghs"]
+    assert {name: m.variant for name, m in METHODS.items() if m.variant} == {
+        "glso": "full", "glso_nopred": "nopred", "glso_nogram": "nogram"}
+    for name, method in METHODS.items():  # SearchMethod's constructor, propose and tell
+        assert callable(method.cls.propose) and callable(method.cls.tell), name
+        assert list(inspect.signature(method.cls).parameters) == ["config", "seed", "budget", "env"], name
+        assert dataclasses.is_dataclass(method.settings), name
+
+
+def test_the_config_has_one_section_per_registered_settings_and_names_a_bad_field():
+    assert settings_sections() == {"bo": BOConfig, **{s: METHODS[s].settings for s in ("random", "ga", "mcts", "ghs")}}
+    config = GLSOConfig(bo={"init": 4})
+    assert config.settings("glso_nogram") == BOConfig(init=4) and config.settings("random") == RandomConfig()
+    assert config.model_path("glso_nopred").name == "vae_nopred.pt" and config.model_path("mcts") is None
+    with pytest.raises(InputError, match=r"glso\.bo\.nit: unknown field"):
+        build_config(GLSOConfig, {"bo": {"nit": 4}}, "glso")
+    with pytest.raises(InputError, match="methods: expected some of"):
+        GLSOConfig(methods=["nelder_mead"])
+
+
+def test_two_methods_may_share_a_section_only_with_one_settings_class(monkeypatch):
+    monkeypatch.setitem(METHODS, "clash", Method(METHODS["random"].cls, BOConfig, "random"))
+    with pytest.raises(TypeError, match="section 'random' already holds RandomConfig"):
+        settings_sections()
+
+
+class FirstDesigns:
+    """A toy method: the random designs of its stream, in order, learning nothing (what a new file would hold)."""
+
+    def __init__(self, config: RandomConfig, seed: int, budget: int, env: SearchEnv) -> None:
+        self.stream, self.k, self.told = run_stream(seed, "first"), 0, []
+
+    def propose(self, env: SearchEnv) -> Proposal:
+        proposal, self.k = random_grammar_design(self.stream, self.k, 40)
+        return proposal
+
+    def tell(self, proposal: Proposal, score: float) -> None:
+        self.told.append(score)
+
+
+def test_a_new_method_is_one_registry_line(monkeypatch, small_config, tmp_path):
+    monkeypatch.setitem(METHODS, "first", Method(FirstDesigns, RandomConfig, "random"))
+    config = dataclasses.replace(small_config, methods=["first"], budget=4)
+    checkpoint = tmp_path / "run.pkl"
+    steps = run_search(RunSpec("flat", "first", 0), config, EvaluationConfig(), objective_fn=fake_objective,
+                       checkpoint=checkpoint)
+    assert list(steps["method"]) == ["first"] * 4 and steps["design_id"].nunique() == 4
+    # its checkpoint resumes like any other method's: a finished run is read back, not run again
+    again = run_search(RunSpec("flat", "first", 0), config, EvaluationConfig(),
+                       objective_fn=lambda tree: pytest.fail("a finished run evaluated again"), checkpoint=checkpoint)
+    assert again.equals(steps)
