@@ -1,6 +1,6 @@
 """DVC stage `evaluate_references`: the RoboGrammar reference designs and random dataset designs on every task.
 
-params (evaluation, evaluate_references) + data/designs.parquet -> data/reference_evals.parquet,
+params (compute, evaluation, evaluate_references) + data/designs.parquet -> data/reference_evals.parquet,
 data/rollouts/<task>.{mcap,gif} (best design of each task), reports/metrics/evaluate_references.json.
 """
 
@@ -8,6 +8,7 @@ from pathlib import Path
 
 from robocompose.evaluation.evaluate import EvaluationConfig
 from robocompose.evaluation.references import ReferencesConfig, best_per_task, evaluate_references, record_best
+from robocompose.fanout.compute import ComputeConfig
 from robocompose.io import atomic_write_json, read_table, write_table
 from robocompose.params import load_section
 from robocompose.report.timings import timed
@@ -17,9 +18,10 @@ from robocompose.stage import run_stage
 def main() -> None:
     evaluation = load_section(EvaluationConfig, "evaluation")
     config = load_section(ReferencesConfig, "evaluate_references")
+    compute = load_section(ComputeConfig, "compute")
     designs = read_table("data/designs.parquet", "designs")
-    with timed("evaluate_references") as timing, evaluation.executor("evaluate_references") as executor:
-        table = evaluate_references(designs, config, evaluation, evaluation.open_cache(), executor, save_every=8)
+    with timed("evaluate_references") as timing, compute.executor("evaluate_references") as executor:
+        table = evaluate_references(designs, config, evaluation, compute.open_cache(), executor, save_every=8)
         timing["evaluations"] = len(table)
         timing["sim_steps"] = int(table["sim_steps"].sum())
         write_table(table, "data/reference_evals.parquet", "reference_evals")

@@ -1,18 +1,18 @@
 """DVC stage `modular_realtime`: the real-time test protocol of thesis Table 5.1 on the held-out test terrains.
 
-params (modular, eggan_modular) + the generators of `train_eggan_modular` (+ the exhaustive table, for regret)
+params (compute, modular, eggan_modular) + the generators of `train_eggan_modular` (+ the exhaustive table, for regret)
 -> data/modular/realtime.parquet, reports/metrics/modular_realtime.json. Every candidate is simulated through
 the shared evaluation cache.
 """
 
 from pathlib import Path
 
-from robocompose.evaluation.cache import EvaluationCache
-from robocompose.evaluation.executor import Executor
+from robocompose.fanout.compute import ComputeConfig
 from robocompose.io import atomic_write_json, read_table, write_table
 from robocompose.modular.eggan_experiments import make_problem, realtime_proposers, realtime_table, summarise
-from robocompose.modular.eggan_params import load_eggan_modular_params
-from robocompose.modular.params import load_modular_params
+from robocompose.modular.eggan_params import EgganModularParams
+from robocompose.modular.params import ModularParams
+from robocompose.params import load_section
 from robocompose.report.timings import timed
 from robocompose.stage import run_stage
 
@@ -20,10 +20,11 @@ EXHAUSTIVE = Path("data/modular/exhaustive.parquet")
 
 
 def main() -> None:
-    modular, params = load_modular_params("params.yaml"), load_eggan_modular_params("params.yaml")
+    modular, params = load_section(ModularParams, "modular"), load_section(EgganModularParams, "eggan_modular")
     truth = read_table(EXHAUSTIVE, "modular_exhaustive") if EXHAUSTIVE.exists() else None
-    cache = EvaluationCache(modular.cache or None)
-    with timed("modular_realtime") as timing, Executor(modular.workers, modular.address or None) as executor:
+    compute = load_section(ComputeConfig, "compute")
+    cache = compute.open_cache()
+    with timed("modular_realtime") as timing, compute.executor() as executor:
         problem = make_problem(modular, params, cache, executor)
         table, timing["query_ms_median"] = realtime_table(realtime_proposers(problem, params, Path("models")), problem,
                                                           modular, params, truth, cache, executor)

@@ -36,8 +36,8 @@ from robocompose.eggan.fit2form import Fit2formConfig, train_fit2form
 from robocompose.eggan.molgan import MolganConfig, train_molgan
 from robocompose.eggan.query import generate, load_generator, rank_distinct, save_generator
 from robocompose.eggan.train import train
-from robocompose.evaluation.cache import EvaluationCache
-from robocompose.evaluation.executor import Executor
+from robocompose.fanout.cache import EvaluationCache
+from robocompose.fanout.executor import Executor
 from robocompose.modular.eggan_params import VARIANTS, EgganModularParams
 from robocompose.modular.eggan_problem import ModularEgganProblem
 from robocompose.modular.evaluate import Result, evaluate_designs

@@ -95,9 +95,10 @@ def _figure_5_1(generator_path: Path, terrains: list[int], path: Path) -> str:
     from robocompose.eggan.query import generate, load_generator, rank_distinct
     from robocompose.modular.eggan_problem import FitnessConfig, ModularEgganProblem
     from robocompose.modular.experiments import emergency_constraints, satisfies
-    from robocompose.modular.params import load_modular_params
+    from robocompose.modular.params import ModularParams
+    from robocompose.params import load_section
 
-    params = load_modular_params("params.yaml")
+    params = load_section(ModularParams, "modular")
     problem = ModularEgganProblem(params, FitnessConfig())
     generator, _ = load_generator(generator_path, problem)
     names = {"l": "legs", "w": "wheels", "b": "leg-wheels"}

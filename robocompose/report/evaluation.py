@@ -26,7 +26,7 @@ def _cell(row: pd.Series) -> str:
 
 def _evaluation_seconds(table: pd.DataFrame, cache_path: Path) -> pd.Series | None:
     """Mean wall seconds per evaluation by task, as measured when the evaluations ran (from the cache)."""
-    from robocompose.evaluation.cache import EVAL_KEY_COLUMNS, EvaluationCache
+    from robocompose.fanout.cache import EVAL_KEY_COLUMNS, EvaluationCache
 
     if not cache_path.exists():
         return None
@@ -42,6 +42,7 @@ def section(reports_dir: Path, data_dir: Path, params: Path = Path("params.yaml"
         return f"{title}\n\nNot run yet: missing {table_path} (stage `evaluate_references`).\n"
     from robocompose.evaluation.evaluate import EvaluationConfig, objective
     from robocompose.evaluation.references import best_per_task
+    from robocompose.fanout.compute import ComputeConfig
     from robocompose.params import load_section
 
     table = read_table(table_path, "reference_evals")
@@ -67,7 +68,8 @@ def section(reports_dir: Path, data_dir: Path, params: Path = Path("params.yaml"
     lines += [f"| {k.replace('_', ' ')} | {v} | {getattr(mppi, k)} |" for k, v in THESIS_MPPI.items()]
     lines += [f"| sim steps per evaluation (flat / wall) | ~2.4 M / ~4.6 M | {steps.get('flat', 0) / 1e6:.2f} M / "
               f"{steps.get('wall', 0) / 1e6:.2f} M |"]
-    seconds = _evaluation_seconds(table, Path(evaluation.cache)) if evaluation.cache else None
+    cache = load_section(ComputeConfig, "compute", params).cache
+    seconds = _evaluation_seconds(table, Path(cache)) if cache else None
     if seconds is not None:
         flat, wall = (seconds.get(task, float("nan")) for task in ("flat", "wall"))
         lines += [f"| wall seconds per evaluation as run (one process, shared machine; flat / wall) | "

@@ -57,14 +57,15 @@ def section(reports_dir: Path, data_dir: Path) -> str:
     if missing:
         return ("## Modular robot design (thesis 5.1)\n\nNot run yet: missing " + ", ".join(missing)
                 + " (stages `modular_exhaustive` and `modular_baselines`).\n")
-    from robocompose.modular.params import load_modular_params
+    from robocompose.modular.params import ModularParams
     from robocompose.modular.terrain import generate_terrain
     from robocompose.modular.truth import terrain_criterion, truth_summary
+    from robocompose.params import load_section
 
     truth = read_table(paths["exhaustive"], "modular_exhaustive")
     runs = read_table(paths["runs"], "modular_runs")
     runs["regret"] = runs.optimum - runs.best_distance
-    params = load_modular_params("params.yaml") if Path("params.yaml").exists() else None
+    params = load_section(ModularParams, "modular") if Path("params.yaml").exists() else None
     summary = truth_summary(truth, params.experiments.near_optimal if params else 0.5)
     figures = Path(reports_dir) / "figures"
     figures.mkdir(parents=True, exist_ok=True)

@@ -1,6 +1,6 @@
 """Evaluating allocations: the project's evaluation cache in front of the batched coverage optimiser.
 
-The cache is the shared `robocompose.evaluation.cache.EvaluationCache` on table "teams_eval_cache",
+The cache is the shared `robocompose.fanout.cache.EvaluationCache` on table "teams_eval_cache",
 keyed by (allocation id, chip id, settings hash, seed): allocation id hashes the integer K x O counts
 (so two fraction matrices that round to the same robots share one entry), the settings hash covers
 every CoverageConfig field. Evaluation stays in-process and batched: the misses of a batch are
@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from robocompose.evaluation.cache import CacheKey, EvaluationCache
+from robocompose.fanout.cache import CacheKey, EvaluationCache
 from robocompose.teams.chips import Chip
 from robocompose.teams.decompose import Decomposition
 from robocompose.teams.ergodic import ChipCoverage, CoverageConfig, allocation_id

@@ -5,9 +5,9 @@ import pytest
 
 import robocompose.evaluation.evaluate as ev
 from robocompose.control.mppi import Episode, MPPIConfig
-from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.evaluate import EvaluationConfig, evaluate, evaluate_designs, objective
-from robocompose.evaluation.executor import Executor
+from robocompose.fanout.cache import EvaluationCache
+from robocompose.fanout.executor import Executor
 from robocompose.grammar.derivation import derive, parse_rules
 
 RIDGED_BEST = "0,7,1,13,1,2,16,12,13,6,4,19,4,17,5,3,2,16,4,5,18,9,8,9,9,8"

@@ -5,7 +5,6 @@ import pytest
 from robocompose.control.mppi import MPPIConfig
 from robocompose.dataset.enumerate import design_row
 from robocompose.evaluation.evaluate import EvaluationConfig
-from robocompose.evaluation.executor import Executor
 from robocompose.evaluation.references import (
     REFERENCE_DESIGNS,
     ReferencesConfig,
@@ -14,6 +13,7 @@ from robocompose.evaluation.references import (
     evaluate_references,
     record_best,
 )
+from robocompose.fanout.executor import Executor
 from robocompose.grammar.derivation import random_derivation
 from robocompose.io import read_mcap, read_table, write_table
 

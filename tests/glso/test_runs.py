@@ -4,8 +4,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.evaluate import INVALID_SCORE, EvaluationConfig, objective
+from robocompose.fanout.cache import EvaluationCache
 from robocompose.glso import METHODS
 from robocompose.glso.designs import self_colliding
 from robocompose.glso.runs import GLSOConfig, Objective, RunSpec, run_search, summarise
@@ -92,7 +92,7 @@ def test_bad_config_names_the_field(values, message):
 
 
 def test_run_all_fans_the_runs_out_resumes_them_and_replays_each_tasks_best(tiny_models, tmp_path):
-    from robocompose.evaluation.executor import Executor
+    from robocompose.fanout.executor import Executor
     from robocompose.glso.runs import record_best, run_all
 
     config = GLSOConfig(tasks=["flat"], methods=["random", "mcts"], seeds=[0], budget=2, models=tiny_models)
@@ -112,7 +112,7 @@ def test_run_all_fans_the_runs_out_resumes_them_and_replays_each_tasks_best(tiny
 def test_runs_on_a_dask_cluster_match_local_processes(tiny_models, tmp_path):
     from dask.distributed import LocalCluster
 
-    from robocompose.evaluation.executor import Executor
+    from robocompose.fanout.executor import Executor
     from robocompose.glso.runs import run_all
 
     config = GLSOConfig(tasks=["flat"], methods=["random", "ghs"], seeds=[0], budget=2, models=tiny_models,

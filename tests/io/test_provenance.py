@@ -43,9 +43,9 @@ def test_digest_changes_with_the_source_of_any_module_in_the_closure(tmp_path, m
 def test_excluded_modules_leave_the_digest():
     from robocompose.io.provenance import import_closure
 
-    full = {p.name for p in import_closure("robocompose.evaluation.cache")}
+    full = {p.name for p in import_closure("robocompose.fanout.cache")}
     assert {"cache.py", "tables.py", "schemas.py"} <= full
     # the cache module's own closure is storage only: excluding it and io leaves just the package inits
-    assert code_digest("robocompose.evaluation.cache", exclude=("robocompose.io", "robocompose.evaluation.cache")) \
+    assert code_digest("robocompose.fanout.cache", exclude=("robocompose.io", "robocompose.fanout.cache")) \
         == code_digest("robocompose.evaluation")
     assert code_digest("robocompose.sim.builder", exclude=("robocompose.io",)) != code_digest("robocompose.sim.builder")

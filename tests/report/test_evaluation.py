@@ -2,7 +2,7 @@ import pandas as pd
 import yaml
 from PIL import Image
 
-from robocompose.evaluation.cache import EvaluationCache
+from robocompose.fanout.cache import EvaluationCache
 from robocompose.io import write_table
 from robocompose.report.evaluation import section
 

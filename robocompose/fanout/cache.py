@@ -3,7 +3,7 @@
 A cache holds the rows of one declared table (`robocompose.io.schemas`); its key is a tuple of the
 table's key columns and its value is a dict of the remaining columns.
 
-    from robocompose.evaluation.cache import EvaluationCache
+    from robocompose.fanout.cache import EvaluationCache
     cache = EvaluationCache("data/cache/eval_cache.parquet")   # None = memory only; loads the file if present
     key = (design_id, task, settings_hash, seed)               # default table "eval_cache"
     cache.get(key)          # {"reward": 3.9, "status": "ok", "sim_steps": 65536, "seconds": 12.1} or None
@@ -36,7 +36,7 @@ from robocompose.io import ArtifactError, get_schema, read_table, set_aside, wri
 
 # Storage and fan-out: they keep and ship results but do not shape them, so their source is left out of the
 # evaluators' code digests (an edit of a table schema must not throw away hours of cached rollouts).
-INFRASTRUCTURE = ("robocompose.io", "robocompose.evaluation.cache", "robocompose.evaluation.executor")
+INFRASTRUCTURE = ("robocompose.io", "robocompose.fanout")
 CacheKey = tuple  # values of the key columns, in order; e.g. (design_id, task, settings_hash, seed)
 DEFAULT_CACHE_PATH = Path("data/cache/eval_cache.parquet")
 EVAL_KEY_COLUMNS = ("design_id", "task", "settings_hash", "seed")

@@ -4,8 +4,8 @@ import os
 import pandas as pd
 import pytest
 
-from robocompose.evaluation.cache import EvaluationCache
-from robocompose.evaluation.executor import Executor, evaluate_many
+from robocompose.fanout.cache import EvaluationCache
+from robocompose.fanout.executor import Executor, evaluate_many
 
 
 def _row(item):
