@@ -79,12 +79,13 @@ def build_config(cls: type[T], values: Any, where: str) -> T:
     unknown = sorted(set(values) - set(fields), key=str)
     if unknown:
         raise InputError(f"{where}.{unknown[0]}: unknown field; expected one of {sorted(fields)}")
-    missing = [name for name, f in fields.items() if name not in values and f.default is dataclasses.MISSING
-               and f.default_factory is dataclasses.MISSING]
-    if missing:
-        raise InputError(f"{where}.{missing[0]}: missing; expected it among the fields {list(fields)}")
     hints = typing.get_type_hints(cls)
     built = {name: _value(hints[name], value, f"{where}.{name}") for name, value in values.items()}
+    missing = [name for name, f in fields.items() if name not in values and f.default is dataclasses.MISSING
+               and f.default_factory is dataclasses.MISSING]  # named after the bad values of the given fields
+    if missing:
+        kind = "section" if dataclasses.is_dataclass(hints[missing[0]]) else "field"
+        raise InputError(f"{where}.{missing[0]}: missing {kind} (required; expected fields {list(fields)})")
     try:
         return cls(**built)
     except (ValueError, TypeError) as err:

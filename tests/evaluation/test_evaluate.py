@@ -9,6 +9,8 @@ from robocompose.evaluation.evaluate import EvaluationConfig, evaluate, evaluate
 from robocompose.fanout.cache import EvaluationCache
 from robocompose.fanout.executor import Executor
 from robocompose.grammar.derivation import derive, parse_rules
+from robocompose.io.errors import InputError
+from robocompose.params import build_config
 
 RIDGED_BEST = "0,7,1,13,1,2,16,12,13,6,4,19,4,17,5,3,2,16,4,5,18,9,8,9,9,8"
 SELF_PENETRATING = "0,2,17,10,6,4,16,5,9,8,7"  # its two limbs overlap when placed
@@ -49,11 +51,12 @@ def test_blow_ups_are_unstable_not_scores(monkeypatch, tree, reward, status, sto
 
 
 def test_settings_hash_separates_settings_and_params_build_nested_config():
-    config = EvaluationConfig(mppi={"samples": 4, "first_samples": 4, "horizon": 4, "episode": 6})
+    config = build_config(EvaluationConfig, {"mppi": {"samples": 4, "first_samples": 4, "horizon": 4, "episode": 6}},
+                          "evaluation")
     assert config.mppi == TINY.mppi and config.settings_hash("flat") == TINY.settings_hash("flat")
     assert EvaluationConfig().settings_hash("flat") != TINY.settings_hash("flat")
-    with pytest.raises(ValueError, match="evaluation.mppi.samples"):
-        EvaluationConfig(mppi={"samples": "many"})
+    with pytest.raises(InputError, match="evaluation.mppi.samples: expected int"):
+        build_config(EvaluationConfig, {"mppi": {"samples": "many"}}, "evaluation")
 
 
 def test_evaluate_designs_on_processes_fills_the_cache(tmp_path, tree):

@@ -17,7 +17,7 @@ from robocompose.fanout.executor import Executor
 from robocompose.grammar.derivation import random_derivation
 from robocompose.io import read_mcap, read_table, write_table
 
-TINY = EvaluationConfig(mppi=MPPIConfig(samples=2, first_samples=2, horizon=2, episode=4), workers=1)
+TINY = EvaluationConfig(mppi=MPPIConfig(samples=2, first_samples=2, horizon=2, episode=4))
 
 
 @pytest.fixture(scope="module")

@@ -84,8 +84,9 @@ def test_enumeration_on_a_dask_cluster_is_byte_identical_to_local_processes(dask
     from robocompose.dataset.enumerate import EnumerateConfig, enumerate_designs
     from robocompose.io import write_table
 
-    local, _ = enumerate_designs(EnumerateConfig(n=6, seed=3, workers=2, chunk=8), progress=None)
-    remote, _ = enumerate_designs(EnumerateConfig(n=6, seed=3, chunk=8, address=dask_address), progress=None)
+    with Executor(workers=2) as local_executor, Executor(address=dask_address) as remote_executor:
+        local, _ = enumerate_designs(EnumerateConfig(n=6, seed=3, chunk=8), local_executor, progress=None)
+        remote, _ = enumerate_designs(EnumerateConfig(n=6, seed=3, chunk=8), remote_executor, progress=None)
     paths = [write_table(t, tmp_path / f"{name}.parquet", "designs") for name, t in (("l", local), ("d", remote))]
     assert paths[0].read_bytes() == paths[1].read_bytes()
 

@@ -4,6 +4,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from robocompose.control.mppi import MPPIConfig
 from robocompose.evaluation.evaluate import INVALID_SCORE, EvaluationConfig, objective
 from robocompose.fanout.cache import EvaluationCache
 from robocompose.glso import METHODS
@@ -14,7 +15,7 @@ from robocompose.io import read_table
 from tests.glso.conftest import fake_objective
 
 EVALUATION = EvaluationConfig()
-TINY = EvaluationConfig(mppi={"samples": 2, "first_samples": 2, "horizon": 2, "episode": 2}, cache="")
+TINY = EvaluationConfig(mppi=MPPIConfig(samples=2, first_samples=2, horizon=2, episode=2))
 
 
 @pytest.mark.parametrize("method", METHODS)

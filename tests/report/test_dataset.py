@@ -15,8 +15,8 @@ def test_contact_counts_ignore_padding():
 
 def test_section_reports_counts_and_writes_figures(tmp_path):
     data, reports = tmp_path / "data", tmp_path / "reports"
-    designs, stats = enumerate_designs(EnumerateConfig(n=5, seed=0, workers=1, chunk=8), progress=None)
-    nogram, nogram_stats = enumerate_nogram(NogramConfig(n=3), workers=1, progress=None)
+    designs, stats = enumerate_designs(EnumerateConfig(n=5, seed=0, chunk=8), progress=None)
+    nogram, nogram_stats = enumerate_nogram(NogramConfig(n=3), progress=None)
     write_table(designs, data / "designs.parquet", "designs")
     write_table(nogram, data / "designs_nogram.parquet", "designs")
     (reports / "metrics").mkdir(parents=True)
