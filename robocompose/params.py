@@ -1,8 +1,12 @@
-"""params.yaml: reading sections into config dataclasses (checked), and switching profiles.
+"""params.yaml: the one loader of every stage and command, and switching profiles.
 
-`profiles/default.yaml` holds every knob of the default profile; another profile (e.g.
-`profiles/paper.yaml`) holds only what it changes. `robocompose profile NAME` writes their merge to
-params.yaml, which is what DVC tracks.
+    config = load_section(GLSOConfig, "glso")        # a section (dotted: "train_vae.extra") as its dataclass
+
+`build_config` checks a mapping against a dataclass's annotations (nested dataclass sections too) and its
+`__post_init__`; every bad value is one InputError line naming the file, the field, the value and what was
+expected. `profiles/default.yaml` holds every knob of the default profile; another profile (e.g.
+`profiles/paper.yaml`) holds only what it changes. `robocompose profile NAME` checks every section of their
+merge (`SECTIONS`) and writes it to params.yaml, which is what DVC tracks.
 """
 
 from __future__ import annotations

@@ -131,3 +131,16 @@ def _with_default(cls, **defaults):
     def patched(self, **kwargs):
         init(self, **{**defaults, **kwargs})
     return patched
+
+
+def test_cached_evaluations_read_entries_under_the_old_key_formula(tree, monkeypatch):
+    """The key (design id, task, settings hash, seed) is what the cache files already hold: no re-keying."""
+    from robocompose.evaluation.evaluate import EvalJob, cached_evaluations
+
+    cache = EvaluationCache()
+    old_key = (tree.design_id, "flat", TINY.settings_hash("flat"), 3)
+    cache.put(old_key, reward=4.25, status="ok", sim_steps=7, seconds=1.0)
+    monkeypatch.setattr(ev, "evaluate", lambda *a, **k: pytest.fail("a cached entry was evaluated again"))
+    [row] = cached_evaluations([EvalJob(tree, "flat", TINY, 3)], cache)
+    assert row == {"design_id": tree.design_id, "task": "flat", "settings_hash": old_key[2], "seed": 3,
+                   "reward": 4.25, "status": "ok", "sim_steps": 7, "seconds": 1.0}

@@ -53,7 +53,7 @@ def test_a_checkpoint_of_other_settings_is_started_over(small_config, tmp_path):
 
     spec, checkpoint = RunSpec("flat", "mcts", 0), tmp_path / "run.pkl"
     run_search(spec, small_config, EVALUATION, objective_fn=fake_objective, checkpoint=checkpoint)
-    other = dataclasses.replace(small_config, mcts={"amaf_threshold": 3.0})
+    other = dataclasses.replace(small_config, mcts=dataclasses.replace(small_config.mcts, amaf_threshold=3.0))
     resumed = run_search(spec, other, EVALUATION, objective_fn=fake_objective, checkpoint=checkpoint)
     fresh = run_search(spec, other, EVALUATION, objective_fn=fake_objective)
     assert resumed.equals(fresh)
