@@ -63,11 +63,12 @@ def truncate(path: Path) -> None:
 # --- kill -9 of a stage, then `dvc repro`, on a tiny copy of the project ---
 
 TINY = {
-    "enumerate": {"n": 80, "seed": 0, "workers": 1, "chunk": 8},
+    "compute": {"workers": 1},
+    "enumerate": {"n": 80, "seed": 0, "chunk": 8},
     "nogram": {"n": 12, "seed": 1},
-    "evaluation": {"mppi": {"samples": 4, "first_samples": 4, "horizon": 4, "episode": 4}, "workers": 1},
-    "glso": {"methods": ["random", "ga", "glso"], "seeds": [0], "budget": 6, "workers": 1,
-             "bo": {"init": 3}, "ga": {"population": 4}},
+    "evaluation": {"mppi": {"samples": 4, "first_samples": 4, "horizon": 4, "episode": 4}},
+    "glso": {"methods": ["random", "ga", "glso"], "seeds": [0], "budget": 6, "bo": {"init": 3},
+             "ga": {"population": 4}},
     "teams": {"chips": {"n_synthetic": 4}, "decompose": {"n_regions": 3},
               "coverage": {"iterations": 3, "n_observations": 5},
               "experiments": {"table_5_4_chips": 1, "table_5_5_chips": 1, "budgets": [5]},

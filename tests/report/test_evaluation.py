@@ -26,7 +26,8 @@ def test_section_tabulates_rewards_statuses_settings_and_gifs(tmp_path):
         cache.put((row["design_id"], row["task"], "h", 0), reward=row["reward"], status=row["status"],
                   sim_steps=row["sim_steps"], seconds=seconds)
     cache.save()
-    params.write_text(yaml.safe_dump({"evaluation": {"mppi": {"samples": 16, "horizon": 8}, "cache": str(cache.path)}}))
+    params.write_text(yaml.safe_dump({"evaluation": {"mppi": {"samples": 16, "horizon": 8}},
+                                      "compute": {"cache": str(cache.path)}}))
     text = section(reports, data, params)
     assert "| robogrammar_flat | 5.25 | 4.50 |" in text and "| random_0 | self collision | 4.75 |" in text
     assert "flat 5.25 vs 3.80; wall 4.50 vs 4.75" in text
