@@ -13,7 +13,7 @@ import time
 
 import numpy as np
 
-from robocompose.evaluation.executor import Executor
+from robocompose.fanout.executor import Executor
 from robocompose.modular.evaluate import EvalSettings, rollout, simulate
 from robocompose.modular.robot import all_designs, valid_in_original
 from robocompose.modular.terrain import generate_terrain

@@ -77,3 +77,31 @@ def input_file(what: str) -> Callable[[str], Path]:
 
     parse.__name__ = "file"
     return parse
+
+
+def dask_address(text: str) -> str:
+    """argparse type of a Dask scheduler address (tcp://host:8786), or "" for local processes."""
+    from robocompose.fanout.executor import check_address
+
+    try:
+        return check_address(text) if text else text
+    except InputError as err:
+        raise argparse.ArgumentTypeError(str(err).removeprefix("address: ")) from None
+
+
+def add_compute_arguments(parser: argparse.ArgumentParser) -> None:
+    """--workers and --address: override the params' `compute:` section for one command (`ComputeConfig.overridden`)."""
+    parser.add_argument("--workers", type=non_negative_int, default=None,
+                        help="local processes (0 = all cores, 1 = here; default: compute.workers)")
+    parser.add_argument("--address", type=dask_address, default=None,
+                        help="a running Dask scheduler (tcp://host:8786) to fan out over "
+                             "(default: compute.address; \"\" = local processes)")
+
+
+def command_compute(args: argparse.Namespace, path: str | Path | None = None):
+    """The `compute:` section a command fans out with (`robocompose.params.load_command_section`), overridden by
+    its --workers and --address flags."""
+    from robocompose.fanout.compute import ComputeConfig
+    from robocompose.params import load_command_section
+
+    return load_command_section(ComputeConfig, "compute", path).overridden(args)

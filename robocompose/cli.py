@@ -24,7 +24,8 @@ def _profile(args: argparse.Namespace) -> int:
 def parser() -> argparse.ArgumentParser:
     top = argparse.ArgumentParser(prog="robocompose", description="Robot composition learning (GLSO, EG-GAN).")
     commands = top.add_subparsers(dest="command", required=True)
-    profile = commands.add_parser("profile", help="switch params.yaml to a profile (default, paper)")
+    profile = commands.add_parser("profile", help="switch params.yaml to a profile (default, paper, smoke); every "
+                                  "section is checked before params.yaml is written")
     profile.add_argument("name", help="a file name under profiles/, without .yaml")
     profile.set_defaults(handler=_profile)
     for module in COMMAND_MODULES:

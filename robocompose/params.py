@@ -1,14 +1,21 @@
-"""params.yaml: reading sections into config dataclasses (checked), and switching profiles.
+"""params.yaml: the one loader of every stage and command, and switching profiles.
 
-`profiles/default.yaml` holds every knob of the default profile; another profile (e.g.
-`profiles/paper.yaml`) holds only what it changes. `robocompose profile NAME` writes their merge to
-params.yaml, which is what DVC tracks.
+    config = load_section(GLSOConfig, "glso")        # a section (dotted: "train_vae.extra") as its dataclass
+
+`build_config` checks a mapping against a dataclass's annotations (nested dataclass sections too) and its
+`__post_init__`; every bad value is one InputError line naming the file, the field, the value and what was
+expected. `profiles/default.yaml` holds every knob of the default profile; another profile (e.g.
+`profiles/paper.yaml`) holds only what it changes. `robocompose profile NAME` checks every section of their
+merge (`SECTIONS`) and writes it to params.yaml, which is what DVC tracks.
 """
 
 from __future__ import annotations
 
 import copy
 import dataclasses
+import importlib
+import types
+import typing
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -19,6 +26,23 @@ from robocompose.io.errors import InputError
 T = TypeVar("T")
 PARAMS_FILE = "params.yaml"
 PROFILES_DIR = "profiles"
+# The config dataclass of every section, by (module, class) name: imported only to check a profile, so the
+# stages that read one section do not depend on every world's code.
+SECTIONS = {
+    "compute": ("robocompose.fanout.compute", "ComputeConfig"),
+    "enumerate": ("robocompose.dataset.enumerate", "EnumerateConfig"),
+    "nogram": ("robocompose.dataset.nogram", "NogramConfig"),
+    "report": ("robocompose.report.build", "ReportConfig"),
+    "teams": ("robocompose.teams.params", "TeamsParams"),
+    "evaluation": ("robocompose.evaluation.evaluate", "EvaluationConfig"),
+    "evaluate_references": ("robocompose.evaluation.references", "ReferencesConfig"),
+    "evaluator_fidelity": ("robocompose.evaluation.fidelity", "FidelityConfig"),
+    "modular": ("robocompose.modular.params", "ModularParams"),
+    "eggan_modular": ("robocompose.modular.eggan_params", "EgganModularParams"),
+    "train_vae": ("robocompose.latent.params", "TrainVaeParams"),
+    "train_vae.landscape": ("robocompose.latent.landscape", "LandscapeConfig"),
+    "glso": ("robocompose.glso.runs", "GLSOConfig"),
+}
 
 
 def read_params(path: str | Path = PARAMS_FILE) -> dict:
@@ -36,7 +60,7 @@ def read_params(path: str | Path = PARAMS_FILE) -> dict:
     return document
 
 
-_TYPES = {"int": int, "float": float, "str": str, "bool": bool, "list": list, "dict": dict}
+_TYPES = {int, float, str, bool, list, dict}
 
 
 def _matches(value: Any, expected: type) -> bool:
@@ -49,47 +73,69 @@ def _matches(value: Any, expected: type) -> bool:
 def build_config(cls: type[T], values: Any, where: str) -> T:
     """Make dataclass `cls` from a mapping; unknown keys, wrong types and invalid values name `where.field`.
 
-    Types are checked from the annotations (int, float, str, bool, list[...] item types); value ranges by the
-    dataclass's own __post_init__, whose InputError("field: ...") is reported as `where.field: ...`.
+    Types are checked from the annotations (int, float, str, bool, list[...] item types); a field whose type
+    is a dataclass (or dict[str, dataclass]) is built from its mapping the same way; value ranges are checked
+    by the dataclass's own __post_init__, whose InputError("field: ...") is reported as `where.field: ...`.
     """
-    names = [f.name for f in dataclasses.fields(cls)]
-    if not isinstance(values, dict):
-        raise InputError(f"{where}: expected a mapping with fields {names}, found {values!r}")
     fields = {f.name: f for f in dataclasses.fields(cls)}
+    if not isinstance(values, dict):
+        raise InputError(f"{where}: expected a mapping with fields {list(fields)}, found {values!r}")
     unknown = sorted(set(values) - set(fields), key=str)
     if unknown:
         raise InputError(f"{where}.{unknown[0]}: unknown field; expected one of {sorted(fields)}")
-    for name, value in values.items():
-        expected, item = _declared_type(fields[name])
-        if expected is not None and not _matches(value, expected):
-            raise InputError(f"{where}.{name}: expected {expected.__name__}, found {value!r}")
-        if item is not None and not all(_matches(v, item) for v in value):
-            raise InputError(f"{where}.{name}: expected a list of {item.__name__}, found {value!r}")
+    hints = typing.get_type_hints(cls)
+    built = {name: _value(hints[name], value, f"{where}.{name}") for name, value in values.items()}
+    missing = [name for name, f in fields.items() if name not in values and f.default is dataclasses.MISSING
+               and f.default_factory is dataclasses.MISSING]  # named after the bad values of the given fields
+    if missing:
+        kind = "section" if dataclasses.is_dataclass(hints[missing[0]]) else "field"
+        raise InputError(f"{where}.{missing[0]}: missing {kind} (required; expected fields {list(fields)})")
     try:
-        return cls(**values)
+        return cls(**built)
     except (ValueError, TypeError) as err:
         message = str(err)
-        joined = "." if message.split(":")[0] in fields else ": "
+        joined = "." if message.split(":")[0].split(".")[0] in fields else ": "
         raise InputError(f"{where}{joined}{message}") from None
 
 
-def _declared_type(f: dataclasses.Field) -> tuple[type | None, type | None]:
-    """(runtime type, list item type) of a field's annotation, e.g. "list[int]" -> (list, int); None if other."""
-    if isinstance(f.type, type):
-        return f.type, None
-    text = str(f.type).split("|")[0].strip()
-    outer, _, inner = text.partition("[")
-    return _TYPES.get(outer.strip()), (_TYPES.get(inner.rstrip("]").strip()) if outer.strip() == "list" else None)
+def _value(hint: Any, value: Any, where: str) -> Any:
+    """`value` checked against annotation `hint` (nested dataclasses built); other annotations pass unchecked."""
+    if dataclasses.is_dataclass(hint):
+        return build_config(hint, value, where)
+    origin, args = typing.get_origin(hint), typing.get_args(hint)
+    if origin in (typing.Union, types.UnionType):  # X | None: None, or an X
+        return None if value is None and type(None) in args else _value(args[0], value, where)
+    if origin is dict and len(args) == 2 and dataclasses.is_dataclass(args[1]):
+        if not isinstance(value, dict):
+            raise InputError(f"{where}: expected a mapping of name -> {args[1].__name__} fields, found {value!r}")
+        return {key: build_config(args[1], item, f"{where}.{key}") for key, item in value.items()}
+    expected = origin or hint
+    if expected in _TYPES and not _matches(value, expected):
+        raise InputError(f"{where}: expected {expected.__name__}, found {value!r}")
+    if expected is list and args and args[0] in _TYPES and not all(_matches(v, args[0]) for v in value):
+        raise InputError(f"{where}: expected a list of {args[0].__name__}, found {value!r}")
+    return value
 
 
 def load_section(cls: type[T], key: str, path: str | Path = PARAMS_FILE) -> T:
-    """The section `key` (dotted for nesting, e.g. "enumerate") of a params file as `cls`."""
+    """The section `key` (dotted for nesting, e.g. "train_vae.extra") of a params file as `cls`: the one
+    loader of every stage and command."""
     node: Any = read_params(path)
     for part in key.split("."):
         if not isinstance(node, dict) or part not in node:
-            raise InputError(f"{path}: missing section {key!r}")
+            raise InputError(f"{path}: missing section {key!r} (`robocompose profile NAME` writes every section)")
         node = node[part]
     return build_config(cls, node, f"{path}: {key}")
+
+
+def load_command_section(cls: type[T], key: str, path: str | Path | None) -> T:
+    """A command's section: from `path` (a --params file, which must exist); with None, from params.yaml if
+    there is one, else the dataclass defaults."""
+    if path is None:
+        if not Path(PARAMS_FILE).exists():
+            return cls()
+        path = PARAMS_FILE
+    return load_section(cls, key, path)
 
 
 def merge(base: dict, override: dict) -> dict:
@@ -99,22 +145,42 @@ def merge(base: dict, override: dict) -> dict:
     return out
 
 
+def check_params(document: dict, where: str) -> None:
+    """Every section of a params document loads through `build_config` (and no section is unknown or missing)."""
+    top = [key for key in SECTIONS if "." not in key]
+    unknown = sorted(set(document) - set(top) - {"profile"}, key=str)
+    if unknown:
+        raise InputError(f"{where}: unknown section {unknown[0]!r}; expected sections {top}")
+    for key, (module, name) in SECTIONS.items():
+        node: Any = document
+        for part in key.split("."):
+            if not isinstance(node, dict) or part not in node:
+                raise InputError(f"{where}: missing section {key!r}")
+            node = node[part]
+        build_config(getattr(importlib.import_module(module), name), node, f"{where}: {key}")
+
+
+def profile_names(root: str | Path = ".") -> list[str]:
+    return sorted(p.stem for p in (Path(root) / PROFILES_DIR).glob("*.yaml"))
+
+
 def write_profile(name: str, root: str | Path = ".") -> Path:
-    """Write params.yaml = profiles/default.yaml merged with profiles/NAME.yaml."""
+    """Write params.yaml = profiles/default.yaml merged with profiles/NAME.yaml, after checking every section."""
     from robocompose.io import atomic_write_text
 
     root = Path(root)
     if not (root / PROFILES_DIR / "default.yaml").is_file():
         raise InputError(f"{(root / PROFILES_DIR).resolve()}: no default.yaml here; run `robocompose profile` in "
                          f"the repository's root folder (the one holding profiles/ and dvc.yaml)")
+    known = profile_names(root)
+    if name not in known:
+        raise InputError(f"profile {name!r}: no such profile; expected one of {known} (the files in "
+                         f"{root / PROFILES_DIR})")
     base = read_params(root / PROFILES_DIR / "default.yaml")
     if name != "default":
-        profile = root / PROFILES_DIR / f"{name}.yaml"
-        if not profile.exists():
-            known = sorted(p.stem for p in (root / PROFILES_DIR).glob("*.yaml"))
-            raise InputError(f"{profile}: no such profile; known profiles: {known}")
-        base = merge(base, read_params(profile))
+        base = merge(base, read_params(root / PROFILES_DIR / f"{name}.yaml"))
+    base.pop("profile", None)
+    check_params(base, f"{root / PROFILES_DIR / name}.yaml merged onto default.yaml")
     header = (f"# Written by `robocompose profile {name}` from profiles/; edit the profile files, not this one.\n"
               f"profile: {name}\n")
-    base.pop("profile", None)
     return atomic_write_text(root / PARAMS_FILE, header + yaml.safe_dump(base, sort_keys=False))

@@ -6,14 +6,15 @@ from pathlib import Path
 
 from robocompose.io import atomic_write_json, write_table
 from robocompose.io.timings import timed
+from robocompose.params import load_section
 from robocompose.stage import run_stage
 from robocompose.teams.chips import prepare_chips
 from robocompose.teams.decompose import purity_table, regions_table
-from robocompose.teams.params import load_teams_params
+from robocompose.teams.params import TeamsParams
 
 
 def main() -> None:
-    params = load_teams_params("params.yaml")
+    params = load_section(TeamsParams, "teams")
     with timed("decompose") as timing:
         chips = prepare_chips(params.chips, Path("data/teams/chips"))
         timing["chips"] = len(chips)

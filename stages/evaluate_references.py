@@ -1,6 +1,6 @@
 """DVC stage `evaluate_references`: the RoboGrammar reference designs and random dataset designs on every task.
 
-params (evaluation, evaluate_references) + data/designs.parquet -> data/reference_evals.parquet,
+params (compute, evaluation, evaluate_references) + data/designs.parquet -> data/reference_evals.parquet,
 data/rollouts/<task>.{mcap,gif} (best design of each task), reports/metrics/evaluate_references.json.
 """
 
@@ -14,6 +14,7 @@ from robocompose.evaluation.references import (
     evaluate_references,
     record_best,
 )
+from robocompose.fanout.compute import ComputeConfig
 from robocompose.io import atomic_write_json, read_table, write_table
 from robocompose.io.timings import timed
 from robocompose.params import load_section
@@ -23,9 +24,10 @@ from robocompose.stage import run_stage
 def main() -> None:
     evaluation = load_section(EvaluationConfig, "evaluation")
     config = load_section(ReferencesConfig, "evaluate_references")
+    compute = load_section(ComputeConfig, "compute")
     designs = read_table("data/designs.parquet", "designs")
-    with timed("evaluate_references") as timing, evaluation.executor("evaluate_references") as executor:
-        table = evaluate_references(designs, config, evaluation, evaluation.open_cache(), executor, save_every=8)
+    with timed("evaluate_references") as timing, compute.executor("evaluate_references") as executor:
+        table = evaluate_references(designs, config, evaluation, compute.open_cache(), executor, save_every=8)
         timing["evaluations"] = len(table)
         timing["sim_steps"] = int(table["sim_steps"].sum())
         write_table(table, "data/reference_evals.parquet", "reference_evals")

@@ -1,8 +1,8 @@
 """DVC stage `glso`: every (task, method, seed) search run of thesis 8, fanned out over the Executor.
 
-params (glso, evaluation) + models/vae_{full,nopred,nogram}.pt -> data/glso/steps.parquet (all step tables),
-data/glso/runs/ (per run; persistent), data/glso/rollouts/<task>.{mcap,gif,png} (each task's best design replayed,
-and its picture at rest),
+params (compute, glso, evaluation) + models/vae_{full,nopred,nogram}.pt -> data/glso/steps.parquet (all step
+tables), data/glso/runs/ (per run; persistent), data/glso/rollouts/<task>.{mcap,gif,png} (each task's best design
+replayed, and its picture at rest),
 reports/metrics/glso.json. Each run's checkpoint, data/glso/checkpoints/<run>.pkl, is not a DVC output: it only
 saves time (its key covers the run, the settings and the code) and a pickled method state (torch modules) is
 not byte-identical across processes, so a killed stage resumes every run where it stopped and dvc.lock stays
@@ -12,7 +12,7 @@ the same from run to run.
 from pathlib import Path
 
 from robocompose.evaluation.evaluate import EvaluationConfig
-from robocompose.evaluation.executor import Executor
+from robocompose.fanout.compute import ComputeConfig
 from robocompose.glso.runs import GLSOConfig, record_best, run_all, summarise
 from robocompose.grammar.tree import DesignTree
 from robocompose.io import atomic_write_json, write_table
@@ -27,8 +27,9 @@ OUT = Path("data/glso")
 def main() -> None:
     evaluation = load_section(EvaluationConfig, "evaluation")
     config = load_section(GLSOConfig, "glso")
-    with timed("glso") as timing, Executor(workers=config.workers, address=config.address or None) as executor:
-        steps, timing["run_seconds"] = run_all(config, evaluation, OUT, executor)
+    compute = load_section(ComputeConfig, "compute")
+    with timed("glso") as timing, compute.executor() as executor:
+        steps, timing["run_seconds"] = run_all(config, evaluation, OUT, executor, compute.cache)
         timing["runs"] = int(steps.groupby(["task", "method", "seed"]).ngroups)
         timing["objective_calls"] = len(steps)
         write_table(steps, OUT / "steps.parquet", "glso_steps")

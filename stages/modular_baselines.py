@@ -8,12 +8,13 @@ each run's runtime is the measured simulation time of the evaluations it asked f
 from robocompose.io import atomic_write_json, read_table, write_table
 from robocompose.io.timings import timed
 from robocompose.modular.experiments import baseline_runs
-from robocompose.modular.params import load_modular_params
+from robocompose.modular.params import ModularParams
+from robocompose.params import load_section
 from robocompose.stage import run_stage
 
 
 def main() -> None:
-    params = load_modular_params("params.yaml")
+    params = load_section(ModularParams, "modular")
     truth = read_table("data/modular/exhaustive.parquet", "modular_exhaustive")
     with timed("modular_baselines") as timing:
         runs = baseline_runs(params, truth)

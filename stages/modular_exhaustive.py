@@ -1,7 +1,7 @@
 """DVC stage `modular_exhaustive`: every modular design on every truth terrain (the ground truth), the terrain
 criterion (does the best design depend on the terrain?), and a picture of the first terrains with their best designs.
 
-params (modular) + reports/modular/exhaustive/ (committed one-offs) -> data/modular/exhaustive.parquet,
+params (compute, modular) + reports/modular/exhaustive/ (committed one-offs) -> data/modular/exhaustive.parquet,
 reports/metrics/modular_exhaustive.json, reports/plots/modular_terrains.png. A terrain whose committed table was
 measured under the current settings, fitness rule and physics code is read from it; any other is simulated through
 the shared cache (saved every 32 results, so an interrupted run resumes).
@@ -9,21 +9,21 @@ the shared cache (saved every 32 results, so an interrupted run resumes).
 
 from pathlib import Path
 
-from robocompose.evaluation.cache import EvaluationCache
-from robocompose.evaluation.executor import Executor
+from robocompose.fanout.compute import ComputeConfig
 from robocompose.io import atomic_write_json, write_table
 from robocompose.io.timings import timed
-from robocompose.modular.params import load_modular_params
+from robocompose.modular.params import ModularParams
 from robocompose.modular.pictures import plot_terrains
 from robocompose.modular.truth import exhaustive_metrics, truth_summary, truth_tables
+from robocompose.params import load_section
 from robocompose.stage import run_stage
 
 
 def main() -> None:
-    params = load_modular_params("params.yaml")
-    cache = EvaluationCache(params.cache or None)
-    with timed("modular_exhaustive") as timing, Executor(params.workers, params.address or None,
-                                                         progress="modular_exhaustive") as executor:
+    params = load_section(ModularParams, "modular")
+    compute = load_section(ComputeConfig, "compute")
+    cache = compute.open_cache()
+    with timed("modular_exhaustive") as timing, compute.executor("modular_exhaustive") as executor:
         table, sources = truth_tables(params.experiments.truth_terrains, params.eval, params.fitness, cache,
                                       executor)
         timing["simulated_terrains"] = sum(source == "simulated" for source in sources.values())

@@ -1,21 +1,21 @@
 """DVC stage `modular_realtime`: the real-time test protocol of thesis Table 5.1 on the held-out test terrains.
 
-params (modular, eggan_modular) + the generators of `train_eggan_modular` (+ the exhaustive table, for regret)
--> data/modular/realtime.parquet, reports/metrics/modular_realtime.json, and Fig. 5.1's designs on the first two
-test terrains (data/modular/fig5_1.json). Every candidate is simulated through the shared evaluation cache.
+params (compute, modular, eggan_modular) + the generators of `train_eggan_modular` (+ the exhaustive table, for
+regret) -> data/modular/realtime.parquet, reports/metrics/modular_realtime.json, and Fig. 5.1's designs on the
+first two test terrains (data/modular/fig5_1.json). Every candidate is simulated through the shared evaluation cache.
 """
 
 from pathlib import Path
 
 from robocompose.eggan.query import load_generator
-from robocompose.evaluation.cache import EvaluationCache
-from robocompose.evaluation.executor import Executor
+from robocompose.fanout.compute import ComputeConfig
 from robocompose.io import atomic_write_json, read_table, write_table
 from robocompose.io.timings import timed
 from robocompose.modular.eggan_experiments import make_problem, realtime_proposers, realtime_table, summarise
-from robocompose.modular.eggan_params import load_eggan_modular_params
+from robocompose.modular.eggan_params import EgganModularParams
 from robocompose.modular.figure_5_1 import figure_5_1
-from robocompose.modular.params import load_modular_params
+from robocompose.modular.params import ModularParams
+from robocompose.params import load_section
 from robocompose.stage import run_stage
 
 EXHAUSTIVE = Path("data/modular/exhaustive.parquet")
@@ -23,10 +23,11 @@ FIG_5_1_GENERATOR = Path("models/eggan_modular_crowding.pt")
 
 
 def main() -> None:
-    modular, params = load_modular_params("params.yaml"), load_eggan_modular_params("params.yaml")
+    modular, params = load_section(ModularParams, "modular"), load_section(EgganModularParams, "eggan_modular")
     truth = read_table(EXHAUSTIVE, "modular_exhaustive") if EXHAUSTIVE.exists() else None
-    cache = EvaluationCache(modular.cache or None)
-    with timed("modular_realtime") as timing, Executor(modular.workers, modular.address or None) as executor:
+    compute = load_section(ComputeConfig, "compute")
+    cache = compute.open_cache()
+    with timed("modular_realtime") as timing, compute.executor() as executor:
         problem = make_problem(modular, params, cache, executor)
         table, timing["query_ms_median"] = realtime_table(realtime_proposers(problem, params, Path("models")), problem,
                                                           modular, params, truth, cache, executor)

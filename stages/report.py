@@ -6,6 +6,7 @@ The report reads artifacts only; the params it quotes are read here and passed i
 from pathlib import Path
 
 from robocompose.control.mppi import MPPIConfig
+from robocompose.fanout.compute import ComputeConfig
 from robocompose.io.errors import InputError
 from robocompose.io.timings import timed
 from robocompose.params import PARAMS_FILE, load_section, read_params
@@ -21,7 +22,7 @@ def _section(params: dict, key: str) -> dict:
 
 def main() -> None:
     params = read_params()
-    cache = _section(params, "evaluation").get("cache")
+    cache = load_section(ComputeConfig, "compute").cache
     with timed("report"):
         build_report(ReportParams(mppi=load_section(MPPIConfig, "evaluation.mppi"),
                                   eval_cache=Path(cache) if cache else None, gallery=_section(params, "gallery"),

@@ -6,9 +6,10 @@ byte-reproducible.
 
 import torch
 
-from robocompose.evaluation.executor import Executor
+from robocompose.fanout.compute import ComputeConfig
 from robocompose.io import read_table, write_table
 from robocompose.io.timings import timed
+from robocompose.params import load_section
 from robocompose.stage import run_stage
 from robocompose.teams.evaluator import teams_cache
 from robocompose.teams.experiments import (
@@ -18,17 +19,17 @@ from robocompose.teams.experiments import (
     example_trajectories,
     nsga2_runs,
 )
-from robocompose.teams.params import load_teams_params
+from robocompose.teams.params import TeamsParams
 
 
 def main() -> None:
-    params = load_teams_params("params.yaml")
+    params = load_section(TeamsParams, "teams")
     torch.set_num_threads(params.threads)
     test_chips = decomposed_chips(read_table("data/regions.parquet", "regions"), "test")
     cache = teams_cache("data/teams/eval_cache.parquet")
     experiments = params.experiments
-    with timed("teams_baselines") as timing, Executor(experiments.workers, experiments.address or None,
-                                                      progress="teams_baselines") as executor:
+    compute = load_section(ComputeConfig, "compute")
+    with timed("teams_baselines") as timing, compute.executor("teams_baselines") as executor:
         runs, fronts, timing["nsga2_runs"] = nsga2_runs(test_chips, params.coverage, experiments, cache, executor)
         coverage = coverage_baselines(test_chips, params.coverage, experiments, executor)
         cache.save()

@@ -14,17 +14,18 @@ import torch
 
 from robocompose.io import atomic_write_json, read_table, write_table
 from robocompose.io.timings import timed
+from robocompose.params import load_section
 from robocompose.stage import run_stage
 from robocompose.teams.eggan_problem import EvolutionConfig
 from robocompose.teams.experiments import decomposed_chips
 from robocompose.teams.generative import coverage_examples, eggan_queries, save_generator, train_generator
-from robocompose.teams.params import load_teams_params
+from robocompose.teams.params import TeamsParams
 
 FIGURE_CHIPS, FIGURE_BUDGET = 3, 30  # Fig. 5.4: three test chips at deployment budget 30
 
 
 def main() -> None:
-    params = load_teams_params("params.yaml")
+    params = load_section(TeamsParams, "teams")
     torch.set_num_threads(params.threads)
     regions = read_table("data/regions.parquet", "regions")
     train_chips, test_chips = decomposed_chips(regions, "train"), decomposed_chips(regions, "test")

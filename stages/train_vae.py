@@ -7,8 +7,9 @@ from pathlib import Path
 from robocompose.io.errors import InputError
 from robocompose.io.timings import timed
 from robocompose.latent.metrics import vae_metrics
-from robocompose.latent.params import VARIANTS, load_variant
+from robocompose.latent.params import VARIANTS, TrainVaeParams
 from robocompose.latent.train import load_designs, log_evaluation, save_model, train, training_log
+from robocompose.params import PARAMS_FILE, load_section
 from robocompose.stage import run_stage
 
 
@@ -16,7 +17,11 @@ def main() -> None:
     if len(sys.argv) != 2:
         raise InputError(f"usage: train_vae.py VARIANT (one of {', '.join(VARIANTS)})")
     name = sys.argv[1]
-    variant, model_config, train_config, metrics_config = load_variant(name)
+    params = load_section(TrainVaeParams, "train_vae")
+    try:
+        variant, model_config, train_config, metrics_config = params.variant(name)
+    except InputError as err:  # an unknown variant
+        raise InputError(f"{PARAMS_FILE}: train_vae.{err}") from None
     designs = load_designs(variant.data, model_config.constraints, model_config.max_nodes)
     extra = load_designs(variant.extra, model_config.constraints, model_config.max_nodes) if variant.extra else None
     with timed(f"train_vae@{name}") as timing, training_log(f"reports/training/vae_{name}") as live:

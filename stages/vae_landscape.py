@@ -2,6 +2,7 @@
 scores from the evaluator -> data/vae_landscape.parquet (thesis Fig. 7.1)."""
 
 from robocompose.evaluation.evaluate import EvaluationConfig
+from robocompose.fanout.compute import ComputeConfig
 from robocompose.io import write_table
 from robocompose.io.timings import timed
 from robocompose.latent.landscape import LandscapeConfig, landscape
@@ -13,10 +14,11 @@ from robocompose.stage import run_stage
 def main() -> None:
     evaluation = load_section(EvaluationConfig, "evaluation")
     config = load_section(LandscapeConfig, "train_vae.landscape")
+    compute = load_section(ComputeConfig, "compute")
     models = {name: load_model(f"models/vae_{name}.pt") for name in ("full", "nopred")}
     designs = load_designs("data/designs.parquet", "grammar", models["full"].config.max_nodes)
-    with timed("vae_landscape") as timing, evaluation.executor("vae_landscape") as executor:
-        table = landscape(models, designs, config, evaluation, evaluation.open_cache(), executor)
+    with timed("vae_landscape") as timing, compute.executor("vae_landscape") as executor:
+        table = landscape(models, designs, config, evaluation, compute.open_cache(), executor)
         timing["evaluated"] = config.evaluated
         write_table(table, "data/vae_landscape.parquet", "vae_landscape")
 

@@ -15,7 +15,21 @@ def test_unknown_profile_lists_the_known_ones(tmp_path, monkeypatch, cli_error):
     (tmp_path / "profiles").mkdir()
     (tmp_path / "profiles" / "default.yaml").write_text("enumerate: {n: 3}\n")
     monkeypatch.chdir(tmp_path)
-    cli_error(["profile", "huge"], "profiles/huge.yaml: no such profile; known profiles: ['default']")
+    cli_error(["profile", "huge"], "profile 'huge': no such profile; expected one of ['default']")
+    (tmp_path / "dvc.yaml").write_text("stages: {}\n")
+    cli_error(["profile", "../dvc"], "profile '../dvc': no such profile; expected one of ['default']")
+    assert not (tmp_path / "params.yaml").exists()
+
+
+def test_a_misspelt_key_of_a_profile_fails_before_params_yaml_is_written(tmp_path, monkeypatch, cli_error):
+    import shutil
+    from pathlib import Path
+
+    shutil.copytree(Path(__file__).resolve().parents[1] / "profiles", tmp_path / "profiles")
+    (tmp_path / "profiles" / "mine.yaml").write_text("glso: {budjet: 3}\n")
+    monkeypatch.chdir(tmp_path)
+    cli_error(["profile", "mine"], "mine.yaml merged onto default.yaml: glso.budjet: unknown field")
+    assert not (tmp_path / "params.yaml").exists()
 
 
 def test_argparse_errors_exit_2_too(cli_error):

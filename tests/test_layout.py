@@ -2,8 +2,9 @@
 (module-level and inside functions alike: a function-level import runs when the function does).
 
 - A concept imports only concepts on its own row of the table or below it (the table lists them lowest first).
-  The files at the package's top sit on the floor with io/ (`params.py`, `stage.py`, `arguments.py`: they
-  import only io/), but for `cli.py`, the command line, which stands on every concept to register its commands.
+  The files at the package's top sit on the floor with io/ and fanout/ (`params.py`, `stage.py`, `arguments.py`:
+  they import only those two), but for `cli.py`, the command line, which stands on every concept to register
+  its commands.
 - Each row's "must not import" holds through the whole chain: `report/` must not reach torch through
   `latent.train`, nor `search/` the grammar through another concept. Where a forbidden concept or library is
   reached through a project module, the problem names that module's import line and the chain.
@@ -46,14 +47,6 @@ LIBRARIES = {"torch", "pybullet"}  # third-party names the table forbids (pybull
 FLOOR_FILES = {"params", "stage", "arguments"}  # top-level files on the floor with io/
 ROOF_FILES = {"cli"}  # the command line: may import every concept but report/
 
-# Violations that moves in flight on other branches remove (issue 21, item 1 and item 3): the lead empties this
-# list at merge. Each entry is (file, imported module); an entry that no longer breaks the table fails the test.
-KNOWN = {
-    # fanout/: the executor moves out of evaluation/ to the floor; dataset/ stops reaching up for it
-    ("robocompose/dataset/enumerate.py", "robocompose.evaluation.executor"),
-    # fanout/: the dataset <-> evaluation loop is broken (the fidelity ladder stops taking the dataset's candidate)
-    ("robocompose/evaluation/fidelity.py", "robocompose.dataset.enumerate"),
-}
 
 
 def module_name(path: Path, root: Path) -> str:
@@ -155,8 +148,8 @@ def problems(root: Path) -> list[tuple[str, str, str]]:
             elif top_file and home in ROOF_FILES:
                 pass
             elif top_file:
-                if target_concept not in ("io", *FLOOR_FILES) and target in tree.files:
-                    why = f"{home}.py sits on the floor with io/ and imports only io/"
+                if target_concept not in ("io", "fanout", *FLOOR_FILES) and target in tree.files:
+                    why = f"{home}.py sits on the floor with io/ and fanout/ and imports only those"
             elif home in MUST_NOT and target_concept in MUST_NOT[home]:
                 why = f"{home}/ must not import {target_concept}"
             elif target in tree.files and target_concept not in FLOOR_FILES and row_of(home) is not None \
@@ -175,14 +168,7 @@ def problems(root: Path) -> list[tuple[str, str, str]]:
 
 def test_the_code_keeps_design_md_import_table():
     found = problems(ROOT)
-    unexpected = [text for where, target, text in found if (where, target) not in KNOWN]
-    assert not unexpected, "\n".join(unexpected)
-
-
-def test_every_known_violation_is_still_one():
-    """KNOWN stays honest: once a move removes a violation, its entry goes too."""
-    found = {(where, target) for where, target, _ in problems(ROOT)}
-    assert not KNOWN - found, f"no longer violations, remove from KNOWN: {sorted(KNOWN - found)}"
+    assert not found, "\n".join(text for _, _, text in found)
 
 
 def test_the_report_reaches_no_simulation_no_model_code():
@@ -231,8 +217,8 @@ CLEAN = {"io/atomic.py": "import json\n", "grammar/tree.py": "from robocompose.i
     ("dataset/pick.py", "from robocompose.report import build\n",
      "robocompose/dataset/pick.py:1 imports robocompose.report.build: nothing reaches up into report/"),
     ("params.py", "from robocompose.grammar import tree\n",
-     "robocompose/params.py:1 imports robocompose.grammar.tree: params.py sits on the floor with io/ and imports "
-     "only io/"),
+     "robocompose/params.py:1 imports robocompose.grammar.tree: params.py sits on the floor with io/ and fanout/ "
+     "and imports only those"),
 ])
 def test_the_checker_names_the_file_line_and_import(tmp_path, name, text, expected):
     files = {**CLEAN, name: text}

@@ -1,11 +1,23 @@
+import shutil
 from dataclasses import dataclass
+from pathlib import Path
 
 import pytest
 import yaml
 
 from robocompose.dataset.enumerate import EnumerateConfig
 from robocompose.io.errors import InputError
-from robocompose.params import build_config, load_section, merge, read_params, write_profile
+from robocompose.params import (
+    build_config,
+    check_params,
+    load_section,
+    merge,
+    profile_names,
+    read_params,
+    write_profile,
+)
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def _write(path, document) -> None:
@@ -48,15 +60,55 @@ def test_float_fields_accept_integers():
     assert build_config(C, {"rate": 1}, "x").rate == 1
 
 
-def test_profile_merges_overrides_onto_default(tmp_path):
+def _profiles(tmp_path, **overrides: dict):
+    """tmp_path/profiles: the repository's default.yaml and one file per override."""
     (tmp_path / "profiles").mkdir()
-    _write(tmp_path / "profiles" / "default.yaml", {"enumerate": {"n": 10, "seed": 0}, "report": {"gallery": 3}})
-    _write(tmp_path / "profiles" / "paper.yaml", {"enumerate": {"n": 500000}})
-    written = read_params(write_profile("paper", tmp_path))
-    assert written["enumerate"] == {"n": 500000, "seed": 0} and written["report"] == {"gallery": 3}
+    shutil.copy(ROOT / "profiles" / "default.yaml", tmp_path / "profiles" / "default.yaml")
+    for name, document in overrides.items():
+        _write(tmp_path / "profiles" / f"{name}.yaml", document)
+    return tmp_path
+
+
+def test_profile_merges_overrides_onto_default(tmp_path):
+    root = _profiles(tmp_path, paper={"enumerate": {"n": 500000}})
+    written = read_params(write_profile("paper", root))
+    assert written["enumerate"]["n"] == 500000 and written["enumerate"]["seed"] == 0
+    assert written["report"] == read_params(root / "profiles" / "default.yaml")["report"]
     assert written["profile"] == "paper"
-    with pytest.raises(InputError, match="known profiles: \\['default', 'paper'\\]"):
-        write_profile("huge", tmp_path)
+
+
+@pytest.mark.parametrize("name", ["huge", "../dvc", "default.yaml", "", "/etc/passwd"])
+def test_only_the_files_in_profiles_are_profiles(tmp_path, name):
+    root = _profiles(tmp_path, paper={})
+    (tmp_path / "dvc.yaml").write_text("stages: {}\n")
+    with pytest.raises(InputError, match=r"no such profile; expected one of \['default', 'paper'\]") as error:
+        write_profile(name, root)
+    assert "\n" not in str(error.value) and not (root / "params.yaml").exists()
+
+
+@pytest.mark.parametrize("override, message", [
+    ({"enumerate": {"sedd": 1}}, r"enumerate.sedd: unknown field"),
+    ({"glso": {"bo": {"init": "six"}}}, r"glso.bo.init: expected int, found 'six'"),
+    ({"compute": {"address": "localhost"}}, r"compute.address: expected a Dask scheduler address like tcp://host"),
+    ({"modular": {"eval": {"control_steps": 250}}}, r"modular.eval.terrain.x_range: the course ends"),
+    ({"eggan_modular": {"protocol": {"queries": 0}}}, r"eggan_modular.protocol.queries: expected a positive"),
+    ({"train_vae": {"variants": {"full": {"predictor": "yes"}}}}, r"train_vae.variants.full.predictor: expected bool"),
+    ({"train_vae": {"landscape": {"evaluated": 0}}}, r"train_vae.landscape: need 0 < evaluated"),
+    ({"colour": {}}, r"unknown section 'colour'"),
+])
+def test_a_profile_is_checked_before_params_yaml_is_written(tmp_path, override, message):
+    root = _profiles(tmp_path, bad=override)
+    with pytest.raises(InputError, match=message) as error:
+        write_profile("bad", root)
+    assert "\n" not in str(error.value) and "bad.yaml" in str(error.value)
+    assert not (root / "params.yaml").exists()
+
+
+def test_the_repository_profiles_load_every_section(tmp_path):
+    for name in profile_names(ROOT):
+        check_params(merge(read_params(ROOT / "profiles" / "default.yaml"),
+                           read_params(ROOT / "profiles" / f"{name}.yaml")), name)
+    assert set(profile_names(ROOT)) >= {"default", "paper", "smoke"}
 
 
 def test_merge_is_deep_and_leaves_inputs_alone():

@@ -63,11 +63,12 @@ def truncate(path: Path) -> None:
 # --- kill -9 of a stage, then `dvc repro`, on a tiny copy of the project ---
 
 TINY = {
-    "enumerate": {"n": 80, "seed": 0, "workers": 1, "chunk": 8},
+    "compute": {"workers": 1},
+    "enumerate": {"n": 80, "seed": 0, "chunk": 8},
     "nogram": {"n": 12, "seed": 1},
-    "evaluation": {"mppi": {"samples": 4, "first_samples": 4, "horizon": 4, "episode": 4}, "workers": 1},
-    "glso": {"methods": ["random", "ga", "glso"], "seeds": [0], "budget": 6, "workers": 1,
-             "bo": {"init": 3}, "ga": {"population": 4}},
+    "evaluation": {"mppi": {"samples": 4, "first_samples": 4, "horizon": 4, "episode": 4}},
+    "glso": {"methods": ["random", "ga", "glso"], "seeds": [0], "budget": 6, "bo": {"init": 3},
+             "ga": {"population": 4}},
     "teams": {"chips": {"n_synthetic": 4}, "decompose": {"n_regions": 3},
               "coverage": {"iterations": 3, "n_observations": 5},
               "experiments": {"table_5_4_chips": 1, "table_5_5_chips": 1, "budgets": [5]},
@@ -224,7 +225,7 @@ def test_a_dask_worker_killed_during_a_map_loses_no_result() -> None:
     result arrives, in order, identical to what the items give."""
     from dask.distributed import Client, LocalCluster
 
-    from robocompose.evaluation.executor import Executor
+    from robocompose.fanout.executor import Executor
 
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
                       silence_logs=50) as cluster, Client(cluster.scheduler_address) as client:
@@ -278,8 +279,8 @@ def test_a_corrupted_or_truncated_parquet_table_is_an_error_naming_the_file(tmp_
 def test_a_corrupt_evaluation_cache_is_moved_aside_and_rebuilt(tmp_path: Path) -> None:
     """The cache only saves time: a corrupt file is kept (renamed), a warning names it, the evaluation runs
     again and gives the right values."""
-    from robocompose.evaluation.cache import EvaluationCache
-    from robocompose.evaluation.executor import evaluate_many
+    from robocompose.fanout.cache import EvaluationCache
+    from robocompose.fanout.executor import evaluate_many
 
     def evaluate(item: int) -> dict:
         return {"reward": 4.0 + item / 100, "status": "ok", "sim_steps": 100 + item, "seconds": 1.0}

@@ -56,7 +56,12 @@ def _params(change: str) -> dict:
                                                                      "teams.chips.directory"]),
     ("evaluate_references", "doc['evaluate_references']['n_random'] = -3",
      ["params.yaml: evaluate_references.n_random: expected an integer >= 0, found -3"]),
-    ("modular_exhaustive", "doc['modular']['workers'] = -1", ["params.yaml: modular.workers: expected an integer"]),
+    ("modular_exhaustive", "doc['compute']['workers'] = -1", ["params.yaml: compute.workers: expected an integer"]),
+    ("glso", "doc['compute']['address'] = 'localhost:8786'",
+     ["params.yaml: compute.address: expected a Dask scheduler address like tcp://host:8786, found 'localhost:8786'"]),
+    ("enumerate", "doc['compute']['address'] = 'tcp://127.0.0.1:9'",  # the discard port: nothing listens there
+     ["address: no Dask scheduler answered at 'tcp://127.0.0.1:9' within 5 s"]),
+    ("modular_exhaustive", "doc['modular']['workers'] = 1", ["params.yaml: modular.workers: unknown field"]),
     ("modular_baselines", "doc['modular']['experiments']['generations'] = 0", ["params.yaml: modular.experiments"]),
 ])
 def test_bad_params_stop_a_stage_before_it_writes(tmp_path, monkeypatch, capsys, stage, change, fragments):

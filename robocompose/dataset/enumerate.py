@@ -8,7 +8,7 @@ design id (`duplicates`).
 
 Candidate k is derived from its own random stream (seed, k), so which designs are kept depends only on
 the seed, never on the number of workers: candidates are processed in chunks through the project's
-executor (local processes, or a Dask cluster given its address) and taken in index order until `n`
+executor (`robocompose.fanout`: local processes or a Dask cluster) and taken in index order until `n`
 distinct valid designs are found.
 """
 
@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+from robocompose.fanout.executor import Executor
 from robocompose.grammar.derivation import MAX_DEPTH, random_derivation
 from robocompose.grammar.tree import DesignTree
 from robocompose.io.errors import InputError
@@ -37,16 +38,12 @@ class EnumerateConfig:
     seed: int = 0  # base seed; candidate k uses the random stream (seed, k)
     min_links: int = MIN_LINKS  # smaller designs are rejected
     max_depth: int = MAX_DEPTH  # rule-sequence length limit of a derivation
-    workers: int = 0  # processes; 0 = all cores
     chunk: int = 64  # candidates per task sent to a worker
-    address: str = ""  # a running Dask scheduler (e.g. tcp://10.0.0.5:8786); "" = local processes
 
     def __post_init__(self) -> None:
         for name in ("n", "chunk", "min_links", "max_depth"):
             if getattr(self, name) < 1:
                 raise InputError(f"{name} must be a positive integer, got {getattr(self, name)}")
-        if self.workers < 0:
-            raise InputError(f"workers must be >= 0 (0 = all cores), got {self.workers}")
 
 
 @dataclass
@@ -109,50 +106,48 @@ def _chunk(task: tuple[Callable[..., Outcome], int, int, int, tuple]) -> list[Ou
     return [make(seed, k, *args) for k in range(start, stop)]
 
 
-def collect(make: Callable[..., Outcome], n: int, seed: int, args: tuple, workers: int, chunk: int,
-            progress: str | None = None, address: str = "") -> tuple[pd.DataFrame, EnumerateStats]:
-    """Run `make(seed, k, *args)` for k = 0, 1, ... through an Executor; keep the first `n` distinct
+def collect(make: Callable[..., Outcome], n: int, seed: int, args: tuple, executor: Executor, chunk: int,
+            progress: str | None = None) -> tuple[pd.DataFrame, EnumerateStats]:
+    """Run `make(seed, k, *args)` for k = 0, 1, ... through `executor`; keep the first `n` distinct
     valid rows in index order. `make` must be a module-level function (it is pickled)."""
     from tqdm import tqdm
 
-    from robocompose.evaluation.executor import Executor
-
     stats, rows, seen = EnumerateStats(), [], set()
     bar = tqdm(total=n, desc=progress, unit="design", disable=progress is None, mininterval=1.0)
-    with Executor(workers=workers, address=address or None) as executor:
-        per_round = 4 * executor.workers if executor.backend != "dask" else 64
+    per_round = 4 * executor.workers if executor.backend != "dask" else 64
 
-        def submit(round_index: int):
-            first = round_index * per_round * chunk
-            return executor.imap(_chunk, [(make, seed, first + i * chunk, first + (i + 1) * chunk, args)
-                                          for i in range(per_round)])
+    def submit(round_index: int):
+        first = round_index * per_round * chunk
+        return executor.imap(_chunk, [(make, seed, first + i * chunk, first + (i + 1) * chunk, args)
+                                      for i in range(per_round)])
 
-        current, round_index = submit(0), 0
-        while len(rows) < n:
-            round_index += 1
-            following = submit(round_index)  # queued now, so no worker idles while this round is read
-            for reason, row, dropped in (outcome for batch in current for outcome in batch):
-                if len(rows) == n:
-                    break
-                stats.candidates += 1
-                if reason:
-                    stats.rejected[reason] += 1
-                elif row["design_id"] in seen:
-                    stats.duplicates += 1
-                else:
-                    seen.add(row["design_id"])
-                    rows.append(row)
-                    stats.dropped_points += dropped
-                    stats.designs_with_dropped_points += dropped > 0
-                    bar.update(1)
-            current = following
+    current, round_index = submit(0), 0
+    while len(rows) < n:
+        round_index += 1
+        following = submit(round_index)  # queued now, so no worker idles while this round is read
+        for reason, row, dropped in (outcome for batch in current for outcome in batch):
+            if len(rows) == n:
+                break
+            stats.candidates += 1
+            if reason:
+                stats.rejected[reason] += 1
+            elif row["design_id"] in seen:
+                stats.duplicates += 1
+            else:
+                seen.add(row["design_id"])
+                rows.append(row)
+                stats.dropped_points += dropped
+                stats.designs_with_dropped_points += dropped > 0
+                bar.update(1)
+        current = following
     bar.close()
     stats.kept = len(rows)
     return pd.DataFrame(rows), stats
 
 
-def enumerate_designs(config: EnumerateConfig,
+def enumerate_designs(config: EnumerateConfig, executor: Executor | None = None,
                       progress: str | None = "enumerate") -> tuple[pd.DataFrame, EnumerateStats]:
-    """`config.n` distinct valid grammar designs with their contact features, and run statistics."""
+    """`config.n` distinct valid grammar designs with their contact features, and run statistics
+    (`executor` None: in this process)."""
     return collect(candidate, config.n, config.seed, (config.min_links, config.max_depth),
-                   config.workers, config.chunk, progress, config.address)
+                   executor or Executor(workers=1), config.chunk, progress)

@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 
 from robocompose.dataset.enumerate import EnumerateStats, Outcome, collect, design_row
+from robocompose.fanout.executor import Executor
 from robocompose.grammar.tree import N_TOKENS, DesignTree
 from robocompose.io.errors import InputError
 
@@ -54,7 +55,8 @@ def nogram_candidate(seed: int, k: int) -> Outcome:
     return "", design_row(random_graph(np.random.default_rng([seed, k])), (), NO_CONTACTS), 0
 
 
-def enumerate_nogram(config: NogramConfig, workers: int = 0, chunk: int = 64, progress: str | None = "nogram",
-                     address: str = "") -> tuple[pd.DataFrame, EnumerateStats]:
-    """`config.n` distinct random designs (repeats of a design id are drawn again and counted)."""
-    return collect(nogram_candidate, config.n, config.seed, (), workers, chunk, progress, address)
+def enumerate_nogram(config: NogramConfig, executor: Executor | None = None, chunk: int = 64,
+                     progress: str | None = "nogram") -> tuple[pd.DataFrame, EnumerateStats]:
+    """`config.n` distinct random designs (repeats of a design id are drawn again and counted); `executor` None:
+    in this process."""
+    return collect(nogram_candidate, config.n, config.seed, (), executor or Executor(workers=1), chunk, progress)

@@ -1,1 +1,1 @@
-"""Evaluating designs: the shared evaluation cache and executor, and the robot evaluator (MPPI on a task)."""
+"""Evaluating grammar designs: the robot evaluator (MPPI on a task), its references and its fidelity ladder."""

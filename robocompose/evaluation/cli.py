@@ -6,7 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
-from robocompose.arguments import non_negative_int, output_file
+from robocompose.arguments import input_file, non_negative_int, output_file
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -61,6 +61,9 @@ def register_fidelity(subparsers: argparse._SubParsersAction) -> None:
     fidelity.add_argument("--rungs", help="comma-separated ladder rungs instead of evaluator_fidelity.rungs")
     fidelity.add_argument("--designs", help="measure: comma-separated design names, only these (for a second "
                                             "process on another part of the set)")
+    fidelity.add_argument("--dataset", type=input_file("a designs table (parquet)"),
+                          default=Path("data/designs.parquet"),
+                          help="build-set: the dataset whose first designs are drawn (default: data/designs.parquet)")
     fidelity.set_defaults(handler=_fidelity)
 
 
@@ -75,8 +78,10 @@ def _fidelity(args: argparse.Namespace) -> int:
     changes = {name: getattr(args, name).split(",") for name in ("tasks", "rungs") if getattr(args, name)}
     config = dataclasses.replace(config, **changes)  # re-checked by __post_init__
     if args.action == "build-set":
-        print(json.dumps({"designs": str(fidelity.write_design_set(fidelity.build_design_set(config),
-                                                                   config.directory))}))
+        from robocompose.io import read_table
+
+        table = fidelity.build_design_set(config, read_table(args.dataset, "designs"), str(args.dataset))
+        print(json.dumps({"designs": str(fidelity.write_design_set(table, config.directory))}))
         return 0
     designs = fidelity.read_design_set(config.directory)
     if args.action == "measure":

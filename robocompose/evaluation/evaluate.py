@@ -4,8 +4,9 @@
     row = evaluate(tree, "flat", EvaluationConfig(), seed=0)
     # {"reward": 4.57, "status": "ok", "sim_steps": 107264, "seconds": 8.8}   (an `eval_cache` row's values)
 
-Many designs, cached and fanned out (local processes or a Dask cluster):
+Many designs, cached and fanned out (`robocompose.fanout`: local processes or a Dask cluster):
     rows = evaluate_designs(trees, ["flat", "wall"], config, seeds=[0], cache=cache, executor=executor)
+    row = cached_evaluations([EvalJob(tree, "flat", config, seed=0)], cache)[0]   # a dict, key columns too
 
 Status of a result (`reward` is null unless noted):
 - "ok": the episode ran; `reward` is its mean per-step reward (~4 standing still, +2 per m/s forward).
@@ -31,12 +32,11 @@ from dataclasses import dataclass, field
 import pandas as pd
 
 from robocompose.control.mppi import MPPIConfig, run_episode
-from robocompose.evaluation.cache import EVAL_KEY_COLUMNS, EvaluationCache
-from robocompose.evaluation.executor import Executor, evaluate_many
+from robocompose.fanout.cache import EVAL_KEY_COLUMNS, EvaluationCache
+from robocompose.fanout.executor import Executor, evaluate_many
 from robocompose.grammar.tree import DesignTree
-from robocompose.io.errors import InputError
+from robocompose.io import get_schema
 from robocompose.io.provenance import result_digest, settings_digest
-from robocompose.params import build_config
 from robocompose.sim.physics import PhysicsSettings
 from robocompose.tasks.terrains import get_task
 
@@ -54,26 +54,10 @@ class EvaluationConfig:
 
     mppi: MPPIConfig = field(default_factory=MPPIConfig)  # controller settings (paper values by default)
     seed: int = 0  # controller seed of an evaluation (results are reproducible given design, task, seed)
-    workers: int = 0  # local evaluation processes; 0 = all cores
-    address: str = ""  # a running Dask scheduler (e.g. "tcp://host:8786"); "" = local processes
-    cache: str = "data/cache/eval_cache.parquet"  # the shared evaluation cache ("" = memory only)
-
-    def __post_init__(self) -> None:
-        if isinstance(self.mppi, dict):
-            object.__setattr__(self, "mppi", build_config(MPPIConfig, self.mppi, "evaluation.mppi"))
-        if not isinstance(self.mppi, MPPIConfig):
-            raise InputError(f"mppi: expected a mapping of MPPI settings, found {self.mppi!r}")
 
     def settings_hash(self, task: str) -> str:
         """16 hex digits identifying everything that changes a result on `task` besides design and seed."""
         return settings_digest({"simulation": simulation_digest(task), "mppi": self.mppi.as_dict()})
-
-    def executor(self, progress: str | None = None) -> Executor:
-        """The executor these settings name; `progress` labels a progress bar for its maps."""
-        return Executor(workers=self.workers, address=self.address or None, progress=progress)
-
-    def open_cache(self) -> EvaluationCache:
-        return EvaluationCache(self.cache or None)
 
 
 def simulation_digest(task: str) -> str:
@@ -126,6 +110,18 @@ def run_job(job: EvalJob) -> dict:
     return evaluate(job.tree, job.task, job.config, job.seed)
 
 
+def cached_evaluations(jobs: Sequence[EvalJob], cache: EvaluationCache | None = None,
+                       executor: Executor | None = None, save_every: int = 0) -> list[dict]:
+    """The full `eval_cache` row (key and values) of every job, evaluating only the keys not cached."""
+    hashes = {(job.task, job.config): job.config.settings_hash(job.task) for job in jobs}
+
+    def key(job: EvalJob) -> tuple[str, str, str, int]:
+        return job.key(hashes[job.task, job.config])
+
+    rows = evaluate_many(run_job, jobs, key, cache=cache, executor=executor, save_every=save_every)
+    return [{**dict(zip(EVAL_KEY_COLUMNS, key(job), strict=True)), **row} for job, row in zip(jobs, rows, strict=True)]
+
+
 def evaluate_designs(trees: Sequence[DesignTree], tasks: Iterable[str], config: EvaluationConfig,
                      seeds: Iterable[int] = (0,), cache: EvaluationCache | None = None,
                      executor: Executor | None = None, save_every: int = 0) -> pd.DataFrame:
@@ -133,11 +129,4 @@ def evaluate_designs(trees: Sequence[DesignTree], tasks: Iterable[str], config: 
     (design-major order)."""
     tasks, seeds = [get_task(t).name for t in tasks], list(seeds)
     jobs = [EvalJob(tree, task, config, seed) for tree in trees for task in tasks for seed in seeds]
-    hashes = {task: config.settings_hash(task) for task in tasks}
-
-    def key(job: EvalJob) -> tuple[str, str, str, int]:
-        return job.key(hashes[job.task])
-
-    rows = evaluate_many(run_job, jobs, key, cache=cache, executor=executor, save_every=save_every)
-    keys = pd.DataFrame([key(job) for job in jobs], columns=list(EVAL_KEY_COLUMNS))
-    return pd.concat([keys, pd.DataFrame(rows)], axis=1)
+    return pd.DataFrame(cached_evaluations(jobs, cache, executor, save_every), columns=get_schema("eval_cache").names)

@@ -8,13 +8,13 @@ appended as soon as it is measured, so a measurement of many CPU hours resumes w
 Spearman rank correlation with the thesis rung's scores, and whether the thesis rung's best design is in
 the rung's top 3. `choose_default` picks the cheapest rung that ranks like the thesis on every task.
 
-    robocompose evaluator-fidelity build-set    # once: the design set (committed)
+    robocompose evaluator-fidelity build-set    # once, after `dvc repro enumerate`: the design set (committed)
     robocompose evaluator-fidelity measure      # hours: resumable, skips rows already in the pieces
     robocompose evaluator-fidelity summarise    # the table
 
-The design set spans the score range: the two RoboGrammar reference designs, `n_random` dataset designs
-(candidates of the enumeration's random stream that pass its filters), and the best `n_screened` of
-`n_screen` further dataset designs scored at the cheap `SCREEN` setting (a quick random search). Scores
+The design set spans the score range: the two RoboGrammar reference designs, the first `n_random` designs of
+the dataset table (data/designs.parquet: the enumeration's valid candidates in candidate order), and the best
+`n_screened` of the next `n_screen` dataset designs scored at the cheap `SCREEN` setting (a quick random search). Scores
 use the optimisers' objective (`objective`: an invalid result gets its penalty score) with controller
 seed 0, the settings of the default profile.
 """
@@ -81,7 +81,6 @@ class FidelityConfig:
     n_random: int = 16  # dataset designs in the set
     n_screen: int = 100  # further dataset designs scored at SCREEN ...
     n_screened: int = 8  # ... of which the best join the set
-    dataset_seed: int = 0  # the enumeration seed whose candidates are drawn
     min_spearman: float = 0.8  # what a rung must reach on every task to be chosen as the default
     top: int = 3  # the thesis-best design must be among this many of the rung's best
 
@@ -95,32 +94,22 @@ class FidelityConfig:
                 raise InputError(f"evaluator_fidelity.{name} must be >= 1, got {getattr(self, name)}")
 
 
-def dataset_candidates(seed: int):
-    """(rules, tree) of the enumeration's valid candidates of `seed`, in candidate order, each design once."""
-    from robocompose.dataset.enumerate import MIN_LINKS, candidate
-
-    seen, k = set(), 0
-    while True:
-        reason, row, _ = candidate(seed, k, MIN_LINKS, 40)
-        k += 1
-        if reason or row["design_id"] in seen:
-            continue
-        seen.add(row["design_id"])
-        yield tuple(row["rules"]), DesignTree(tuple(row["parents"]), tuple(row["tokens"]))
-
-
-def build_design_set(config: FidelityConfig) -> pd.DataFrame:
-    """The fixed design set: references, `n_random` dataset designs, the best screened dataset designs."""
+def build_design_set(config: FidelityConfig, dataset: pd.DataFrame, where: str = "the dataset") -> pd.DataFrame:
+    """The fixed design set: references, the first `n_random` designs of `dataset` (a `designs` table, in
+    candidate order), the best screened of the next `n_screen`."""
+    needed = config.n_random + config.n_screen
+    if len(dataset) < needed:
+        raise InputError(f"{where}: {len(dataset)} designs, expected at least n_random + n_screen = {needed} "
+                         "(evaluator_fidelity)")
     rows = [{"name": name, "kind": "reference", "rules": parse_rules(text), "screen_reward": np.nan}
             for name, text in REFERENCE_DESIGNS.items()]
-    stream = dataset_candidates(config.dataset_seed)
-    for i in range(config.n_random):
-        rules, _ = next(stream)
+    drawn = [(tuple(int(r) for r in row.rules), DesignTree(tuple(row.parents), tuple(row.tokens)))
+             for row in dataset.iloc[:needed].itertuples()]
+    for i, (rules, _) in enumerate(drawn[:config.n_random]):
         rows.append({"name": f"random_{i}", "kind": "random", "rules": rules, "screen_reward": np.nan})
     screened = []
     screen = EvaluationConfig(mppi=SCREEN)
-    for _ in tqdm(range(config.n_screen), desc="screen", unit="design"):
-        rules, tree = next(stream)
+    for rules, tree in tqdm(drawn[config.n_random:], desc="screen", unit="design"):
         row = evaluate(tree, "flat", screen, config.seed)
         if row["status"] == OK:  # an invalid design scores its penalty under every setting: nothing to rank
             screened.append({"kind": "screened", "rules": rules, "screen_reward": row["reward"]})

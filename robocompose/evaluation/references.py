@@ -13,10 +13,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.evaluate import OK, EvalJob, EvaluationConfig, evaluate, evaluate_designs, objective
-from robocompose.evaluation.executor import Executor
 from robocompose.evaluation.rollout_log import RolloutRecorder
+from robocompose.fanout.cache import EvaluationCache
+from robocompose.fanout.executor import Executor
 from robocompose.grammar.derivation import derive, parse_rules
 from robocompose.grammar.references import REFERENCE_DESIGNS
 from robocompose.grammar.tree import DesignTree

@@ -6,6 +6,8 @@ import argparse
 import json
 from pathlib import Path
 
+from robocompose.arguments import dask_address
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     glso = subparsers.add_parser("glso", help="search a task for the best design with one method; JSON per step")
@@ -15,22 +17,24 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     glso.add_argument("--budget", type=int, default=None, help="objective calls (default: glso.budget)")
     glso.add_argument("--seed", type=int, default=0, help="run seed")
     glso.add_argument("--model", default=None, help="the VAE of a latent method (default: glso.models)")
-    glso.add_argument("--params", default="params.yaml", help="params file (sections glso and evaluation)")
+    glso.add_argument("--params", default="params.yaml", help="params file (sections glso, evaluation, compute)")
     glso.add_argument("--checkpoint", default=None,
                       help="save to this checkpoint file, or resume from it if it holds this run's checkpoint")
     glso.add_argument("--out", default=None, help="write the step table here (a .parquet file)")
-    glso.add_argument("--address", default=None,
+    glso.add_argument("--address", type=dask_address, default=None,
                       help="run the search on a worker of this Dask scheduler (tcp://host:8786; default: params' "
-                           "glso.address; \"\" = here); its lines print when it finishes")
+                           "compute.address; \"\" = here); its lines print when it finishes")
     glso.set_defaults(handler=_glso)
 
 
 def _remote_search(job: tuple) -> object:
     """One search run on a Dask worker (module level, so that it pickles): its step table."""
+    from robocompose.fanout.cache import EvaluationCache
     from robocompose.glso.runs import run_search
 
-    spec, config, evaluation, checkpoint, model = job
-    return run_search(spec, config, evaluation, checkpoint=checkpoint, model_path=model, named_checkpoint=True)
+    spec, config, evaluation, checkpoint, model, cache = job
+    return run_search(spec, config, evaluation, checkpoint=checkpoint, model_path=model, named_checkpoint=True,
+                      cache=EvaluationCache(cache or None))
 
 
 def check_checkpoint_path(path: Path) -> Path:
@@ -57,6 +61,7 @@ def _glso(args: argparse.Namespace) -> int:
     checkpoint = None if args.checkpoint is None else check_checkpoint_path(Path(args.checkpoint))
 
     from robocompose.evaluation.evaluate import EvaluationConfig
+    from robocompose.fanout.compute import ComputeConfig
     from robocompose.glso.registry import METHODS
     from robocompose.glso.runs import GLSOConfig, RunSpec, run_search
     from robocompose.params import load_section
@@ -73,6 +78,7 @@ def _glso(args: argparse.Namespace) -> int:
             raise InputError(f"--budget: expected a positive number of objective calls, found {args.budget}")
         config = dataclasses.replace(config, budget=args.budget)
     evaluation = load_section(EvaluationConfig, "evaluation", args.params)
+    compute = load_section(ComputeConfig, "compute", args.params).overridden(args)
     model = None if args.model is None else Path(args.model)
     if model is not None and not model.exists():
         raise InputError(f"--model: {model}: no such file")
@@ -82,20 +88,18 @@ def _glso(args: argparse.Namespace) -> int:
               flush=True)
 
     spec = RunSpec(args.task, args.method, args.seed)
-    address = config.address if args.address is None else args.address
-    if address:
-        from robocompose.evaluation.executor import Executor
+    if compute.address:
         from robocompose.io import write_table
 
-        with Executor(address=address) as executor:
-            steps = next(executor.imap(_remote_search, [(spec, config, evaluation, checkpoint, model)]))
+        with compute.executor() as executor:
+            steps = next(executor.imap(_remote_search, [(spec, config, evaluation, checkpoint, model, compute.cache)]))
         for row in steps.to_dict("records"):
             show(row)
         if out is not None:
             write_table(steps, out, "glso_steps")
     else:
         steps = run_search(spec, config, evaluation, on_step=show, checkpoint=checkpoint, table=out, model_path=model,
-                           named_checkpoint=True)
+                           named_checkpoint=True, cache=compute.open_cache())
     best = steps.loc[steps["score"].idxmax()]
     print(json.dumps({"best": {"design_id": best.design_id, "rules": list(best.rules), "score": best.score,
                                "status": best.status, "step": int(best.step), "parents": list(best.parents),

@@ -3,7 +3,7 @@ fanned out.
 
     from robocompose.glso.runs import GLSOConfig, RunSpec, run_search, run_all
     steps = run_search(RunSpec("flat", "glso", seed=0), config, evaluation)     # one run -> step table
-    steps, seconds = run_all(config, evaluation, Path("data/glso"), executor)   # every (task, method, seed)
+    steps, seconds = run_all(config, evaluation, Path("data/glso"), executor, cache_file)   # every run
 
 The budget rule: a run is `budget` calls of the objective. A call is one MPPI episode of a complete
 design, or the invalid score a design that cannot be simulated gets (only GLSO proposes such designs:
@@ -36,9 +36,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from robocompose.evaluation.cache import EvaluationCache
-from robocompose.evaluation.evaluate import EvaluationConfig, evaluate, objective
-from robocompose.evaluation.executor import Executor
+from robocompose.evaluation.evaluate import EvalJob, EvaluationConfig, cached_evaluations, objective
+from robocompose.fanout.cache import EvaluationCache
+from robocompose.fanout.executor import Executor
 from robocompose.glso import best_designs
 from robocompose.glso.method import Proposal, SearchEnv, SearchMethod
 from robocompose.glso.registry import METHODS, settings_sections
@@ -60,8 +60,6 @@ class RunSettings:
     seeds: list = field(default_factory=lambda: [0, 1, 2])  # run seeds (thesis: 3)
     budget: int = 550  # objective calls per run (GLSO: 50 random + 500 BO steps)
     models: str = "models/vae_{variant}.pt"  # where the VAE of each latent method is ({variant}: full, ...)
-    workers: int = 0  # runs in parallel on local processes (0 = all cores); each run evaluates in its process
-    address: str = ""  # a running Dask scheduler (tcp://host:8786) to fan the runs out over; "" = local
 
     def __post_init__(self) -> None:
         for section, cls in settings_sections().items():
@@ -114,17 +112,11 @@ class Objective:
     def __init__(self, task: str, evaluation: EvaluationConfig, cache: EvaluationCache | None = None):
         self.task, self.evaluation = task, evaluation
         self.cache = EvaluationCache() if cache is None else cache
-        self.settings_hash = evaluation.settings_hash(task)
 
     def __call__(self, tree: DesignTree) -> dict:
-        """The evaluator's row {reward, status, sim_steps, seconds} of `tree` (cached if known)."""
-        key = (tree.design_id, self.task, self.settings_hash, self.evaluation.seed)
-        row = self.cache.get(key)
-        if row is None:
-            row = evaluate(tree, self.task, self.evaluation, self.evaluation.seed)
-            self.cache.put(key, **row)
-            self.cache.save()
-        return row
+        """The evaluator's row {reward, status, sim_steps, seconds, ...} of `tree` (cached if known; a new
+        result is saved to the cache at once)."""
+        return cached_evaluations([EvalJob(tree, self.task, self.evaluation, self.evaluation.seed)], self.cache)[0]
 
 
 def run_key(spec: RunSpec, config: GLSOConfig, evaluation: EvaluationConfig, model_path: Path | None) -> str:
@@ -153,11 +145,12 @@ def step_row(spec: RunSpec, step: int, proposal: Proposal, result: dict, score: 
 def run_search(spec: RunSpec, config: GLSOConfig, evaluation: EvaluationConfig,
                objective_fn: Callable[[DesignTree], dict] | None = None, checkpoint: Path | None = None,
                table: Path | None = None, on_step: Callable[[dict], None] | None = None,
-               model_path: Path | None = None, named_checkpoint: bool = False) -> pd.DataFrame:
+               model_path: Path | None = None, named_checkpoint: bool = False,
+               cache: EvaluationCache | None = None) -> pd.DataFrame:
     """One run of `config.budget` objective calls: its step table (resumed from `checkpoint` if it matches).
 
     `objective_fn(tree)` returns an evaluator row {reward, status, ...} (default: the real evaluator through
-    `evaluation`'s cache); `on_step(row)` sees each new row after it is checkpointed; `model_path`
+    `cache`, memory only if None); `on_step(row)` sees each new row after it is checkpointed; `model_path`
     overrides the latent method's VAE file. `named_checkpoint`: the user named `checkpoint`, so a file there
     that is not this run's checkpoint is an InputError (else it is started over with a warning).
     """
@@ -179,7 +172,7 @@ def run_search(spec: RunSpec, config: GLSOConfig, evaluation: EvaluationConfig,
     saved = load_checkpoint(checkpoint, key, named=named_checkpoint)  # the key is checked before unpickling
     method, rows = saved if saved is not None else (make_method(spec, config, env), [])
     if objective_fn is None:
-        objective_fn = Objective(env.task, evaluation, evaluation.open_cache())
+        objective_fn = Objective(env.task, evaluation, cache)
     seen = {row["design_id"] for row in rows}
     best = rows[-1]["best_so_far"] if rows else -np.inf
     for step in range(len(rows), config.budget):
@@ -211,6 +204,7 @@ class RunJob:
     config: GLSOConfig
     evaluation: EvaluationConfig
     out_dir: str
+    cache: str = ""  # the shared evaluation cache's file ("" = memory only)
 
 
 def run_job(job: RunJob) -> tuple[str, float]:
@@ -219,7 +213,7 @@ def run_job(job: RunJob) -> tuple[str, float]:
     table = out / "runs" / f"{job.spec.name}.parquet"
     started = time.perf_counter()
     run_search(job.spec, job.config, job.evaluation, checkpoint=out / "checkpoints" / f"{job.spec.name}.pkl",
-               table=table)
+               table=table, cache=EvaluationCache(job.cache or None))
     return str(table), time.perf_counter() - started
 
 
@@ -227,17 +221,17 @@ def run_specs(config: GLSOConfig) -> list[RunSpec]:
     return [RunSpec(task, method, seed) for task in config.tasks for method in config.methods for seed in config.seeds]
 
 
-def run_all(config: GLSOConfig, evaluation: EvaluationConfig, out_dir: Path,
-            executor: Executor | None = None) -> tuple[pd.DataFrame, dict[str, float]]:
-    """Every (task, method, seed) run, fanned out over `executor`: all step tables, concatenated in run order,
-    and each run's wall seconds by run name (for reports/timings.json)."""
+def run_all(config: GLSOConfig, evaluation: EvaluationConfig, out_dir: Path, executor: Executor | None = None,
+            cache: str = "") -> tuple[pd.DataFrame, dict[str, float]]:
+    """Every (task, method, seed) run, fanned out over `executor`, evaluating through the cache file `cache`:
+    all step tables, concatenated in run order, and each run's wall seconds by run name (reports/timings.json)."""
     from tqdm import tqdm
 
     for method in config.methods:
         path = config.model_path(method)
         if path is not None and not path.exists():
             raise ArtifactError(f"{path}: the VAE of method {method} is missing (dvc repro train_vae)")
-    jobs = [RunJob(spec, config, evaluation, str(out_dir)) for spec in run_specs(config)]
+    jobs = [RunJob(spec, config, evaluation, str(out_dir), cache) for spec in run_specs(config)]
     executor = executor or Executor(workers=1)
     done = list(tqdm(executor.imap(run_job, jobs), total=len(jobs), desc="glso runs", unit="run"))
     steps = pd.concat([read_table(table, "glso_steps") for table, _ in done], ignore_index=True)

@@ -183,8 +183,7 @@ def code_digest(*modules: str, exclude: tuple[str, ...] = ()) -> str:
 
 # Storage, fan-out and parameter loading: they keep, ship and validate results and settings but do not shape a
 # result (settings enter keys by value), so a result digest never follows a name into them.
-INFRASTRUCTURE = ("robocompose.io", "robocompose.fanout", "robocompose.params", "robocompose.evaluation.cache",
-                  "robocompose.evaluation.executor")
+INFRASTRUCTURE = ("robocompose.io", "robocompose.fanout", "robocompose.params")
 
 
 @functools.cache

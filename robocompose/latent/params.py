@@ -1,14 +1,13 @@
-"""The `train_vae:` section of params.yaml: shared model/training settings and the three variants."""
+"""The `train_vae:` section of params.yaml (loaded by `robocompose.params.load_section`): shared model and training
+settings and the three variants."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
-from pathlib import Path
+from dataclasses import dataclass, field, replace
 
 from robocompose.io.errors import InputError
 from robocompose.latent.model import VAEConfig
 from robocompose.latent.train import TrainConfig
-from robocompose.params import build_config, read_params
 
 VARIANTS = ("full", "nopred", "nogram")
 
@@ -41,16 +40,19 @@ class MetricsConfig:
     seed: int = 0
 
 
-def load_variant(name: str, path: str | Path = "params.yaml") -> tuple[Variant, VAEConfig, TrainConfig, MetricsConfig]:
-    where = f"{path}: train_vae"
-    section = read_params(path).get("train_vae")
-    if not isinstance(section, dict):
-        raise InputError(f"{path}: missing section 'train_vae'")
-    variants = section.get("variants", {})
-    if name not in variants:
-        raise InputError(f"{where}.variants: no variant {name!r}; known: {sorted(variants)}")
-    variant = build_config(Variant, variants[name], f"{where}.variants.{name}")
-    model = build_config(VAEConfig, section.get("model"), f"{where}.model")
-    model = replace(model, predictor=variant.predictor, constraints=variant.constraints)
-    return (variant, model, build_config(TrainConfig, section.get("train"), f"{where}.train"),
-            build_config(MetricsConfig, section.get("metrics", {}), f"{where}.metrics"))
+@dataclass(frozen=True)
+class TrainVaeParams:
+    model: VAEConfig
+    train: TrainConfig
+    variants: dict[str, Variant]
+    metrics: MetricsConfig = field(default_factory=MetricsConfig)
+    extra: ExtraConfig = field(default_factory=ExtraConfig)
+    landscape: dict = field(default_factory=dict)  # the vae_landscape stage's own section (LandscapeConfig)
+
+    def variant(self, name: str) -> tuple[Variant, VAEConfig, TrainConfig, MetricsConfig]:
+        """Variant `name`, the model config it implies (predictor, constraints), the training and metrics configs."""
+        if name not in self.variants:
+            raise InputError(f"variants: no variant {name!r}; known: {sorted(self.variants)}")
+        variant = self.variants[name]
+        model = replace(self.model, predictor=variant.predictor, constraints=variant.constraints)
+        return variant, model, self.train, self.metrics

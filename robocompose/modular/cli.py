@@ -2,9 +2,9 @@
 measure one terrain's exhaustive table; probe candidate terrain distributions; the terrain criterion of a
 directory of exhaustive tables.
 
-Settings come from the `modular:` section of `--params` (default: params.yaml if there is one, else the
-dataclass defaults: the default profile's episode on the reference's course); a file named with `--params` must
-exist. pybullet and the search code are imported inside the handlers.
+Settings come from the `modular:` and `compute:` sections of `--params` (default: params.yaml if there is one,
+else the dataclass defaults: the default profile's episode on the reference's course); a file named with
+`--params` must exist. pybullet and the search code are imported inside the handlers.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import argparse
 import json
 from pathlib import Path
 
-from robocompose.arguments import input_file, non_negative_int, output_directory, output_file
+from robocompose.arguments import add_compute_arguments, input_file, non_negative_int, output_directory, output_file
 
 VARIANTS = ("ga20", "ga50", "crowding", "random")
 
@@ -40,8 +40,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "population 50), random (random sampling)")
     ga.add_argument("--terrain-seed", type=non_negative_int, required=True)
     ga.add_argument("--seed", type=non_negative_int, default=0, help="seed of the search")
-    ga.add_argument("--address", help="a running Dask scheduler (tcp://host:8786) for the evaluations "
-                    "(default: params' modular.address; \"\" = local processes)")
     _add_evaluation_arguments(ga)
     ga.set_defaults(handler=_ga)
 
@@ -95,25 +93,21 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _add_evaluation_arguments(parser: argparse.ArgumentParser) -> None:
-    """--workers and --params of the commands that evaluate many designs."""
-    parser.add_argument("--workers", type=non_negative_int,
-                        help="evaluation processes (default: params; 0 = all cores)")
+    """--workers, --address and --params of the commands that evaluate many designs."""
+    add_compute_arguments(parser)
     _add_params_argument(parser)
 
 
 def _add_params_argument(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--params", type=Path, help="params file with a modular: section (default: params.yaml if "
-                        "there is one, else the defaults); a file named here must exist")
+    parser.add_argument("--params", type=Path, help="params file with modular: and compute: sections (default: "
+                        "params.yaml if there is one, else the defaults); a file named here must exist")
 
 
 def _params(path: Path | None):
-    from robocompose.modular.params import build_modular_params, load_modular_params
+    from robocompose.modular.params import ModularParams
+    from robocompose.params import load_command_section
 
-    if path is not None:
-        return load_modular_params(path)  # fails naming the file if it is missing
-    if Path("params.yaml").exists():
-        return load_modular_params("params.yaml")
-    return build_modular_params({}, "defaults")
+    return load_command_section(ModularParams, "modular", path)
 
 
 def _evaluate(args: argparse.Namespace) -> None:
@@ -134,16 +128,13 @@ def _evaluate(args: argparse.Namespace) -> None:
 
 
 def _ga(args: argparse.Namespace) -> None:
-    from robocompose.evaluation.cache import EvaluationCache
-    from robocompose.evaluation.executor import Executor
+    from robocompose.arguments import command_compute
     from robocompose.modular.experiments import run_method
 
     params = _params(args.params)
-    workers = params.workers if args.workers is None else args.workers
-    cache = EvaluationCache(params.cache or None)
-    address = params.address if args.address is None else args.address
-    with Executor(workers=workers, address=address or None) as executor:
-        run = run_method(args.variant, args.terrain_seed, args.seed, params, cache, executor)
+    compute = command_compute(args, args.params)
+    with compute.executor() as executor:
+        run = run_method(args.variant, args.terrain_seed, args.seed, params, compute.open_cache(), executor)
     print(json.dumps({"variant": args.variant, "terrain_seed": args.terrain_seed, "seed": args.seed,
                       "best_design": run.best_design, "best_fitness": run.best_fitness,
                       "distinct": run.distinct, "evaluations": run.evaluations,
@@ -151,8 +142,7 @@ def _ga(args: argparse.Namespace) -> None:
 
 
 def _exhaustive(args: argparse.Namespace) -> None:
-    from robocompose.evaluation.cache import EvaluationCache
-    from robocompose.evaluation.executor import Executor
+    from robocompose.arguments import command_compute
     from robocompose.io import read_table
     from robocompose.io.errors import InputError
     from robocompose.modular.terrain_study import candidate_settings
@@ -166,6 +156,7 @@ def _exhaustive(args: argparse.Namespace) -> None:
     from robocompose.params import read_params
 
     params = _params(args.params)
+    compute = command_compute(args, args.params)
     settings = params.eval
     if (args.candidates is None) != (args.distribution is None):
         raise InputError("--candidates and --distribution: expected both (a candidate terrain) or neither")
@@ -177,9 +168,8 @@ def _exhaustive(args: argparse.Namespace) -> None:
         settings = candidate_settings(settings, {args.distribution: document[args.distribution]},
                                       str(args.candidates))[args.distribution]
     directory = args.out_dir or COMMITTED_DIR
-    workers = params.workers if args.workers is None else args.workers
-    cache = EvaluationCache(params.cache or None)
-    with Executor(workers=workers, address=params.address or None) as executor:
+    cache = compute.open_cache()
+    with compute.executor() as executor:
         for seed in args.terrain_seed:
             kept = read_committed(seed, settings, params.fitness, directory) is not None
             path = (committed_path(seed, directory) if kept
@@ -190,18 +180,17 @@ def _exhaustive(args: argparse.Namespace) -> None:
                               "near_optimal": int(best.near_optimal)}), flush=True)
 
 def _probe(args: argparse.Namespace) -> None:
-    from robocompose.evaluation.cache import EvaluationCache
-    from robocompose.evaluation.executor import Executor
+    from robocompose.arguments import command_compute
     from robocompose.io import atomic_write_text
     from robocompose.modular.robot import parse_design
     from robocompose.modular.terrain_study import PROBE_DESIGNS, candidate_settings, criteria, probe_table, rounded
     from robocompose.params import read_params
 
     params = _params(args.params)
+    compute = command_compute(args, args.params)
     candidates = candidate_settings(params.eval, read_params(args.candidates), str(args.candidates))
     designs = [parse_design(d) for d in args.designs] if args.designs else list(PROBE_DESIGNS)
-    workers = params.workers if args.workers is None else args.workers
-    cache = EvaluationCache(params.cache or None)
+    cache = compute.open_cache()
 
     def write(table) -> None:
         rows = table.drop(columns="seconds")  # wall time of each rollout: not reproducible
@@ -209,7 +198,7 @@ def _probe(args: argparse.Namespace) -> None:
         atomic_write_text(args.out.with_name(f"{args.out.stem}_criterion.csv"),
                           rounded(criteria(table)).to_csv(index=False))
 
-    with Executor(workers=workers, address=params.address or None) as executor:
+    with compute.executor() as executor:
         table = probe_table(candidates, args.terrain_seed, params.fitness, cache, executor, designs,
                             on_piece=write)
     for row in criteria(table).to_dict("records"):

@@ -31,8 +31,8 @@ import pandas as pd
 from robocompose.eggan.learners import LEARNERS, Learner, baselines
 from robocompose.eggan.query import save_generator
 from robocompose.eggan.train import train
-from robocompose.evaluation.cache import EvaluationCache
-from robocompose.evaluation.executor import Executor
+from robocompose.fanout.cache import EvaluationCache
+from robocompose.fanout.executor import Executor
 from robocompose.modular.eggan_params import VARIANTS, EgganModularParams
 from robocompose.modular.eggan_problem import ModularEgganProblem
 from robocompose.modular.evaluate import Result, evaluate_designs

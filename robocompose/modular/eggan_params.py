@@ -1,15 +1,14 @@
-"""The `eggan_modular:` section of params.yaml: EG-GAN and the learned baselines on modular robots (thesis 5.1)."""
+"""The `eggan_modular:` section of params.yaml (loaded by `robocompose.params.load_section`): EG-GAN and the
+learned baselines on modular robots (thesis 5.1)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
-from pathlib import Path
+from dataclasses import dataclass, field
 
 from robocompose.eggan.networks import NetworkConfig
-from robocompose.eggan.surrogate import SurrogateConfig
 from robocompose.eggan.train import TrainConfig
+from robocompose.io.errors import InputError, check_field
 from robocompose.modular.eggan_problem import FitnessConfig
-from robocompose.params import build_config, read_params
 
 VARIANTS = {"crowding": "EG-GAN-crowding", "ga": "EG-GAN"}  # evolution method -> the thesis's name
 
@@ -26,51 +25,22 @@ class ProtocolConfig:
 
     def __post_init__(self):
         if not self.test_terrains:
-            raise ValueError("protocol.test_terrains: expected at least one terrain seed")
+            raise InputError("test_terrains: expected at least one terrain seed")
         for name in ("queries", "candidates", "samples", "ec_draws"):
-            if getattr(self, name) < 1:
-                raise ValueError(f"protocol.{name}: expected a positive integer, found {getattr(self, name)}")
+            check_field(getattr(self, name) >= 1, name, "a positive integer", getattr(self, name))
 
 
 @dataclass(frozen=True)
 class EgganModularParams:
-    fitness: FitnessConfig
-    network: NetworkConfig
-    train: TrainConfig  # the EG-GAN variants share it; `evolution` is set per variant
-    evolution_steps: dict  # variant -> n (crowding: n steps; ga: GA generations)
-    protocol: ProtocolConfig
-    baselines: dict  # baseline name -> its config mapping (see robocompose.eggan.<name>)
+    fitness: FitnessConfig = field(default_factory=FitnessConfig)
+    network: NetworkConfig = field(default_factory=NetworkConfig)
+    train: TrainConfig = field(default_factory=TrainConfig)  # the EG-GAN variants share it; `evolution` set per variant
+    evolution_steps: dict = field(default_factory=lambda: dict.fromkeys(VARIANTS, 1))  # crowding: steps; ga: GA gens
+    protocol: ProtocolConfig = field(default_factory=ProtocolConfig)
+    baselines: dict = field(default_factory=dict)  # baseline name -> its config mapping (see robocompose.eggan.<name>)
 
-
-def build_eggan_modular_params(section: dict, where: str) -> EgganModularParams:
-    known = {"fitness", "network", "train", "evolution_steps", "protocol", "baselines"}
-    if not isinstance(section, dict):
-        raise ValueError(f"{where}: expected a mapping with {sorted(known)}")
-    unknown = sorted(set(section) - known)
-    if unknown:
-        raise ValueError(f"{where}.{unknown[0]}: unknown field; expected one of {sorted(known)}")
-    fitness = dict(section.get("fitness", {}))
-    surrogate = build_config(SurrogateConfig, fitness.pop("surrogate", {}), f"{where}.fitness.surrogate")
-    steps = section.get("evolution_steps", {"crowding": 1, "ga": 1})
-    if not isinstance(steps, dict) or set(steps) != set(VARIANTS) or not all(
-            isinstance(v, int) and v >= 1 for v in steps.values()):
-        raise ValueError(f"{where}.evolution_steps: expected a positive integer for each of {sorted(VARIANTS)}, "
-                         f"found {steps!r}")
-    baselines = section.get("baselines", {})
-    if not isinstance(baselines, dict):
-        raise ValueError(f"{where}.baselines: expected a mapping of baseline name -> settings")
-    return EgganModularParams(
-        fitness=replace(build_config(FitnessConfig, fitness, f"{where}.fitness"), surrogate=surrogate),
-        network=build_config(NetworkConfig, section.get("network", {}), f"{where}.network"),
-        train=build_config(TrainConfig, section.get("train", {}), f"{where}.train"),
-        evolution_steps=dict(steps),
-        protocol=build_config(ProtocolConfig, section.get("protocol", {}), f"{where}.protocol"),
-        baselines=dict(baselines))
-
-
-def load_eggan_modular_params(path: str | Path = "params.yaml") -> EgganModularParams:
-    """The `eggan_modular:` section of a params file, checked (errors name the file and the field)."""
-    document = read_params(path)
-    if "eggan_modular" not in document:
-        raise ValueError(f"{path}: missing section 'eggan_modular'")
-    return build_eggan_modular_params(document["eggan_modular"], f"{path}: eggan_modular")
+    def __post_init__(self) -> None:
+        steps = self.evolution_steps
+        check_field(set(steps) == set(VARIANTS) and all(isinstance(v, int) and not isinstance(v, bool) and v >= 1
+                                                        for v in steps.values()),
+                    "evolution_steps", f"a positive integer for each of {sorted(VARIANTS)}", steps)

@@ -31,8 +31,8 @@ import torch
 
 from robocompose.eggan.problem import Objective, Sampled, evolve_single_objective, one_hot_rows, sample_rows
 from robocompose.eggan.surrogate import Surrogate, SurrogateConfig, spearman
-from robocompose.evaluation.cache import EvaluationCache
-from robocompose.evaluation.executor import Executor
+from robocompose.fanout.cache import EvaluationCache
+from robocompose.fanout.executor import Executor
 from robocompose.io.provenance import code_digest
 from robocompose.modular.evaluate import evaluate_designs
 from robocompose.modular.params import ModularParams

@@ -26,8 +26,8 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from robocompose.evaluation.cache import EvaluationCache
-from robocompose.evaluation.executor import Executor, evaluate_many
+from robocompose.fanout.cache import EvaluationCache
+from robocompose.fanout.executor import Executor, evaluate_many
 from robocompose.io.errors import InputError
 from robocompose.io.provenance import result_digest, settings_digest
 from robocompose.modular.controller import RobotState, make_controller

@@ -1,16 +1,13 @@
-"""The `modular:` section of params.yaml: evaluation settings, fitness rule, experiments, executor."""
+"""The `modular:` section of params.yaml (loaded by `robocompose.params.load_section`): evaluation settings, the
+fitness rule and the experiments."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from pathlib import Path
 
-from robocompose.evaluation.cache import DEFAULT_CACHE_PATH
 from robocompose.io.errors import InputError
 from robocompose.modular.evaluate import EvalSettings, FitnessRule
 from robocompose.modular.robot import LINK_LENGTH, PORT_XY, SHOULDER_OFFSET, WHEEL_RADIUS, X8_3
-from robocompose.modular.terrain import TerrainConfig
-from robocompose.params import build_config, read_params
 
 FASTEST_SPEED = WHEEL_RADIUS * X8_3.speed  # m/s, a wheel's rim at the drive's rated speed (0.92; measured 0.91)
 FRONT_REACH = PORT_XY[0][0] + SHOULDER_OFFSET + LINK_LENGTH  # m, the farthest a module reaches ahead of the chassis
@@ -53,12 +50,12 @@ class ExperimentsConfig:
 
 @dataclass(frozen=True)
 class ModularParams:
-    eval: EvalSettings
-    fitness: FitnessRule
-    experiments: ExperimentsConfig
-    workers: int = 0  # local evaluation processes; 0 = all cores
-    address: str = ""  # an existing Dask scheduler ("tcp://host:8786"); empty = local processes
-    cache: str = str(DEFAULT_CACHE_PATH)  # the shared evaluation cache (not a DVC output)
+    eval: EvalSettings = field(default_factory=EvalSettings)
+    fitness: FitnessRule = field(default_factory=FitnessRule)
+    experiments: ExperimentsConfig = field(default_factory=ExperimentsConfig)
+
+    def __post_init__(self) -> None:
+        check_course(self.eval, "eval")
 
 
 def course_reach(settings: EvalSettings) -> float:
@@ -75,39 +72,3 @@ def check_course(settings: EvalSettings, where: str) -> None:
                          f"({settings.control_steps} control steps) the fastest design (wheels, "
                          f"{FASTEST_SPEED:.2f} m/s) reaches x = {reach:.2f} m; expected x_range[1] >= {reach:.2f} "
                          "or fewer control_steps")
-
-
-def build_modular_params(section: dict, where: str) -> ModularParams:
-    if not isinstance(section, dict):
-        raise InputError(f"{where}: expected a mapping with eval, fitness, experiments, workers, address, cache")
-    known = {"eval", "fitness", "experiments", "workers", "address", "cache"}
-    unknown = sorted(set(section) - known)
-    if unknown:
-        raise InputError(f"{where}.{unknown[0]}: unknown field; expected one of {sorted(known)}")
-    evaluation = section.get("eval", {})
-    if not isinstance(evaluation, dict):
-        raise InputError(f"{where}.eval: expected a mapping of evaluator settings, found {evaluation!r}")
-    evaluation = dict(evaluation)
-    terrain = build_config(TerrainConfig, evaluation.pop("terrain", {}), f"{where}.eval.terrain")
-    settings = build_config(EvalSettings, evaluation, f"{where}.eval")
-    workers, address = section.get("workers", 0), section.get("address", "")
-    cache = section.get("cache", str(DEFAULT_CACHE_PATH))
-    if not isinstance(workers, int) or workers < 0:
-        raise InputError(f"{where}.workers: expected an integer >= 0 (0 = all cores), found {workers!r}")
-    if not isinstance(address, str) or not isinstance(cache, str):
-        raise InputError(f"{where}.address and {where}.cache: expected strings")
-    settings = EvalSettings(**{**settings.__dict__, "terrain": terrain})
-    check_course(settings, f"{where}.eval")
-    return ModularParams(
-        eval=settings,
-        fitness=build_config(FitnessRule, section.get("fitness", {}), f"{where}.fitness"),
-        experiments=build_config(ExperimentsConfig, section.get("experiments", {}), f"{where}.experiments"),
-        workers=workers, address=address, cache=cache)
-
-
-def load_modular_params(path: str | Path = "params.yaml") -> ModularParams:
-    """The `modular:` section of a params file, checked (errors name the file and the field)."""
-    document = read_params(path)
-    if "modular" not in document:
-        raise InputError(f"{path}: missing section 'modular'")
-    return build_modular_params(document["modular"], f"{path}: modular")

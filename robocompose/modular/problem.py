@@ -10,8 +10,8 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from robocompose.evaluation.cache import EvaluationCache
-from robocompose.evaluation.executor import Executor
+from robocompose.fanout.cache import EvaluationCache
+from robocompose.fanout.executor import Executor
 from robocompose.modular.evaluate import EvalSettings, FitnessRule, Result, evaluate_designs
 from robocompose.modular.robot import MODULE_LETTERS, N_PORTS, design_to_index, index_to_design
 

@@ -20,8 +20,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from robocompose.evaluation.cache import EvaluationCache
-from robocompose.evaluation.executor import Executor
+from robocompose.fanout.cache import EvaluationCache
+from robocompose.fanout.executor import Executor
 from robocompose.io import atomic_write_json, read_table, write_table
 from robocompose.io.atomic import read_json
 from robocompose.io.provenance import result_digest

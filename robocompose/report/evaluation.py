@@ -28,7 +28,7 @@ def _cell(row: pd.Series) -> str:
 
 def _evaluation_seconds(table: pd.DataFrame, cache_path: Path) -> pd.Series | None:
     """Mean wall seconds per evaluation by task, as measured when the evaluations ran (from the cache)."""
-    from robocompose.evaluation.cache import EVAL_KEY_COLUMNS, EvaluationCache
+    from robocompose.fanout.cache import EVAL_KEY_COLUMNS, EvaluationCache
 
     if not cache_path.exists():
         return None

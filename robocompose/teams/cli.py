@@ -8,7 +8,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from robocompose.arguments import input_file, int_at_least, non_negative_int, positive_int
+from robocompose.arguments import dask_address, input_file, int_at_least, non_negative_int, positive_int
 from robocompose.io.errors import InputError
 
 
@@ -23,8 +23,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     nsga2.add_argument("--pop", type=int_at_least(2), default=50, help="population size (thesis: 20 or 50)")
     nsga2.add_argument("--generations", type=positive_int, default=50, help="generations (thesis: 50)")
     nsga2.add_argument("--seed", type=non_negative_int, default=0, help="seed of NSGA-II and of the robots' starts")
-    nsga2.add_argument("--address", default="",
-                       help="a running Dask scheduler (tcp://host:8786) to run on instead of this process")
+    nsga2.add_argument("--address", type=dask_address, default=None,
+                       help="a running Dask scheduler (tcp://host:8786) to run on instead of this process (default: "
+                            "compute.address of params.yaml if there is one; \"\" = here)")
     nsga2.set_defaults(handler=_nsga2)
 
     coverage = commands.add_parser("coverage", help="coverage and deployment cost of one allocation")
@@ -73,15 +74,17 @@ def _setup(args: argparse.Namespace):
 
 
 def _nsga2(args: argparse.Namespace) -> None:
-    from robocompose.evaluation.executor import Executor
+    from robocompose.arguments import command_compute
+    from robocompose.fanout.executor import Executor
     from robocompose.search.nsga2 import NSGA2Config
     from robocompose.teams.ergodic import CoverageConfig
     from robocompose.teams.experiments import _nsga2_run
 
-    chip, decomposition = _chip(args)
-    config = NSGA2Config(population=args.pop, generations=args.generations, seed=args.seed)
-    # The run is one executor task (the experiments stage's own), here or on a Dask worker: same result.
-    with Executor(workers=1, address=args.address or None) as executor:
+    # The run is one executor task (the experiments stage's own), here or on a Dask worker: same result. The
+    # executor connects first, so a scheduler that does not answer fails before the chip is decomposed.
+    with Executor(workers=1, address=command_compute(args).address) as executor:
+        chip, decomposition = _chip(args)
+        config = NSGA2Config(population=args.pop, generations=args.generations, seed=args.seed)
         result, _ = executor.map(_nsga2_run, [(chip, decomposition, CoverageConfig(), config, 1)])[0]
     print(json.dumps({"hypervolume": result.hypervolume, "seconds": result.seconds,
                       "front": [[float(c), int(d)] for c, d in result.front]}))

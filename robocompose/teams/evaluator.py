@@ -1,11 +1,11 @@
 """Evaluating allocations: the project's evaluation cache in front of the batched coverage optimiser.
 
-The cache is the shared `robocompose.evaluation.cache.EvaluationCache` on table "teams_eval_cache",
+The cache is the shared `robocompose.fanout.cache.EvaluationCache` on table "teams_eval_cache",
 keyed by (allocation id, chip id, settings hash, seed): allocation id hashes the integer K x O counts
 (so two fraction matrices that round to the same robots share one entry), the settings hash covers
-every CoverageConfig field. Evaluation stays in-process and batched: the misses of a batch are
-optimised together by torch, in chunks of `max_batch` allocations to bound memory (fanning whole runs
-out to processes is experiments.py's job).
+every CoverageConfig field. Lookups go through `robocompose.fanout.executor.evaluate_many`, every world's
+cached objective; evaluation stays in-process and batched: the misses of a batch are optimised together by
+torch, in chunks of `max_batch` allocations to bound memory (fanning whole runs out is experiments.py's job).
 """
 
 from __future__ import annotations
@@ -14,7 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from robocompose.evaluation.cache import CacheKey, EvaluationCache
+from robocompose.fanout.cache import CacheKey, EvaluationCache
+from robocompose.fanout.executor import evaluate_many
 from robocompose.teams.chips import Chip
 from robocompose.teams.decompose import Decomposition
 from robocompose.teams.ergodic import ChipCoverage, CoverageConfig, allocation_id
@@ -48,18 +49,16 @@ class AllocationEvaluator:
     def key(self, counts: np.ndarray) -> CacheKey:
         return (allocation_id(counts), self.chip_id, self.coverage.config.settings_hash(), self.seed)
 
+    def _optimise(self, chunk: list[np.ndarray]) -> list[dict]:
+        """The cache rows of up to `max_batch` allocations, optimised together."""
+        batch = np.stack(chunk)
+        costs, _, _ = self.coverage.evaluate(batch, self.seed)
+        self.optimised += len(chunk)
+        return [{"coverage_cost": cost, "deployment_cost": deploy}
+                for cost, deploy in zip(costs, deployment_cost(batch), strict=True)]
+
     def __call__(self, counts: np.ndarray) -> np.ndarray:
         """(B, 2) objectives [coverage cost, deployment cost] of (B, K, O) counts."""
         counts = np.asarray(counts, dtype=np.int64)
-        keys = [self.key(c) for c in counts]
-        missing = {key: c for key, c in zip(keys, counts, strict=True) if key not in self.cache}
-        todo = list(missing.items())
-        for start in range(0, len(todo), self.max_batch):
-            chunk = todo[start:start + self.max_batch]
-            batch = np.stack([c for _, c in chunk])
-            costs, _, _ = self.coverage.evaluate(batch, self.seed)
-            for (key, _), cost, deploy in zip(chunk, costs, deployment_cost(batch), strict=True):
-                self.cache.put(key, coverage_cost=cost, deployment_cost=deploy)
-            self.optimised += len(chunk)
-        rows = [self.cache.get(key) for key in keys]
+        rows = evaluate_many(self._optimise, list(counts), self.key, self.cache, batch=self.max_batch)
         return np.array([[row["coverage_cost"], row["deployment_cost"]] for row in rows], dtype=np.float64)

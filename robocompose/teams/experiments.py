@@ -23,8 +23,8 @@ import numpy as np
 import pandas as pd
 import torch
 
-from robocompose.evaluation.cache import EvaluationCache
-from robocompose.evaluation.executor import Executor
+from robocompose.fanout.cache import EvaluationCache
+from robocompose.fanout.executor import Executor
 from robocompose.search.nsga2 import NSGA2Config
 from robocompose.teams.baselines import no_decomposition_costs, random_allocation, random_species_counts, random_teams
 from robocompose.teams.chips import Chip, read_chip

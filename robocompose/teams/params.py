@@ -1,16 +1,13 @@
-"""The `teams:` section of params.yaml, parsed into the config dataclasses and checked.
+"""The `teams:` section of params.yaml as config dataclasses (loaded by `robocompose.params.load_section`).
 
-An unknown key, a missing section or a value of the wrong type fails with the file, the field and
-what was expected.
+All five sub-sections are required: a stage must not run on defaults that the params file does not show.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
-from pathlib import Path
+from dataclasses import dataclass, field
 
-from robocompose.io.errors import InputError, check_field
-from robocompose.params import build_config, read_params
+from robocompose.io.errors import check_field
 from robocompose.teams.chips import ChipsConfig
 from robocompose.teams.decompose import DecomposeConfig
 from robocompose.teams.ergodic import CoverageConfig
@@ -26,8 +23,6 @@ class ExperimentsConfig:
     table_5_5_chips: int = 20  # Table 5.5 (no decomposition, random, EG-GAN) on the first test chips ...
     seeds: list[int] = field(default_factory=lambda: [0])  # ... each row of a table on these seeds
     budgets: list[int] = field(default_factory=lambda: [15, 30, 45])  # Table 5.5 deployment budgets
-    workers: int = 0  # processes running the independent runs; 0 = all cores, 1 = in the stage's process
-    address: str = ""  # a running Dask scheduler (e.g. tcp://10.0.0.5:8786) to fan out over; "" = local
 
     def __post_init__(self) -> None:
         check_field(bool(self.populations) and min(self.populations) >= 2, "populations",
@@ -41,7 +36,6 @@ class ExperimentsConfig:
                     self.seeds)
         check_field(bool(self.budgets) and min(self.budgets) >= 1, "budgets", "a non-empty list of integers >= 1",
                     self.budgets)
-        check_field(self.workers >= 0, "workers", "an integer >= 0 (0 = all cores)", self.workers)
 
 
 @dataclass(frozen=True)
@@ -66,31 +60,5 @@ class TeamsParams:
     eggan: EgganConfig
     threads: int = 1  # torch threads: the tensors are small, one thread is fastest and reproducible
 
-
-def load_teams_params(path: str | Path = "params.yaml") -> TeamsParams:
-    """Read the `teams:` section of a params file.
-
-    All four sub-sections are required (the decompose stage reads chips and decompose, teams_baselines the
-    regions it made and coverage and experiments; a stage must not run on defaults that the params file does
-    not show); a field left out of a sub-section takes the dataclass default; `threads` defaults to 1.
-    """
-    section = read_params(path).get("teams")
-    where = f"{path}: teams"
-    parts = {"chips": ChipsConfig, "decompose": DecomposeConfig, "coverage": CoverageConfig,
-             "experiments": ExperimentsConfig, "eggan": EgganConfig}
-    if not isinstance(section, dict):
-        raise InputError(f"{where}: missing section (expected sub-sections {list(parts)})")
-    known = sorted([*parts, "threads"])
-    unknown = sorted(set(section) - set(known), key=str)
-    if unknown:
-        raise InputError(f"{where}.{unknown[0]}: unknown field; expected one of {known}")
-    built = {name: build_config(cls, section[name], f"{where}.{name}") for name, cls in parts.items()
-             if name in section}  # a bad field of a given section is named before a missing section
-    threads = section.get("threads", 1)
-    if not isinstance(threads, int) or isinstance(threads, bool) or threads < 1:
-        raise InputError(f"{where}.threads: expected a positive integer, found {threads!r}")
-    missing = [name for name in parts if name not in section]
-    if missing:
-        raise InputError(f"{where}.{missing[0]}: missing section (expected fields "
-                         f"{[f.name for f in fields(parts[missing[0]])]})")
-    return TeamsParams(**built, threads=threads)
+    def __post_init__(self) -> None:
+        check_field(self.threads >= 1, "threads", "a positive integer", self.threads)

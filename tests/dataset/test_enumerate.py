@@ -3,6 +3,7 @@ import pandas as pd
 import pytest
 
 from robocompose.dataset.enumerate import EnumerateConfig, enumerate_designs
+from robocompose.fanout.executor import Executor
 from robocompose.grammar.tree import DesignTree
 from robocompose.io import read_table, write_table
 from robocompose.sim.contacts import PAD_X, REASONS, SCALE, rejection
@@ -10,8 +11,9 @@ from robocompose.sim.contacts import PAD_X, REASONS, SCALE, rejection
 
 @pytest.fixture(scope="module")
 def small_runs():
-    one, stats_one = enumerate_designs(EnumerateConfig(n=12, seed=3, workers=1, chunk=16), progress=None)
-    two, stats_two = enumerate_designs(EnumerateConfig(n=12, seed=3, workers=2, chunk=16), progress=None)
+    one, stats_one = enumerate_designs(EnumerateConfig(n=12, seed=3, chunk=16), progress=None)
+    with Executor(workers=2) as executor:
+        two, stats_two = enumerate_designs(EnumerateConfig(n=12, seed=3, chunk=16), executor, progress=None)
     return one, stats_one, two, stats_two
 
 
@@ -45,11 +47,11 @@ def test_round_trip_through_parquet(small_runs, tmp_path):
 
 
 def test_another_seed_gives_other_designs(small_runs):
-    other, _ = enumerate_designs(EnumerateConfig(n=3, seed=4, workers=1, chunk=8), progress=None)
+    other, _ = enumerate_designs(EnumerateConfig(n=3, seed=4, chunk=8), progress=None)
     assert set(other["design_id"]).isdisjoint(set(small_runs[0]["design_id"][:3])) or len(other) == 3
 
 
-@pytest.mark.parametrize(("field", "value"), [("n", -5), ("n", 0), ("chunk", 0), ("workers", -1)])
+@pytest.mark.parametrize(("field", "value"), [("n", -5), ("n", 0), ("chunk", 0)])
 def test_bad_config_names_the_field(field, value):
     with pytest.raises(ValueError, match=field):
         EnumerateConfig(**{"n": 10, field: value})

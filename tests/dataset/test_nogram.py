@@ -39,7 +39,7 @@ def test_parents_precede_children_and_are_drawn_among_all_earlier_nodes():
 
 
 def test_designs_carry_no_contacts_and_no_rules():
-    designs, stats = enumerate_nogram(NogramConfig(n=20, seed=0), workers=1, progress=None)
+    designs, stats = enumerate_nogram(NogramConfig(n=20, seed=0), progress=None)
     assert stats.kept == 20 and designs["design_id"].is_unique
     assert all(len(r) == 0 for r in designs["rules"])
     assert all(np.isnan(c).all() for c in designs["contacts"])

@@ -5,10 +5,12 @@ import pytest
 
 import robocompose.evaluation.evaluate as ev
 from robocompose.control.mppi import Episode, MPPIConfig
-from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.evaluate import EvaluationConfig, evaluate, evaluate_designs, objective
-from robocompose.evaluation.executor import Executor
+from robocompose.fanout.cache import EvaluationCache
+from robocompose.fanout.executor import Executor
 from robocompose.grammar.derivation import derive, parse_rules
+from robocompose.io.errors import InputError
+from robocompose.params import build_config
 
 RIDGED_BEST = "0,7,1,13,1,2,16,12,13,6,4,19,4,17,5,3,2,16,4,5,18,9,8,9,9,8"
 SELF_PENETRATING = "0,2,17,10,6,4,16,5,9,8,7"  # its two limbs overlap when placed
@@ -49,11 +51,12 @@ def test_blow_ups_are_unstable_not_scores(monkeypatch, tree, reward, status, sto
 
 
 def test_settings_hash_separates_settings_and_params_build_nested_config():
-    config = EvaluationConfig(mppi={"samples": 4, "first_samples": 4, "horizon": 4, "episode": 6})
+    config = build_config(EvaluationConfig, {"mppi": {"samples": 4, "first_samples": 4, "horizon": 4, "episode": 6}},
+                          "evaluation")
     assert config.mppi == TINY.mppi and config.settings_hash("flat") == TINY.settings_hash("flat")
     assert EvaluationConfig().settings_hash("flat") != TINY.settings_hash("flat")
-    with pytest.raises(ValueError, match="evaluation.mppi.samples"):
-        EvaluationConfig(mppi={"samples": "many"})
+    with pytest.raises(InputError, match="evaluation.mppi.samples: expected int"):
+        build_config(EvaluationConfig, {"mppi": {"samples": "many"}}, "evaluation")
 
 
 def test_evaluate_designs_on_processes_fills_the_cache(tmp_path, tree):
@@ -128,3 +131,16 @@ def _with_default(cls, **defaults):
     def patched(self, **kwargs):
         init(self, **{**defaults, **kwargs})
     return patched
+
+
+def test_cached_evaluations_read_entries_under_the_old_key_formula(tree, monkeypatch):
+    """The key (design id, task, settings hash, seed) is what the cache files already hold: no re-keying."""
+    from robocompose.evaluation.evaluate import EvalJob, cached_evaluations
+
+    cache = EvaluationCache()
+    old_key = (tree.design_id, "flat", TINY.settings_hash("flat"), 3)
+    cache.put(old_key, reward=4.25, status="ok", sim_steps=7, seconds=1.0)
+    monkeypatch.setattr(ev, "evaluate", lambda *a, **k: pytest.fail("a cached entry was evaluated again"))
+    [row] = cached_evaluations([EvalJob(tree, "flat", TINY, 3)], cache)
+    assert row == {"design_id": tree.design_id, "task": "flat", "settings_hash": old_key[2], "seed": 3,
+                   "reward": 4.25, "status": "ok", "sim_steps": 7, "seconds": 1.0}

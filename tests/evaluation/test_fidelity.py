@@ -146,3 +146,20 @@ def test_default_profile_runs_the_rung_the_committed_table_selects():
     mppi = load_section(EvaluationConfig, "evaluation", root / "profiles" / "default.yaml").mppi
     assert choice["rung"], choice["reason"]
     assert fidelity.LADDER[choice["rung"]] == (mppi.samples, mppi.first_samples, mppi.horizon, mppi.episode)
+
+
+def test_the_design_set_draws_the_first_dataset_designs(monkeypatch):
+    """build-set reads the dataset table (not the dataset code): its first designs, in candidate order."""
+    from robocompose.dataset.enumerate import EnumerateConfig, enumerate_designs
+    from robocompose.io.errors import InputError
+
+    dataset, _ = enumerate_designs(EnumerateConfig(n=4, seed=0), progress=None)
+    monkeypatch.setattr(fidelity, "evaluate", lambda tree, *a: {"status": "ok", "reward": float(tree.n_links)})
+    table = fidelity.build_design_set(FidelityConfig(n_random=3, n_screen=1, n_screened=1), dataset)
+    random = table[table.kind == "random"]
+    assert list(random.rules) == [",".join(map(str, rules)) for rules in dataset.rules[:3]]
+    assert list(random.design_id) == list(dataset.design_id[:3])
+    assert list(table.kind) == ["reference", "reference", "random", "random", "random", "screened"]
+    assert list(table[table.kind == "screened"].design_id) == [dataset.design_id[3]]
+    with pytest.raises(InputError, match="data.parquet: 4 designs, expected at least n_random \\+ n_screen = 5"):
+        fidelity.build_design_set(FidelityConfig(n_random=4, n_screen=1), dataset, "data.parquet")

@@ -5,7 +5,6 @@ import pytest
 from robocompose.control.mppi import MPPIConfig
 from robocompose.dataset.enumerate import design_row
 from robocompose.evaluation.evaluate import EvaluationConfig
-from robocompose.evaluation.executor import Executor
 from robocompose.evaluation.references import (
     ReferencesConfig,
     best_per_task,
@@ -13,11 +12,12 @@ from robocompose.evaluation.references import (
     evaluate_references,
     record_best,
 )
+from robocompose.fanout.executor import Executor
 from robocompose.grammar.derivation import random_derivation
 from robocompose.grammar.references import REFERENCE_DESIGNS
 from robocompose.io import read_mcap, read_table, write_table
 
-TINY = EvaluationConfig(mppi=MPPIConfig(samples=2, first_samples=2, horizon=2, episode=4), workers=1)
+TINY = EvaluationConfig(mppi=MPPIConfig(samples=2, first_samples=2, horizon=2, episode=4))
 
 
 @pytest.fixture(scope="module")

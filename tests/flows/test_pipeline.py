@@ -159,7 +159,7 @@ def test_failing_stage_fails_the_flow_after_one_retry(
     assert not (project / "c.txt").exists()  # the stage after did not
 
 
-TINY_PARAMS = {"enumerate": {"n": 6, "seed": 0, "workers": 2, "chunk": 8}, "nogram": {"n": 4, "seed": 1}}
+TINY_PARAMS = {"compute": {"workers": 2}, "enumerate": {"n": 6, "seed": 0, "chunk": 8}, "nogram": {"n": 4, "seed": 1}}
 
 
 def dvc(project: Path, *args: str) -> subprocess.CompletedProcess:

@@ -11,6 +11,7 @@ import torch
 from robocompose.glso.runs import GLSOConfig
 from robocompose.latent.model import GraphVAE, VAEConfig
 from robocompose.latent.train import save_model
+from robocompose.params import build_config
 
 
 def fake_objective(tree) -> dict:
@@ -36,5 +37,6 @@ def tiny_models(tmp_path_factory) -> str:
 
 @pytest.fixture
 def small_config(tiny_models) -> GLSOConfig:
-    return GLSOConfig(tasks=["flat"], seeds=[0], budget=9, models=tiny_models, bo={"init": 3},
-                      ga={"population": 4}, ghs={"num_samples": 3, "opt_iter": 2})
+    values = {"tasks": ["flat"], "seeds": [0], "budget": 9, "models": tiny_models, "bo": {"init": 3},
+              "ga": {"population": 4}, "ghs": {"num_samples": 3, "opt_iter": 2}}
+    return build_config(GLSOConfig, values, "glso")

@@ -12,7 +12,8 @@ def params(tmp_path, tiny_models):
     path = tmp_path / "params.yaml"
     path.write_text(yaml.safe_dump({
         "glso": {"tasks": ["flat"], "seeds": [0], "budget": 9, "models": tiny_models, "bo": {"init": 2}},
-        "evaluation": {"mppi": {"samples": 2, "first_samples": 2, "horizon": 2, "episode": 2}, "cache": ""}}))
+        "evaluation": {"mppi": {"samples": 2, "first_samples": 2, "horizon": 2, "episode": 2}},
+        "compute": {"cache": ""}}))
     return str(path)
 
 

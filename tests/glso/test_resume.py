@@ -54,7 +54,7 @@ def test_a_checkpoint_of_other_settings_is_started_over(small_config, tmp_path):
 
     spec, checkpoint = RunSpec("flat", "mcts", 0), tmp_path / "run.pkl"
     run_search(spec, small_config, EVALUATION, objective_fn=fake_objective, checkpoint=checkpoint)
-    other = dataclasses.replace(small_config, mcts={"amaf_threshold": 3.0})
+    other = dataclasses.replace(small_config, mcts=dataclasses.replace(small_config.mcts, amaf_threshold=3.0))
     resumed = run_search(spec, other, EVALUATION, objective_fn=fake_objective, checkpoint=checkpoint)
     fresh = run_search(spec, other, EVALUATION, objective_fn=fake_objective)
     assert resumed.equals(fresh)
@@ -65,14 +65,16 @@ import time
 from pathlib import Path
 from robocompose.evaluation.evaluate import EvaluationConfig
 from robocompose.glso.runs import GLSOConfig, RunSpec, run_search
+from robocompose.params import build_config
 from tests.glso.conftest import fake_objective
 
 def slow(tree):
     time.sleep(0.3)
     return fake_objective(tree)
 
-config = GLSOConfig(tasks=["flat"], seeds=[0], budget=9, models={models!r}, bo={{"init": 3}},
-                    ga={{"population": 4}}, ghs={{"num_samples": 3, "opt_iter": 2}})
+config = build_config(GLSOConfig, {{"tasks": ["flat"], "seeds": [0], "budget": 9, "models": {models!r},
+                                    "bo": {{"init": 3}}, "ga": {{"population": 4}},
+                                    "ghs": {{"num_samples": 3, "opt_iter": 2}}}}, "glso")
 run_search(RunSpec("flat", {method!r}, 0), config, EvaluationConfig(), objective_fn=slow,
            checkpoint=Path({checkpoint!r}))
 """

@@ -4,17 +4,20 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from robocompose.evaluation.cache import EvaluationCache
+from robocompose.control.mppi import MPPIConfig
 from robocompose.evaluation.evaluate import INVALID_SCORE, EvaluationConfig, objective
+from robocompose.fanout.cache import EvaluationCache
 from robocompose.glso.designs import self_colliding
+from robocompose.glso.ghs import GHSConfig
 from robocompose.glso.registry import METHODS
 from robocompose.glso.runs import GLSOConfig, Objective, RunSpec, run_search, summarise
 from robocompose.grammar.tree import DesignTree
 from robocompose.io import read_table
+from robocompose.params import build_config
 from tests.glso.conftest import fake_objective
 
 EVALUATION = EvaluationConfig()
-TINY = EvaluationConfig(mppi={"samples": 2, "first_samples": 2, "horizon": 2, "episode": 2}, cache="")
+TINY = EvaluationConfig(mppi=MPPIConfig(samples=2, first_samples=2, horizon=2, episode=2))
 
 
 @pytest.mark.parametrize("method", METHODS)
@@ -70,7 +73,9 @@ def test_objective_goes_through_the_real_evaluator_and_its_cache(tmp_path):
     row = fn(tree)
     assert row["status"] == "ok" and row["sim_steps"] > 0
     again = Objective("flat", evaluation, EvaluationCache(tmp_path / "cache.parquet"))  # saved to the file
-    assert again.cache.get((tree.design_id, "flat", evaluation.settings_hash("flat"), 0)) == row
+    key = (tree.design_id, "flat", evaluation.settings_hash("flat"), 0)  # the key every stage has written
+    assert (row["design_id"], row["task"], row["settings_hash"], row["seed"]) == key
+    assert again.cache.get(key) == {k: row[k] for k in ("reward", "status", "sim_steps", "seconds")}
     assert again(tree) == row
 
 
@@ -88,22 +93,22 @@ def test_summary_takes_the_final_best_over_seeds():
 ])
 def test_bad_config_names_the_field(values, message):
     with pytest.raises((ValueError, KeyError), match=message):
-        GLSOConfig(**values)
+        build_config(GLSOConfig, values, "glso")
 
 
 def test_run_all_fans_the_runs_out_resumes_them_and_replays_each_tasks_best(tiny_models, tmp_path):
-    from robocompose.evaluation.executor import Executor
+    from robocompose.fanout.executor import Executor
     from robocompose.glso.runs import record_best, run_all
 
     config = GLSOConfig(tasks=["flat"], methods=["random", "mcts"], seeds=[0], budget=2, models=tiny_models)
-    evaluation = dataclasses.replace(TINY, cache=str(tmp_path / "cache.parquet"))
+    evaluation, cache = TINY, str(tmp_path / "cache.parquet")
     with Executor(workers=2) as executor:
-        steps, seconds = run_all(config, evaluation, tmp_path / "glso", executor)
+        steps, seconds = run_all(config, evaluation, tmp_path / "glso", executor, cache)
         assert sorted(steps.groupby(["method", "seed"]).size().items()) == [(("mcts", 0), 2), (("random", 0), 2)]
         assert set(steps["status"]) == {"ok"} and steps["reward"].notna().all()
         assert sorted(seconds) == ["flat_mcts_seed0", "flat_random_seed0"] and all(s > 0 for s in seconds.values())
-        again, _ = run_all(config, evaluation, tmp_path / "glso", executor)  # every run answered by its checkpoint
-        assert again.equals(steps)
+        again, _ = run_all(config, evaluation, tmp_path / "glso", executor, cache)  # answered by the checkpoints
+        assert again.equals(steps) and len(EvaluationCache(cache)) > 0
         best = record_best(steps, evaluation, tmp_path / "rollouts", executor)
     assert float(best["score"].iloc[0]) == steps["score"].max()
     assert (tmp_path / "rollouts" / "flat.mcap").stat().st_size > 0 and (tmp_path / "rollouts" / "flat.gif").exists()
@@ -112,11 +117,11 @@ def test_run_all_fans_the_runs_out_resumes_them_and_replays_each_tasks_best(tiny
 def test_runs_on_a_dask_cluster_match_local_processes(tiny_models, tmp_path):
     from dask.distributed import LocalCluster
 
-    from robocompose.evaluation.executor import Executor
+    from robocompose.fanout.executor import Executor
     from robocompose.glso.runs import run_all
 
     config = GLSOConfig(tasks=["flat"], methods=["random", "ghs"], seeds=[0], budget=2, models=tiny_models,
-                        ghs={"num_samples": 2, "opt_iter": 2})
+                        ghs=GHSConfig(num_samples=2, opt_iter=2))
     with Executor(workers=2) as executor:
         local, _ = run_all(config, TINY, tmp_path / "local", executor)
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,

@@ -19,7 +19,7 @@ from robocompose.io.errors import ArtifactError, InputError, error_line
 from robocompose.latent.cli import parse_latent
 from robocompose.latent.model import VAEConfig
 from robocompose.latent.train import TrainConfig
-from robocompose.modular.params import build_modular_params
+from robocompose.modular.params import ModularParams
 from robocompose.modular.robot import MODULE_LETTERS, N_PORTS, parse_design
 from robocompose.params import build_config
 from robocompose.teams.chips import ChipsConfig
@@ -138,10 +138,9 @@ def test_params_sections(cls):
 
 
 @LIGHT
-@given(st.dictionaries(st.sampled_from(["eval", "fitness", "experiments", "workers", "address", "cache"]),
-                       YAML_VALUES, max_size=3))
+@given(st.dictionaries(st.sampled_from(["eval", "fitness", "experiments", "workers"]), YAML_VALUES, max_size=3))
 def test_modular_params_section(values):
-    parses_or_input_error(build_modular_params, values, "params.yaml: modular")
+    parses_or_input_error(build_config, ModularParams, values, "params.yaml: modular")
 
 
 @pytest.mark.parametrize("cls", [c for c in SECTIONS if c is not EnumerateConfig], ids=lambda cls: cls.__name__)

@@ -24,7 +24,7 @@ def test_landscape_scores_the_subset_with_the_evaluator(make_trees):
     designs = Designs([t.design_id for t in trees], trees, [replay(t, "grammar", 50) for t in trees],
                       np.zeros((len(trees), 16), dtype=np.float32))
     models = {name: GraphVAE(VAEConfig(hidden=8, latent=3)) for name in ("full", "nopred")}
-    quick = EvaluationConfig(mppi=MPPIConfig(samples=2, first_samples=2, horizon=2, episode=2), workers=1, cache="")
+    quick = EvaluationConfig(mppi=MPPIConfig(samples=2, first_samples=2, horizon=2, episode=2))
     table = landscape(models, designs, LandscapeConfig(designs=10, evaluated=2), quick)
     assert len(table) == 20 and set(table["variant"]) == {"full", "nopred"}
     for _, part in table.groupby("variant"):

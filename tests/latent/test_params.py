@@ -1,7 +1,7 @@
 import pytest
 
-from robocompose.latent.params import VARIANTS, load_variant
-from robocompose.params import write_profile
+from robocompose.latent.params import VARIANTS, TrainVaeParams
+from robocompose.params import load_section, write_profile
 
 
 @pytest.mark.parametrize("profile", ["default", "paper"])
@@ -12,7 +12,7 @@ def test_every_variant_loads_from_both_profiles(tmp_path, profile):
     shutil.copytree(Path(__file__).parents[2] / "profiles", tmp_path / "profiles")
     params = write_profile(profile, tmp_path)
     for name in VARIANTS:
-        variant, model, train, metrics = load_variant(name, params)
+        variant, model, train, metrics = load_section(TrainVaeParams, "train_vae", params).variant(name)
         assert model.predictor == (name == "full")  # nogram: no contacts, no predictor (as GLSO trains it)
         assert model.constraints == ("tree" if name == "nogram" else "grammar")
     if profile == "paper":
@@ -25,7 +25,8 @@ def test_bad_variant_and_fields_are_named(tmp_path):
     params = tmp_path / "params.yaml"
     params.write_text("train_vae:\n  model: {hidden: 8}\n  train: {steps: 10}\n  variants:\n"
                       "    full: {data: d.parquet, extra: '', predictor: yes, constraints: grammar, size: 3}\n")
-    with pytest.raises(ValueError, match="no variant 'nogram'"):
-        load_variant("nogram", params)
     with pytest.raises(ValueError, match=r"train_vae.variants.full.size: unknown field"):
-        load_variant("full", params)
+        load_section(TrainVaeParams, "train_vae", params)
+    params.write_text(params.read_text().replace(", size: 3", ""))
+    with pytest.raises(ValueError, match="no variant 'nogram'"):
+        load_section(TrainVaeParams, "train_vae", params).variant("nogram")

@@ -8,8 +8,7 @@ TINY = """
 modular:
   eval: {control_steps: 3, settle_steps: 10}
   experiments: {generations: 2, random_designs: 3}
-  workers: 1
-  cache: ""
+compute: {workers: 1, cache: ""}
 """
 
 

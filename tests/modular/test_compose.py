@@ -22,8 +22,7 @@ PARAMS = ModularParams(EvalSettings(), FitnessRule(), ExperimentsConfig())
 TINY = """
 modular:
   eval: {control_steps: 3, settle_steps: 10}
-  workers: 1
-  cache: ""
+compute: {workers: 1, cache: ""}
 """
 
 

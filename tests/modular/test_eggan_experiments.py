@@ -22,10 +22,11 @@ from robocompose.modular.eggan_experiments import (
     realtime_proposers,
     train_baseline,
 )
-from robocompose.modular.eggan_params import build_eggan_modular_params
+from robocompose.modular.eggan_params import EgganModularParams
 from robocompose.modular.evaluate import EvalSettings, FitnessRule, Result
 from robocompose.modular.params import ExperimentsConfig, ModularParams
 from robocompose.modular.robot import PORT_XY
+from robocompose.params import build_config
 
 MODULAR = ModularParams(EvalSettings(control_steps=10), FitnessRule(), ExperimentsConfig())
 SECTION = {"fitness": {"train_terrains": 6, "warmup": 20, "warmup_terrains": 4, "budget": 40, "real_per_round": 4,
@@ -51,7 +52,7 @@ def fake_rollouts(monkeypatch):
 
 
 def test_molgan_baseline_trains_on_the_shared_budget_and_answers_queries(tmp_path, fake_rollouts):
-    params = build_eggan_modular_params(SECTION, "test")
+    params = build_config(EgganModularParams, SECTION, "test")
     metrics = train_baseline("molgan", MODULAR, params, None, None, tmp_path)
     # warm-up + real rounds spaced over the run's 6 x 2 evaluate calls, capped by the budget
     assert 20 < metrics["real_evaluations"] <= 40 and metrics["method"] == "MolGAN" and metrics["lam"] == 0.5
@@ -77,7 +78,7 @@ def test_dqn_decision_groups_are_the_mirrored_port_pairs():
 
 
 def test_dqn_baseline_spends_the_budget_and_proposes_ten_distinct_symmetric_designs(tmp_path, fake_rollouts):
-    params = build_eggan_modular_params(SECTION, "test")
+    params = build_config(EgganModularParams, SECTION, "test")
     metrics = train_baseline("dqn", MODULAR, params, None, None, tmp_path)
     assert metrics["method"] == "DQN" and metrics["episodes"] == 6 * 2 * 4
     assert metrics["real_evaluations"] == sum(len(c) for c in fake_rollouts) > params.fitness.warmup  # real rounds ran

@@ -3,11 +3,13 @@
 import pytest
 import yaml
 
-from robocompose.modular.eggan_params import build_eggan_modular_params, load_eggan_modular_params
+from robocompose.io.errors import InputError
+from robocompose.modular.eggan_params import EgganModularParams
+from robocompose.params import build_config, load_section
 
 
 def test_default_profile_parses():
-    params = load_eggan_modular_params("profiles/default.yaml")
+    params = load_section(EgganModularParams, "eggan_modular", "profiles/default.yaml")
     assert params.train.batch == params.train.tasks * 8 and params.protocol.candidates == 10
     assert len(params.protocol.test_terrains) >= 4 and params.protocol.queries >= 20
     seeds = range(params.fitness.train_seed_base, params.fitness.train_seed_base + params.fitness.train_terrains)
@@ -23,5 +25,5 @@ def test_default_profile_parses():
 ])
 def test_bad_fields_are_named(section, message):
     base = yaml.safe_load(open("profiles/default.yaml"))["eggan_modular"]
-    with pytest.raises(ValueError, match=message):
-        build_eggan_modular_params({**base, **section}, "params.yaml: eggan_modular")
+    with pytest.raises(InputError, match=message):
+        build_config(EgganModularParams, {**base, **section}, "params.yaml: eggan_modular")

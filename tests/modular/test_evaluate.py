@@ -3,7 +3,7 @@ import math
 import numpy as np
 import pytest
 
-from robocompose.evaluation.cache import EvaluationCache
+from robocompose.fanout.cache import EvaluationCache
 from robocompose.modular.evaluate import EvalSettings, FitnessRule, evaluate_designs, rollout, task_id, up_z
 from robocompose.modular.terrain import TerrainConfig, generate_terrain
 

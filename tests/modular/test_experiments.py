@@ -2,7 +2,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from robocompose.evaluation.cache import EvaluationCache
+from robocompose.fanout.cache import EvaluationCache
 from robocompose.modular.evaluate import EvalSettings, FitnessRule
 from robocompose.modular.experiments import (
     METHODS,

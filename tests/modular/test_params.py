@@ -1,9 +1,9 @@
 import pytest
 
 from robocompose.modular.evaluate import EvalSettings, rollout
-from robocompose.modular.params import FASTEST_SPEED, FRONT_REACH, course_reach, load_modular_params
+from robocompose.modular.params import FASTEST_SPEED, FRONT_REACH, ModularParams, course_reach
 from robocompose.modular.terrain import TerrainConfig, generate_terrain
-from robocompose.params import write_profile
+from robocompose.params import load_section, write_profile
 
 
 def test_both_profiles_load_and_differ_where_the_thesis_does(tmp_path):
@@ -11,8 +11,8 @@ def test_both_profiles_load_and_differ_where_the_thesis_does(tmp_path):
     (tmp_path / "profiles").mkdir()
     for name in ("default", "paper"):
         (tmp_path / "profiles" / f"{name}.yaml").write_text((root / "profiles" / f"{name}.yaml").read_text())
-    default = load_modular_params(write_profile("default", tmp_path))
-    paper = load_modular_params(write_profile("paper", tmp_path))
+    default = load_section(ModularParams, "modular", write_profile("default", tmp_path))
+    paper = load_section(ModularParams, "modular", write_profile("paper", tmp_path))
     assert default.eval.control_steps == 50 and paper.eval.control_steps == 250
     assert len(paper.experiments.test_terrains) == 10 and len(paper.experiments.ga_seeds) == 20
     assert len(default.experiments.test_terrains) >= 4 and len(paper.experiments.truth_terrains) >= 8
@@ -36,7 +36,7 @@ def test_a_course_shorter_than_the_episode_is_rejected(tmp_path):
     path = tmp_path / "params.yaml"
     path.write_text("modular: {eval: {control_steps: 250, terrain: {x_range: [-1.0, 9.0]}}}")
     with pytest.raises(ValueError, match=r"modular\.eval\.terrain\.x_range: the course ends at x = 9"):
-        load_modular_params(path)
+        load_section(ModularParams, "modular", path)
 
 
 @pytest.mark.parametrize("experiments,message", [
@@ -47,7 +47,7 @@ def test_test_terrains_are_held_out_and_have_exhaustive_tables(tmp_path, experim
     path = tmp_path / "params.yaml"
     path.write_text(f"modular: {{experiments: {experiments}}}")
     with pytest.raises(ValueError, match=message):
-        load_modular_params(path)
+        load_section(ModularParams, "modular", path)
 
 
 @pytest.mark.parametrize("text,field", [
@@ -55,12 +55,12 @@ def test_test_terrains_are_held_out_and_have_exhaustive_tables(tmp_path, experim
     ("modular: {eval: {terrain: {spacing: 1}}}", "modular.eval.terrain.spacing"),
     ("modular: {experiments: {seeds: [1]}}", "modular.experiments.seeds"),
     ("modular: {fitness: {invalid: drop}}", "modular.fitness"),
-    ("modular: {workers: -1}", "modular.workers"),
+    ("modular: {workers: -1}", "modular.workers: unknown field"),  # fan-out is the compute: section's
     ("other: {}", "modular"),
 ])
 def test_bad_params_name_the_file_and_field(tmp_path, text, field):
     path = tmp_path / "params.yaml"
     path.write_text(text)
     with pytest.raises(ValueError, match=field.replace(".", r"\.")) as error:
-        load_modular_params(path)
+        load_section(ModularParams, "modular", path)
     assert str(path) in str(error.value)

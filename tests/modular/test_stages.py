@@ -3,8 +3,9 @@ import runpy
 from pathlib import Path
 
 from robocompose.io import read_table
-from robocompose.modular.params import load_modular_params
+from robocompose.modular.params import ModularParams
 from robocompose.modular.truth import write_committed
+from robocompose.params import load_section
 
 STAGES = Path(__file__).resolve().parents[2] / "stages"
 TINY = """
@@ -12,8 +13,7 @@ modular:
   eval: {control_steps: 2, settle_steps: 5}
   experiments: {test_terrains: [1007], truth_terrains: [1007, 1008], ga_seeds: [0], generations: 1,
                 random_designs: 3, ec_draws: 2}
-  workers: 1
-  cache: data/cache.parquet
+compute: {workers: 1, cache: data/cache.parquet}
 """
 SUBSET = ["llllll", "wwwwww", "bbbbbb", "nnnnnn", "lwlwlw"]
 
@@ -21,7 +21,7 @@ SUBSET = ["llllll", "wwwwww", "bbbbbb", "nnnnnn", "lwlwlw"]
 def test_exhaustive_then_baselines_write_their_tables_and_metrics(tmp_path, monkeypatch, synthetic_truth):
     monkeypatch.chdir(tmp_path)
     (tmp_path / "params.yaml").write_text(TINY)
-    params = load_modular_params("params.yaml")
+    params = load_section(ModularParams, "modular")
     # Terrain 1007: a committed one-off (all 4096 designs, made-up distances); 1008: simulated (5 designs).
     write_committed(synthetic_truth(lambda d: float(d.count("w"))), params.eval, params.fitness, seconds=1.0)
     monkeypatch.setattr("robocompose.modular.truth.all_designs", lambda: SUBSET)

@@ -3,7 +3,7 @@ import json
 import pandas as pd
 import pytest
 
-from robocompose.evaluation.cache import EvaluationCache
+from robocompose.fanout.cache import EvaluationCache
 from robocompose.modular.evaluate import EvalSettings, FitnessRule
 from robocompose.modular.truth import (
     canonical,

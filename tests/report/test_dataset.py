@@ -9,8 +9,8 @@ from robocompose.report.dataset import section
 
 def test_section_reports_counts_draws_histograms_and_links_the_stage_gallery(tmp_path):
     data, reports = tmp_path / "data", tmp_path / "reports"
-    designs, stats = enumerate_designs(EnumerateConfig(n=5, seed=0, workers=1, chunk=8), progress=None)
-    nogram, nogram_stats = enumerate_nogram(NogramConfig(n=3), workers=1, progress=None)
+    designs, stats = enumerate_designs(EnumerateConfig(n=5, seed=0, chunk=8), progress=None)
+    nogram, nogram_stats = enumerate_nogram(NogramConfig(n=3), progress=None)
     write_table(designs, data / "designs.parquet", "designs")
     write_table(nogram, data / "designs_nogram.parquet", "designs")
     (reports / "metrics").mkdir(parents=True)

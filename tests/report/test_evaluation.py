@@ -4,8 +4,8 @@ import pandas as pd
 from PIL import Image
 
 from robocompose.control.mppi import MPPIConfig
-from robocompose.evaluation.cache import EvaluationCache
 from robocompose.evaluation.references import best_scores
+from robocompose.fanout.cache import EvaluationCache
 from robocompose.io import write_table
 from robocompose.report.evaluation import section
 

@@ -31,11 +31,12 @@ def test_section_without_runs_says_which_stage_to_run(tmp_path):
 
 def test_section_draws_both_figures_the_table_and_the_best_design(tmp_path):
     from robocompose.evaluation.evaluate import EvaluationConfig
+    from robocompose.glso.graph_ga import GAConfig
     from robocompose.glso.runs import GLSOConfig, RunSpec, run_search
     from robocompose.io import write_table
     from tests.glso.conftest import fake_objective
 
-    config = GLSOConfig(tasks=["flat"], budget=4, ga={"population": 3})
+    config = GLSOConfig(tasks=["flat"], budget=4, ga=GAConfig(population=3))
     steps = pd.concat([run_search(RunSpec("flat", m, s), config, EvaluationConfig(), objective_fn=fake_objective)
                        for m in ("random", "mcts", "ga") for s in (0, 1)], ignore_index=True)
     write_table(steps, tmp_path / "data" / "glso" / "steps.parquet", "glso_steps")

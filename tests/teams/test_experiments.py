@@ -4,7 +4,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from robocompose.evaluation.executor import Executor
+from robocompose.fanout.executor import Executor
 from robocompose.teams.chips import ChipsConfig, prepare_chips
 from robocompose.teams.decompose import DecomposeConfig, regions_table
 from robocompose.teams.ergodic import CoverageConfig

@@ -8,13 +8,14 @@ from robocompose.eggan.train import TrainConfig, train
 from robocompose.io import InputError
 from robocompose.io.provenance import ROOT
 from robocompose.io.torch_file import load_torch, save_torch
+from robocompose.params import load_section
 from robocompose.teams.chips import synthetic_chip
 from robocompose.teams.compose import SHIPPED_MODEL
 from robocompose.teams.decompose import DecomposeConfig, decompose_chip
 from robocompose.teams.eggan_problem import TeamsProblem
 from robocompose.teams.ergodic import CoverageConfig
 from robocompose.teams.generative import load_generator, model_code_digest, save_generator
-from robocompose.teams.params import load_teams_params
+from robocompose.teams.params import TeamsParams
 
 
 def test_generator_file_round_trips_weights_settings_and_metrics(tmp_path):
@@ -47,7 +48,7 @@ def test_generator_file_round_trips_weights_settings_and_metrics(tmp_path):
 def test_the_shipped_generator_is_the_default_profiles_and_matches_the_model_code():
     _, saved = load_generator(ROOT / SHIPPED_MODEL)
     assert saved["code_digest"] == model_code_digest(), "retrain and ship: the network code changed"
-    default = load_teams_params(ROOT / "profiles" / "default.yaml")
+    default = load_section(TeamsParams, "teams", ROOT / "profiles" / "default.yaml")
     for name in ("chips", "decompose", "coverage", "eggan"):
         assert saved["params"][name] == dataclasses.asdict(getattr(default, name)), name
     assert saved["n_regions"] == default.decompose.n_regions

@@ -1,7 +1,8 @@
 import pytest
 
 from robocompose.io.errors import InputError
-from robocompose.teams.params import load_teams_params
+from robocompose.params import load_section
+from robocompose.teams.params import TeamsParams
 
 
 def write(tmp_path, text: str):
@@ -11,7 +12,7 @@ def write(tmp_path, text: str):
 
 
 def test_sections_fill_the_config_dataclasses_with_defaults_for_missing_fields(tmp_path):
-    params = load_teams_params(write(tmp_path, """
+    params = load_section(TeamsParams, "teams", write(tmp_path, """
 teams:
   chips: {n_synthetic: 5}
   decompose: {n_regions: 4}
@@ -25,7 +26,7 @@ teams:
     assert params.experiments.populations == [4, 6] and params.threads == 1
 
 
-SECTIONS = {"chips": "{}", "decompose": "{}", "coverage": "{}", "experiments": "{}"}
+SECTIONS = {"chips": "{}", "decompose": "{}", "coverage": "{}", "experiments": "{}", "eggan": "{}"}
 
 
 def teams_yaml(**changed: str) -> str:
@@ -34,7 +35,7 @@ def teams_yaml(**changed: str) -> str:
 
 
 @pytest.mark.parametrize("text, message", [
-    ("other: 1\n", r"params.yaml: teams: missing section"),
+    ("other: 1\n", r"params.yaml: missing section 'teams'"),
     (teams_yaml(coverage="{iteration: 3}"), r"teams.coverage.iteration: unknown field"),
     (teams_yaml(coverage="{iterations: 2.5}"), r"teams.coverage.iterations: expected int, found 2.5"),
     (teams_yaml(experiments="{populations: 20}"), r"teams.experiments.populations: expected list"),
@@ -56,5 +57,5 @@ def teams_yaml(**changed: str) -> str:
 ])
 def test_bad_params_name_file_field_and_expectation(tmp_path, text, message):
     with pytest.raises(InputError, match=message) as error:
-        load_teams_params(write(tmp_path, text))
+        load_section(TeamsParams, "teams", write(tmp_path, text))
     assert "\n" not in str(error.value)

@@ -1,55 +1,73 @@
 """One executor interface for every evaluation fan-out: local processes, or an existing Dask cluster.
 
-    from robocompose.evaluation.executor import Executor, evaluate_many
+    from robocompose.fanout.executor import Executor, evaluate_many
     with Executor(workers=0) as ex:                 # local processes (0 = all cores, 1 = in this process)
-                                                    # progress="label": a tqdm bar for every map
-        rewards = ex.map(fn, items)                 # results in item order
+        rewards = ex.map(fn, items)                 # results in item order; progress="label": a tqdm bar
     with Executor(address="tcp://10.0.0.5:8786") as ex:   # a running dask.distributed scheduler
         rows = evaluate_many(fn, items, key=lambda item: item.key, cache=cache, executor=ex)
 
 `fn` must be a module-level function (it is pickled to the workers) taking one item. An exception in
-`fn` propagates to the caller: a failed evaluation is never turned into a score here. Functions that
-can fail physically (a simulation blowing up) return that as their status instead.
+`fn` propagates to the caller: a failed evaluation is never turned into a score here.
 
-`evaluate_many(fn, items, key, cache, executor, save_every)` evaluates only the items whose key is not
-in the cache (each distinct key once), stores each result dict with `cache.put(key, **result)` as it
-arrives (saving the cache every `save_every` new results, so a long run resumes where it stopped) and
-returns the cached row of every item, in order. With the default `eval_cache` table the result dict is
-{reward, status, sim_steps, seconds}; see `robocompose.evaluation.cache`.
+`evaluate_many` is every world's cached objective: it evaluates only the items whose key is not in the
+cache (each distinct key once), stores each result dict with `cache.put(key, **result)` as it arrives
+(saving every `save_every` new results, so a long run resumes) and returns the cached row of every item.
+`batch` > 0 hands `fn` lists of up to `batch` missing items (an evaluator that batches, e.g. torch).
 
-Local workers are started from a fork server (clean processes, no inherited torch threads) and kept for
-the executor's lifetime, so many small `map` calls (a BO loop) pay the start-up once. Results do not
-depend on the backend or the number of workers: each item is evaluated on its own.
+A malformed address, or one where no scheduler answers within `CONNECT_TIMEOUT` seconds, is an InputError.
+Local workers come from a fork server (clean processes, no inherited torch threads) and live as long as the
+executor. Results do not depend on the backend or the number of workers: each item is evaluated on its own.
 """
 
 from __future__ import annotations
 
 import multiprocessing
 import os
+import re
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
-from robocompose.evaluation.cache import CacheKey, EvaluationCache
+from robocompose.fanout.cache import CacheKey, EvaluationCache
 from robocompose.io.errors import InputError
+
+CONNECT_TIMEOUT = 5  # seconds to wait for a Dask scheduler to answer
+ADDRESS_EXAMPLE = "tcp://host:8786"
+_ADDRESS = re.compile(r"(tcp|tls|ucx|ws|wss)://(\[[0-9a-fA-F:]+\]|[^\s:/\[\]]+):(\d{1,5})")
+
+
+def check_address(address: str) -> str:
+    """`address` if it has the form of a Dask scheduler address (scheme://host:port); else InputError."""
+    match = _ADDRESS.fullmatch(address)
+    if match is None or not 0 < int(match.group(3)) < 65536:
+        raise InputError(f"address: expected a Dask scheduler address like {ADDRESS_EXAMPLE}, found {address!r}")
+    return address
+
+
+def connect(address: str):
+    """A dask.distributed Client of the scheduler at `address`; InputError if none answers within the timeout."""
+    check_address(address)
+    from dask.distributed import Client
+
+    try:
+        return Client(address, timeout=CONNECT_TIMEOUT)
+    except (OSError, TimeoutError) as err:
+        raise InputError(f"address: no Dask scheduler answered at {address!r} within {CONNECT_TIMEOUT} s "
+                         f"({type(err).__name__}); expected a running scheduler like {ADDRESS_EXAMPLE}") from None
 
 
 class Executor:
     """Runs `fn(item)` for many items: in this process, on local processes, or on a Dask cluster."""
 
     def __init__(self, workers: int = 0, address: str | None = None, progress: str | None = None):
-        """`progress`: a label; every map then shows a tqdm bar (on stderr) of the items done."""
+        """`address` "" or None: local; `progress`: a label, every map then shows a tqdm bar (on stderr)."""
         if workers < 0:
             raise InputError(f"executor: workers must be >= 0 (0 = all cores), got {workers}")
-        self.address = address
+        self.address = address or None
         self.progress = progress
         self.workers = workers or os.cpu_count() or 1
         self._pool: ProcessPoolExecutor | None = None
-        self._client = None
-        if address is not None:
-            from dask.distributed import Client
-
-            self._client = Client(address)
+        self._client = None if self.address is None else connect(self.address)
 
     @property
     def backend(self) -> str:
@@ -97,12 +115,14 @@ class Executor:
         self.close()
 
 
-def evaluate_many(fn: Callable[[Any], dict], items: Iterable[Any], key: Callable[[Any], CacheKey],
+def evaluate_many(fn: Callable[[Any], Any], items: Iterable[Any], key: Callable[[Any], CacheKey],
                   cache: EvaluationCache | None = None, executor: Executor | None = None,
-                  save_every: int = 0) -> list[dict]:
+                  save_every: int = 0, batch: int = 0) -> list[dict]:
     """The cache row of every item, evaluating with `fn` only the keys not yet cached (each once).
 
-    `save_every` > 0 saves the cache after that many new results (and at the end); 0 saves at the end.
+    `fn(item)` returns a result dict; with `batch` > 0, `fn(items)` takes up to `batch` items and returns their
+    result dicts in order. `save_every` > 0 saves the cache after that many new results (and at the end); 0
+    saves at the end.
     """
     items = list(items)
     cache = EvaluationCache() if cache is None else cache
@@ -114,7 +134,8 @@ def evaluate_many(fn: Callable[[Any], dict], items: Iterable[Any], key: Callable
     own = executor is None and bool(missing)
     executor = Executor(workers=1) if executor is None else executor
     try:
-        for done, (k, result) in enumerate(zip(missing, executor.imap(fn, missing.values()), strict=True), 1):
+        for done, (k, result) in enumerate(zip(missing, _results(fn, list(missing.values()), executor, batch),
+                                               strict=True), 1):
             cache.put(k, **result)
             if save_every and done % save_every == 0:
                 cache.save()
@@ -124,3 +145,12 @@ def evaluate_many(fn: Callable[[Any], dict], items: Iterable[Any], key: Callable
         if own:
             executor.close()
     return [cache.get(k) for k in keys]
+
+
+def _results(fn: Callable[[Any], Any], items: list[Any], executor: Executor, batch: int) -> Iterator[dict]:
+    """`fn`'s result of every item, in order: one call per item, or per chunk of `batch` items."""
+    if batch <= 0:
+        yield from executor.imap(fn, items)
+        return
+    for results in executor.imap(fn, [items[i:i + batch] for i in range(0, len(items), batch)]):
+        yield from results

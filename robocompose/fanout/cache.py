@@ -3,7 +3,7 @@
 A cache holds the rows of one declared table (`robocompose.io.schemas`); its key is a tuple of the
 table's key columns and its value is a dict of the remaining columns.
 
-    from robocompose.evaluation.cache import EvaluationCache
+    from robocompose.fanout.cache import EvaluationCache
     cache = EvaluationCache("data/cache/eval_cache.parquet")   # None = memory only; loads the file if present
     key = (design_id, task, settings_hash, seed)               # default table "eval_cache"
     cache.get(key)          # {"reward": 3.9, "status": "ok", "sim_steps": 65536, "seconds": 12.1} or None

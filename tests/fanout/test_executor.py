@@ -1,11 +1,14 @@
 import math
 import os
+import socket
+import time
 
 import pandas as pd
 import pytest
 
-from robocompose.evaluation.cache import EvaluationCache
-from robocompose.evaluation.executor import Executor, evaluate_many
+from robocompose.fanout.cache import EvaluationCache
+from robocompose.fanout.executor import Executor, evaluate_many
+from robocompose.io.errors import InputError
 
 
 def _row(item):
@@ -84,8 +87,9 @@ def test_enumeration_on_a_dask_cluster_is_byte_identical_to_local_processes(dask
     from robocompose.dataset.enumerate import EnumerateConfig, enumerate_designs
     from robocompose.io import write_table
 
-    local, _ = enumerate_designs(EnumerateConfig(n=6, seed=3, workers=2, chunk=8), progress=None)
-    remote, _ = enumerate_designs(EnumerateConfig(n=6, seed=3, chunk=8, address=dask_address), progress=None)
+    with Executor(workers=2) as local_executor, Executor(address=dask_address) as remote_executor:
+        local, _ = enumerate_designs(EnumerateConfig(n=6, seed=3, chunk=8), local_executor, progress=None)
+        remote, _ = enumerate_designs(EnumerateConfig(n=6, seed=3, chunk=8), remote_executor, progress=None)
     paths = [write_table(t, tmp_path / f"{name}.parquet", "designs") for name, t in (("l", local), ("d", remote))]
     assert paths[0].read_bytes() == paths[1].read_bytes()
 
@@ -127,3 +131,56 @@ def test_teams_experiments_on_a_dask_cluster_match_local_processes(dask_address,
         out = [nsga2_runs(test_chips, coverage, experiments, teams_cache(), ex)[:2] for ex in (local, remote)]
     for a, b in zip(out[0], out[1], strict=True):
         pd.testing.assert_frame_equal(a, b)
+
+
+def test_a_batched_evaluator_gets_the_missing_items_in_chunks():
+    chunks = []
+
+    def batched(items):
+        chunks.append([design for design, _ in items])
+        return [_row(item) for item in items]
+
+    cache = EvaluationCache()
+    cache.put(_key(("b", 0)), **_row(("b", 7)))
+    items = [("a", 1), ("b", 2), ("c", 3), ("a", 1), ("d", 4), ("e", 5)]
+    rows = evaluate_many(batched, items, _key, cache=cache, batch=2)
+    assert [r["reward"] for r in rows] == [1.0, 7.0, 3.0, 1.0, 4.0, 5.0]
+    assert chunks == [["a", "c"], ["d", "e"]]  # the cached "b" and the repeated "a" are not evaluated
+
+
+@pytest.mark.parametrize("address", ["localhost:8786", "tcp://host", "tcp://host:99999", "http://host:8786",
+                                     "tcp://ho st:8786", "tcp://host:8786/x"])
+def test_a_malformed_address_is_refused_at_once_with_one_line(address):
+    started = time.perf_counter()
+    with pytest.raises(InputError, match="expected a Dask scheduler address like tcp://host:8786") as error:
+        Executor(address=address)
+    assert time.perf_counter() - started < 1 and repr(address) in str(error.value) and "\n" not in str(error.value)
+
+
+def test_an_unreachable_scheduler_fails_within_ten_seconds_with_one_line():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        address = f"tcp://127.0.0.1:{s.getsockname()[1]}"  # bound, not listening: nothing answers
+        started = time.perf_counter()
+        with pytest.raises(InputError, match="no Dask scheduler answered") as error:
+            Executor(address=address)
+    assert time.perf_counter() - started < 10
+    assert address in str(error.value) and "tcp://host:8786" in str(error.value) and "\n" not in str(error.value)
+
+
+@pytest.mark.parametrize("argv", [
+    ["enumerate", "--n", "2", "--out", "{tmp}/d.parquet"],
+    ["teams", "nsga2", "--synthetic-seed", "0", "--regions", "3", "--pop", "4", "--generations", "1"],
+    ["glso", "--budget", "1", "--method", "random", "--params", "{root}/profiles/default.yaml"],
+])
+def test_commands_with_an_unreachable_address_fail_within_ten_seconds(argv, tmp_path, cli_error):
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        address = f"tcp://127.0.0.1:{s.getsockname()[1]}"
+        started = time.perf_counter()
+        cli_error([a.format(tmp=tmp_path, root=root) for a in argv] + ["--address", address],
+                  f"no Dask scheduler answered at '{address}'")
+    assert time.perf_counter() - started < 10

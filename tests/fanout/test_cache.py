@@ -2,7 +2,7 @@ import math
 
 import pytest
 
-from robocompose.evaluation.cache import EvaluationCache
+from robocompose.fanout.cache import EvaluationCache
 
 ROW = {"reward": 3.5, "status": "ok", "sim_steps": 100, "seconds": 1.5}
 
