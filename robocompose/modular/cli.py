@@ -94,14 +94,24 @@ def _add_params_argument(parser: argparse.ArgumentParser) -> None:
                         "there is one, else the defaults); a file named here must exist")
 
 
+def _params_file(path: Path | None) -> Path | None:
+    """The params file a command reads: `path` if given (it must exist), else params.yaml if there is one."""
+    return path if path is not None or not Path("params.yaml").exists() else Path("params.yaml")
+
+
+def params_source(path: Path | None) -> str:
+    """Where the `modular:` section of a command's params comes from, as its fields' error messages name it."""
+    file = _params_file(path)
+    return "the built-in defaults: modular" if file is None else f"{file}: modular"
+
+
 def _params(path: Path | None):
     from robocompose.modular.params import build_modular_params, load_modular_params
 
-    if path is not None:
-        return load_modular_params(path)  # fails naming the file if it is missing
-    if Path("params.yaml").exists():
-        return load_modular_params("params.yaml")
-    return build_modular_params({}, "defaults")
+    file = _params_file(path)
+    if file is None:
+        return build_modular_params({}, params_source(None))
+    return load_modular_params(file)  # fails naming the file if it is missing
 
 
 def _evaluate(args: argparse.Namespace) -> None:
