@@ -41,6 +41,7 @@ for _key, _value in {
 from prefect import flow, get_run_logger, task  # noqa: E402
 from prefect.settings import PREFECT_API_URL  # noqa: E402
 
+from robocompose.io.dispatch import pin_dispatch  # noqa: E402
 from robocompose.io.errors import INPUT_ERROR_EXIT, InputError, error_line  # noqa: E402
 
 _NODE = re.compile(r'^"(?P<node>[^"]+)";$')
@@ -173,4 +174,5 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
+    pin_dispatch()  # before the stages start: they inherit it (and need not re-execute themselves)
     sys.exit(main())
