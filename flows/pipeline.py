@@ -41,9 +41,13 @@ for _key, _value in {
 from prefect import flow, get_run_logger, task  # noqa: E402
 from prefect.settings import PREFECT_API_URL  # noqa: E402
 
+from robocompose.io.dispatch import pin_dispatch  # noqa: E402
+from robocompose.io.errors import INPUT_ERROR_EXIT, InputError, error_line  # noqa: E402
+
 _NODE = re.compile(r'^"(?P<node>[^"]+)";$')
 _EDGE = re.compile(r'^"(?P<upstream>[^"]+)" -> "(?P<downstream>[^"]+)";$')
 _LOG_TAIL = 20  # lines of dvc output quoted in the error of a failed stage
+SERVER_TIMEOUT = 5.0  # s to connect to and hear from the Prefect server's health check (one attempt, no retries)
 
 
 def dvc_stages(project_dir: str | Path = ".") -> list[str]:
@@ -108,6 +112,36 @@ def pipeline(stages: list[str] | None = None, project_dir: str = ".") -> list[st
     return selected
 
 
+def cron_expression(text: str) -> str:
+    """argparse type of a schedule: checked by Prefect's own CronSchedule (croniter, no random/hashed fields)."""
+    from prefect.client.schemas.schedules import CronSchedule
+    from pydantic import ValidationError
+
+    try:
+        return CronSchedule(cron=text).cron
+    except ValidationError as err:
+        reason = err.errors()[0]["msg"].removeprefix("Value error, ")
+        raise argparse.ArgumentTypeError(f"{reason}; expected 5 fields: minute hour day-of-month month "
+                                         "day-of-week, e.g. '0 3 * * *'") from None
+
+
+def check_server(url: str, timeout: float = SERVER_TIMEOUT) -> None:
+    """InputError naming `url` unless the Prefect API there answers its health check within `timeout` seconds.
+
+    Prefect's own client retries an unreachable server for minutes; this asks once, with a deadline.
+    """
+    import httpx
+
+    try:
+        response = httpx.get(f"{url.rstrip('/')}/health", timeout=timeout)
+        response.raise_for_status()
+    except (httpx.HTTPError, httpx.InvalidURL) as err:
+        reason = str(err).splitlines()[0] if str(err) else type(err).__name__
+        raise InputError(f"PREFECT_API_URL {url!r}: no answer to the health check ({reason}; waited at most "
+                         f"{timeout:g} s per step), expected a running Prefect server (`prefect server start`)"
+                         ) from None
+
+
 def main(argv: list[str] | None = None) -> int:
     """Command line: run the flow once, or serve it on a cron schedule."""
     parser = argparse.ArgumentParser(
@@ -116,7 +150,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--stage", action="append", dest="stages", help="stage to run (repeatable)")
     parser.add_argument("--project-dir", default=str(PROJECT_DIR), help="DVC project (default: %(default)s)")
     parser.add_argument("--serve", action="store_true", help="serve on a schedule (needs a Prefect server)")
-    parser.add_argument("--cron", default="0 3 * * *", help="schedule for --serve (default: %(default)s)")
+    parser.add_argument("--cron", type=cron_expression, default="0 3 * * *",
+                        help="schedule for --serve (default: %(default)s)")
     parser.add_argument("--name", default="scheduled", help="deployment name for --serve")
     args = parser.parse_args(argv)
     try:  # check the stage names against dvc.yaml before any Prefect server starts
@@ -127,6 +162,11 @@ def main(argv: list[str] | None = None) -> int:
     if args.serve:
         if not PREFECT_API_URL.value():
             parser.error("--serve needs a Prefect server: set PREFECT_API_URL (see the commands above)")
+        try:
+            check_server(PREFECT_API_URL.value())
+        except InputError as err:
+            print(error_line(parser.prog, err), file=sys.stderr)
+            return INPUT_ERROR_EXIT
         pipeline.serve(name=args.name, cron=args.cron, parameters=parameters)
         return 0
     state = pipeline(**parameters, return_state=True)
@@ -134,4 +174,5 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
+    pin_dispatch()  # before the stages start: they inherit it (and need not re-execute themselves)
     sys.exit(main())

@@ -49,5 +49,14 @@ def main(argv: list[str] | None = None) -> int:
         return INPUT_ERROR_EXIT
 
 
+def run() -> int:
+    """The `robocompose` program: `main` in a process with the pinned CPU dispatch (io.dispatch), for the same
+    bytes on every machine. Only the program's own process is re-executed: callers of `main` are left alone."""
+    from robocompose.io.dispatch import pin_dispatch
+
+    pin_dispatch()
+    return main()
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run())

@@ -32,7 +32,7 @@ SECTIONS = {
     "compute": ("robocompose.fanout.compute", "ComputeConfig"),
     "enumerate": ("robocompose.dataset.enumerate", "EnumerateConfig"),
     "nogram": ("robocompose.dataset.nogram", "NogramConfig"),
-    "report": ("robocompose.report.build", "ReportConfig"),
+    "gallery": ("robocompose.dataset.summary", "GalleryConfig"),
     "teams": ("robocompose.teams.params", "TeamsParams"),
     "evaluation": ("robocompose.evaluation.evaluate", "EvaluationConfig"),
     "evaluate_references": ("robocompose.evaluation.references", "ReferencesConfig"),

@@ -43,3 +43,13 @@ def test_only_input_errors_become_a_message(monkeypatch):
     monkeypatch.setattr("robocompose.params.write_profile", broken)
     with pytest.raises(KeyError):
         main(["profile", "default"])
+
+
+def test_the_program_pins_the_cpu_dispatch_before_it_runs_a_command(monkeypatch):
+    import robocompose.cli
+    import robocompose.io.dispatch
+
+    calls = []
+    monkeypatch.setattr(robocompose.io.dispatch, "pin_dispatch", lambda: calls.append("pin"))
+    monkeypatch.setattr(robocompose.cli, "main", lambda: calls.append("main") or 0)
+    assert robocompose.cli.run() == 0 and calls == ["pin", "main"]

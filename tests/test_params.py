@@ -73,7 +73,7 @@ def test_profile_merges_overrides_onto_default(tmp_path):
     root = _profiles(tmp_path, paper={"enumerate": {"n": 500000}})
     written = read_params(write_profile("paper", root))
     assert written["enumerate"]["n"] == 500000 and written["enumerate"]["seed"] == 0
-    assert written["report"] == read_params(root / "profiles" / "default.yaml")["report"]
+    assert written["gallery"] == read_params(root / "profiles" / "default.yaml")["gallery"]
     assert written["profile"] == "paper"
 
 

@@ -1,12 +1,16 @@
 """Stage scripts: bad params or artifacts end a stage with one line `stage NAME: error: ...` and exit code 2."""
 
+import json
+import os
 import runpy
+import subprocess
 import sys
 from pathlib import Path
 
 import pytest
 import yaml
 
+from robocompose.io.dispatch import OPT_OUT, PINNED, has_baseline
 from robocompose.io.errors import InputError
 from robocompose.stage import run_stage
 
@@ -75,3 +79,26 @@ def test_bad_params_stop_a_stage_before_it_writes(tmp_path, monkeypatch, capsys,
     assert all(f in err for f in fragments), err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["params.yaml"]  # nothing written
 
+
+
+STAGE_PRINTING_ITS_DISPATCH = """
+import json, os, sys
+from robocompose.stage import run_stage
+
+def main():
+    print(json.dumps({"argv": sys.argv[1:], "dispatch": {k: os.environ.get(k) for k in PINNED}}))
+
+if __name__ == "__main__":
+    run_stage(main)
+"""
+
+
+def test_a_stage_script_runs_under_the_pinned_dispatch_whatever_its_environment(tmp_path):
+    if not has_baseline():
+        pytest.skip("the pin applies on x86-64-v3 processors only")
+    script = tmp_path / "stage_x.py"
+    script.write_text(f"PINNED = {sorted(PINNED)!r}\n" + STAGE_PRINTING_ITS_DISPATCH)
+    environment = {k: v for k, v in os.environ.items() if k not in PINNED and k != OPT_OUT}
+    result = subprocess.run([sys.executable, "-u", str(script), "full"], capture_output=True, text=True, check=True,
+                            env={**environment, "ATEN_CPU_CAPABILITY": "default", "OPENBLAS_CORETYPE": "Sandybridge"})
+    assert json.loads(result.stdout) == {"argv": ["full"], "dispatch": PINNED}  # re-executed once, same arguments

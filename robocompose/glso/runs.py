@@ -85,7 +85,7 @@ class RunSettings:
 # The `glso:` section of params.yaml: RunSettings and one field per registered method section (`bo`, `ga`, ...:
 # that section's dataclass, made from its mapping in params.yaml), so that a new method needs no edit here.
 GLSOConfig = dataclasses.make_dataclass(
-    "GLSOConfig", [(section, cls.__name__, field(default_factory=cls)) for section, cls in settings_sections().items()],
+    "GLSOConfig", [(section, cls, field(default_factory=cls)) for section, cls in settings_sections().items()],
     bases=(RunSettings,), frozen=True,
     namespace={"__module__": __name__, "__doc__": "The `glso:` section of params.yaml."})
 

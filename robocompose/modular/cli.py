@@ -103,6 +103,17 @@ def _add_params_argument(parser: argparse.ArgumentParser) -> None:
                         "params.yaml if there is one, else the defaults); a file named here must exist")
 
 
+def _params_file(path: Path | None) -> Path | None:
+    """The params file a command reads: `path` if given (it must exist), else params.yaml if there is one."""
+    return path if path is not None or not Path("params.yaml").exists() else Path("params.yaml")
+
+
+def params_source(path: Path | None) -> str:
+    """Where the `modular:` section of a command's params comes from, as its fields' error messages name it."""
+    file = _params_file(path)
+    return "the built-in defaults: modular" if file is None else f"{file}: modular"
+
+
 def _params(path: Path | None):
     from robocompose.modular.params import ModularParams
     from robocompose.params import load_command_section
@@ -206,7 +217,7 @@ def _probe(args: argparse.Namespace) -> None:
 
 
 def _verify(args: argparse.Namespace) -> None:
-    from robocompose.evaluation.executor import Executor
+    from robocompose.arguments import command_compute
     from robocompose.io.errors import InputError
     from robocompose.modular.truth import COMMITTED_DIR, verify_committed
 
@@ -214,9 +225,7 @@ def _verify(args: argparse.Namespace) -> None:
     tables = sorted(Path(directory).glob("blocks-*.parquet"))
     if not tables:
         raise InputError(f"--dir {directory}: no blocks-<seed>.parquet tables there")
-    params = _params(args.params)
-    workers = params.workers if args.workers is None else args.workers
-    with Executor(workers=workers, address=params.address or None) as executor:
+    with command_compute(args, args.params).executor() as executor:
         for path in tables:
             print(json.dumps(verify_committed(path, args.sample, args.seed, executor, args.rekey)), flush=True)
 

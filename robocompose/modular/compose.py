@@ -15,8 +15,13 @@ import argparse
 import json
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
+from robocompose.arguments import input_file, non_negative_int, positive_int
 from robocompose.io.errors import InputError
+
+if TYPE_CHECKING:
+    from robocompose.modular.terrain import TerrainConfig
 
 SHIPPED_MODEL = Path(__file__).resolve().parent / "pretrained" / "eggan.pt"
 MODULE_NAMES = {"none": "n", "leg": "l", "wheel": "w", "legwheel": "b", "leg-wheel": "b", "leg_wheel": "b"}
@@ -27,21 +32,24 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     """Add `compose modular` to the `compose` command."""
     modular = subparsers.add_parser("modular", help="modular robot designs for a terrain in milliseconds (EG-GAN)")
     task = modular.add_mutually_exclusive_group(required=True)
-    task.add_argument("--terrain-seed", type=int, help="seed of a block terrain")
-    task.add_argument("--heightmap", type=Path, help="a .npy height map of shape (50, 20), metres, x by y")
-    modular.add_argument("--k", type=int, default=10, help="distinct designs to answer (default 10)")
+    task.add_argument("--terrain-seed", type=non_negative_int, help="seed of a block terrain")
+    task.add_argument("--heightmap", type=Path, help="a .npy height map of shape (50, 20), metres, x by y, heights "
+                      "within the params' block heights (modular.eval.terrain.max_height_range)")
+    modular.add_argument("--k", type=positive_int, default=10, help="distinct designs to answer (default 10)")
     modular.add_argument("--max", default="", help="caps per module type, e.g. leg=2,wheel=0 (none, leg, wheel, "
                          "legwheel)")
-    modular.add_argument("--model", type=Path, help=f"generator file (default: the shipped {SHIPPED_MODEL.name})")
-    modular.add_argument("--samples", type=int, default=64, help="generator draws per batch (default 64)")
-    modular.add_argument("--seed", type=int, default=0, help="seed of the noise vectors")
+    modular.add_argument("--model", type=input_file("an EG-GAN generator file"),
+                         help=f"generator file (default: the shipped {SHIPPED_MODEL.name})")
+    modular.add_argument("--samples", type=positive_int, default=64, help="generator draws per batch (default 64)")
+    modular.add_argument("--seed", type=non_negative_int, default=0, help="seed of the noise vectors")
     modular.add_argument("--simulate", action="store_true", help="also simulate each design (distance, status)")
-    modular.add_argument("--params", type=Path, default=Path("params.yaml"),
-                         help="params file with a modular: section (default params.yaml; if absent, the defaults)")
+    modular.add_argument("--params", type=Path, default=None, help="params file with a modular: section (default: "
+                         "params.yaml if there is one, else the defaults); a file named here must exist")
     modular.set_defaults(handler=_compose)
 
     ship = subparsers.add_parser("ship-modular", help="copy a trained generator (float16) to the shipped default")
-    ship.add_argument("--from", dest="source", type=Path, default=Path("models/eggan_modular_crowding.pt"),
+    ship.add_argument("--from", dest="source", type=input_file("an EG-GAN generator file"),
+                      default=Path("models/eggan_modular_crowding.pt"),
                       help="generator of `dvc repro train_eggan_modular` (default: the EG-GAN-crowding one)")
     ship.set_defaults(handler=_ship)
 
@@ -58,22 +66,36 @@ def parse_caps(text: str) -> dict[str, int]:
     return caps
 
 
-def read_heightmap(path: Path):
-    """A (50, 20) finite float32 height map from a .npy file, or a clear error."""
+def read_heightmap(path: Path, terrain: TerrainConfig, where: str):
+    """A (50, 20) float32 height map from a .npy file, its heights within the block heights of `terrain`.
+
+    The generator learnt height maps of blocks of height U(0, H), H ~ U(max_height_range), on the ground (height 0):
+    a map outside [0, max_height_range[1]] is no terrain of the model. `where` names the params the range is from.
+    """
     import numpy as np
 
     from robocompose.modular.terrain import GRID_X, GRID_Y
 
     if not path.is_file():
-        raise FileNotFoundError(f"--heightmap {path}: no such file")
+        found = "a directory" if path.is_dir() else "no such file"
+        raise InputError(f"--heightmap {path}: {found}, expected a .npy height map")
     try:
         heights = np.load(path, allow_pickle=False)
-    except Exception as err:  # not a .npy array: name the file
-        raise InputError(f"--heightmap {path}: not a .npy array ({err})") from None
+    except (OSError, ValueError, EOFError):  # pickled, text, truncated: np.load's reasons say little to a user
+        raise InputError(f"--heightmap {path}: not a .npy array file (numpy.save format)") from None
+    if not isinstance(heights, np.ndarray):  # an .npz archive
+        raise InputError(f"--heightmap {path}: a .npz archive, expected a .npy array file (numpy.save format)")
     if heights.shape != (GRID_X, GRID_Y):
         raise InputError(f"--heightmap {path}: expected shape ({GRID_X}, {GRID_Y}) (x by y), found {heights.shape}")
-    if not np.issubdtype(heights.dtype, np.number) or not np.isfinite(heights).all():
-        raise InputError(f"--heightmap {path}: expected finite numbers (metres)")
+    if not (np.issubdtype(heights.dtype, np.integer) or np.issubdtype(heights.dtype, np.floating)):
+        raise InputError(f"--heightmap {path}: expected real numbers (metres), found dtype {heights.dtype}")
+    if not np.isfinite(heights).all():
+        bad = heights[~np.isfinite(heights)][0]
+        raise InputError(f"--heightmap {path}: expected finite numbers (metres), found {bad}")
+    low, high = 0.0, terrain.max_height_range[1]
+    if heights.min() < low or heights.max() > high:
+        raise InputError(f"--heightmap {path}: heights expected in [{low:g}, {high:g}] m (the ground and the highest "
+                         f"block of {where}.terrain.max_height_range), found [{heights.min():g}, {heights.max():g}]")
     return heights.astype(np.float32)
 
 
@@ -95,19 +117,19 @@ def _compose(args: argparse.Namespace) -> None:
     import torch
 
     from robocompose.eggan.query import generate, load_generator, rank_distinct
-    from robocompose.modular.cli import _params
+    from robocompose.modular.cli import _params, params_source
     from robocompose.modular.eggan_problem import FitnessConfig, ModularEgganProblem
 
-    if args.k < 1 or args.samples < 1:
-        raise InputError("--k and --samples: expected positive integers")
     caps = parse_caps(args.max)
     params = _params(args.params)
+    heights = None if args.heightmap is None else read_heightmap(args.heightmap, params.eval.terrain,
+                                                                  f"{params_source(args.params)}.eval")
     problem = ModularEgganProblem(params, FitnessConfig())
     torch.set_num_threads(1)
     started = time.perf_counter()
     generator, info = load_generator(args.model or SHIPPED_MODEL, problem)
-    if args.heightmap is not None:
-        task, tensor = None, torch.from_numpy(read_heightmap(args.heightmap))
+    if heights is not None:
+        task, tensor = None, torch.from_numpy(heights)
     else:
         task, tensor = args.terrain_seed, problem.encode_task(args.terrain_seed)
     loaded = time.perf_counter()

@@ -3,6 +3,7 @@ fitness rule and the experiments."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 from robocompose.io.errors import InputError
@@ -55,6 +56,7 @@ class ModularParams:
     experiments: ExperimentsConfig = field(default_factory=ExperimentsConfig)
 
     def __post_init__(self) -> None:
+        check_physics(self.eval, "eval")
         check_course(self.eval, "eval")
 
 
@@ -72,3 +74,38 @@ def check_course(settings: EvalSettings, where: str) -> None:
                          f"({settings.control_steps} control steps) the fastest design (wheels, "
                          f"{FASTEST_SPEED:.2f} m/s) reaches x = {reach:.2f} m; expected x_range[1] >= {reach:.2f} "
                          "or fewer control_steps")
+
+
+# Physical settings of an episode and its terrain: field -> (lowest, highest, lowest allowed itself, unit).
+# pybullet takes any float silently (a negative friction or time step runs and returns a distance), so they are
+# checked where params are read, before any reaches a rollout or a cache key.
+PHYSICAL_BOUNDS = {
+    "time_step": (0.0, math.inf, False, "s per sim step"),
+    "settle_steps": (0, math.inf, True, "sim steps"),
+    "flip_up_z": (-1.0, 1.0, True, "the world z of the chassis' up axis"),
+    "max_abs_y": (0.0, math.inf, False, "m"),
+    "stall_distance": (0.0, math.inf, True, "m"),
+    "terrain.x_range": (-math.inf, math.inf, False, "m"),
+    "terrain.y_range": (-math.inf, math.inf, False, "m"),
+    "terrain.clear_x": (0.0, math.inf, True, "m"),
+    "terrain.side_range": (0.0, math.inf, False, "m"),
+    "terrain.max_height_range": (0.0, math.inf, True, "m"),
+    "terrain.friction": (0.0, math.inf, False, "pybullet's lateral friction coefficient"),
+    "terrain.ground_friction": (0.0, math.inf, False, "pybullet's lateral friction coefficient"),
+    "terrain.candidates": (1, math.inf, True, "candidates per point"),
+}
+
+
+def check_physics(settings: EvalSettings, where: str) -> None:
+    """Every physical setting of `settings` finite and within PHYSICAL_BOUNDS; else InputError naming the field."""
+    for name, (lowest, highest, closed, unit) in PHYSICAL_BOUNDS.items():
+        owner = settings.terrain if name.startswith("terrain.") else settings
+        value = getattr(owner, name.removeprefix("terrain."))
+        if all(math.isfinite(v) and (lowest <= v if closed else lowest < v) and v <= highest
+               for v in (value if isinstance(value, tuple) else (value,))):
+            continue
+        bounds = [f"{'>=' if closed else '>'} {lowest:g}"] if math.isfinite(lowest) else []
+        bounds += [f"<= {highest:g}"] if math.isfinite(highest) else []
+        noun, shown = ("finite numbers", list(value)) if isinstance(value, tuple) else ("a finite number", value)
+        raise InputError(f"{where}.{name}: expected {' '.join([noun, ' and '.join(bounds)]).strip()} ({unit}), "
+                         f"found {shown!r}")

@@ -221,6 +221,56 @@ def test_unknown_stage_is_rejected_before_any_prefect_server_starts(tmp_path: Pa
     assert result.returncode == 2 and "Traceback" not in result.stderr
     assert "error: unknown DVC stage(s) ['nosuch']; dvc.yaml defines" in result.stderr.splitlines()[-1]
     assert not list(home.rglob("*.db"))  # the ephemeral server's database: never created
+def _serve(project: Path, tmp_path: Path, api_url: str, *flags: str) -> tuple[subprocess.CompletedProcess, float]:
+    """`pipeline.py --serve` against `api_url` with its own Prefect home; (result, seconds it took)."""
+    env = {**os.environ, "PREFECT_HOME": str(tmp_path / "prefect_home"), "PREFECT_API_URL": api_url,
+           "DVC_NO_ANALYTICS": "1", "DVC_SITE_CACHE_DIR": str(tmp_path / "dvc_site_cache")}
+    started = time.monotonic()
+    result = subprocess.run([sys.executable, str(PIPELINE_FILE), "--serve", "--project-dir", str(project), *flags],
+                            capture_output=True, text=True, env=env, timeout=60)
+    return result, time.monotonic() - started
+
+
+@pytest.mark.parametrize(("cron", "reason"), [("bad cron", 'Invalid cron string: "bad cron"'),
+                                              ("61 3 * * *", "Invalid cron string"),
+                                              ("H 3 * * *", "Invalid cron string")])
+def test_a_bad_cron_is_rejected_before_any_server_is_contacted(tmp_path: Path, cron: str, reason: str) -> None:
+    with socket.socket() as listener:  # a server that would see a connection if the flow tried one
+        listener.bind(("127.0.0.1", 0))
+        listener.listen()
+        listener.settimeout(0)
+        result, _ = _serve(tmp_path, tmp_path, f"http://127.0.0.1:{listener.getsockname()[1]}/api", "--cron", cron)
+        with pytest.raises(BlockingIOError):
+            listener.accept()
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    line = result.stderr.splitlines()[-1]
+    assert line.startswith(f"pipeline.py: error: argument --cron: {reason}")
+    assert line.endswith("expected 5 fields: minute hour day-of-month month day-of-week, e.g. '0 3 * * *'")
+
+
+def test_an_unreachable_server_fails_in_one_line_within_seconds(tmp_path: Path) -> None:
+    project = make_dvc_project(tmp_path / "project")
+    url = f"http://127.0.0.1:{_free_port()}/api"  # nothing listens there: refused
+    result, seconds = _serve(project, tmp_path, url)
+    assert result.returncode == 2 and "Traceback" not in result.stderr and seconds < 10
+    assert result.stderr.strip().splitlines() == [
+        f"pipeline.py: error: PREFECT_API_URL '{url}': no answer to the health check ([Errno 111] Connection refused; "
+        "waited at most 5 s per step), expected a running Prefect server (`prefect server start`)"]
+
+
+def test_a_server_that_never_answers_fails_within_the_deadline(tmp_path: Path) -> None:
+    project = make_dvc_project(tmp_path / "project")
+    with socket.socket() as silent:  # accepts connections (the kernel's backlog), never replies
+        silent.bind(("127.0.0.1", 0))
+        silent.listen()
+        url = f"http://127.0.0.1:{silent.getsockname()[1]}/api"
+        result, seconds = _serve(project, tmp_path, url)
+    assert result.returncode == 2 and "Traceback" not in result.stderr and seconds < 15
+    line, = result.stderr.strip().splitlines()
+    assert line.startswith(f"pipeline.py: error: PREFECT_API_URL '{url}': no answer to the health check (")
+    assert not list((tmp_path / "prefect_home").rglob("*.db"))
+
+
 # --- served on a real Prefect server ---
 
 # `b` fails on its first attempt (it leaves a marker), succeeds on the second: the task's retry.

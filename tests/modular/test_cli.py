@@ -60,6 +60,30 @@ def test_bad_evaluate_input_names_the_flag_or_file(tmp_path, monkeypatch, cli_er
     assert sorted(p.name for p in tmp_path.iterdir()) == ["folder"]
 
 
+@pytest.mark.parametrize(("field", "value", "expected"), [
+    ("terrain: {friction: -1.0}", "modular.eval.terrain.friction", "expected a finite number > 0 (pybullet's lateral"),
+    ("terrain: {ground_friction: .inf}", "modular.eval.terrain.ground_friction", "expected a finite number > 0"),
+    ("terrain: {ground_friction: 0}", "modular.eval.terrain.ground_friction", "> 0 (pybullet's lateral friction "
+     "coefficient), found 0"),
+    ("terrain: {max_height_range: [-0.1, 0.2]}", "modular.eval.terrain.max_height_range",
+     "expected finite numbers >= 0 (m), found [-0.1, 0.2]"),
+    ("terrain: {side_range: [0.0, 1.0]}", "modular.eval.terrain.side_range", "expected finite numbers > 0"),
+    ("terrain: {x_range: [-1.0, .inf]}", "modular.eval.terrain.x_range", "expected finite numbers (m)"),
+    ("time_step: -0.01", "modular.eval.time_step", "expected a finite number > 0 (s per sim step), found -0.01"),
+    ("time_step: .nan", "modular.eval.time_step", "found nan"),
+    ("settle_steps: -5", "modular.eval.settle_steps", "expected a finite number >= 0 (sim steps), found -5"),
+    ("flip_up_z: 2.0", "modular.eval.flip_up_z", "expected a finite number >= -1 and <= 1"),
+    ("max_abs_y: 0.0", "modular.eval.max_abs_y", "expected a finite number > 0 (m), found 0.0"),
+    ("stall_distance: -0.02", "modular.eval.stall_distance", "expected a finite number >= 0 (m)"),
+])
+def test_evaluate_rejects_an_unphysical_setting_naming_file_field_and_bound(tmp_path, cli_error, field, value,
+                                                                           expected):
+    params = tmp_path / "p.yaml"
+    params.write_text(f"modular:\n  eval: {{control_steps: 3, {field}}}\n")
+    cli_error(["modular", "evaluate", "--design", "wwwwww", "--terrain-seed", "3", "--params", str(params)],
+              f"{params}: {value}: expected", expected)
+
+
 def test_ga_rejects_a_negative_seed(cli_error):
     cli_error(["modular", "ga", "--variant", "ga20", "--terrain-seed", "0", "--seed", "-2"],
               "argument --seed", "expected an integer >= 0, found -2")

@@ -57,14 +57,64 @@ def test_compose_simulate_adds_distances(tmp_path, model, capsys):
     assert all(d["status"] in ("ok", "flipped", "left_course", "stalled") for d in out["designs"])
 
 
-@pytest.mark.parametrize("heights, message", [(np.zeros((20, 50)), "expected shape"),
-                                              (np.full((50, 20), np.nan), "finite")])
-def test_a_bad_heightmap_exits_2_with_a_clear_line(tmp_path, model, capsys, heights, message):
-    path = tmp_path / "map.npy"
+@pytest.mark.parametrize("heights, message", [
+    (np.zeros((20, 50)), "expected shape (50, 20) (x by y), found (20, 50)"),
+    (np.full((50, 20), np.nan), "expected finite numbers (metres), found nan"),
+    (np.full((50, 20), 1e9), "heights expected in [0, 0.3] m (the ground and the highest block of {params}: "
+                             "modular.eval.terrain.max_height_range), found [1e+09, 1e+09]"),
+    (np.full((50, 20), -5.0), "heights expected in [0, 0.3] m"),
+    (np.zeros((50, 20), dtype=complex), "expected real numbers (metres), found dtype complex128"),
+    (np.array(["x"] * 1000).reshape(50, 20), "expected real numbers (metres), found dtype <U1"),
+])
+def test_a_bad_heightmap_exits_2_with_a_clear_line(tmp_path, model, cli_error, heights, message):
+    path, params = tmp_path / "map.npy", tmp_path / "p.yaml"
+    params.write_text("modular:\n  eval: {terrain: {max_height_range: [0.1, 0.3]}}\n")
     np.save(path, heights)
-    assert main(["compose", "modular", "--heightmap", str(path), "--model", str(model)]) == 2
-    err = capsys.readouterr().err
-    assert message in err and str(path) in err and len(err.strip().splitlines()) == 1
+    cli_error(["compose", "modular", "--heightmap", str(path), "--model", str(model), "--params", str(params)],
+              f"--heightmap {path}: {message.format(params=params)}")
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda path: None, "no such file, expected a .npy height map"),
+    (lambda path: path.mkdir(), "a directory, expected a .npy height map"),
+    (lambda path: path.write_text("0 0 0\n"), "not a .npy array file (numpy.save format)"),
+    (lambda path: np.save(path, np.array([{"a": 1}], dtype=object), allow_pickle=True), "not a .npy array file"),
+    (lambda path: np.savez(path.with_suffix(".npz"), np.zeros((50, 20))) or path.with_suffix(".npz").rename(path),
+     "a .npz archive, expected a .npy array file"),
+])
+def test_a_heightmap_that_is_no_npy_file_exits_2_naming_it(tmp_path, model, cli_error, make, message):
+    path = tmp_path / "map.npy"
+    make(path)
+    cli_error(["compose", "modular", "--heightmap", str(path), "--model", str(model)], f"--heightmap {path}: {message}")
+
+
+def test_compose_without_a_params_file_uses_the_defaults_and_their_height_range(tmp_path, model, cli_error, capsys,
+                                                                                monkeypatch):
+    monkeypatch.chdir(tmp_path)  # no params.yaml here: the built-in defaults, blocks up to 0.2 m
+    path = tmp_path / "map.npy"
+    np.save(path, np.full((50, 20), 0.2))
+    assert main(["compose", "modular", "--heightmap", str(path), "--k", "2", "--model", str(model)]) == 0
+    assert len(json.loads(capsys.readouterr().out)["designs"]) == 2
+    np.save(path, np.full((50, 20), 0.25))
+    cli_error(["compose", "modular", "--heightmap", str(path), "--model", str(model)],
+              "heights expected in [0, 0.2] m (the ground and the highest block of the built-in defaults: "
+              "modular.eval.terrain.max_height_range), found [0.25, 0.25]")
+
+
+@pytest.mark.parametrize("flags, fragments", [
+    (["--terrain-seed", "-3"], ["argument --terrain-seed", "expected an integer >= 0, found -3"]),
+    (["--terrain-seed", "3", "--k", "0"], ["argument --k", "expected an integer >= 1, found 0"]),
+    (["--terrain-seed", "3", "--samples", "-1"], ["argument --samples", "expected an integer >= 1"]),
+    (["--terrain-seed", "3", "--seed", "-1"], ["argument --seed", "expected an integer >= 0"]),
+    (["--terrain-seed", "3", "--model", "."], ["argument --model", ".: a directory, expected an EG-GAN generator"]),
+])
+def test_bad_compose_flags_exit_2_naming_the_flag(cli_error, flags, fragments):
+    cli_error(["compose", "modular", *flags], *fragments)
+
+
+def test_ship_rejects_a_directory_naming_it(tmp_path, cli_error):
+    cli_error(["compose", "ship-modular", "--from", str(tmp_path)],
+              "argument --from", f"{tmp_path}: a directory, expected an EG-GAN generator file")
 
 
 def test_a_heightmap_query_works(tmp_path, model, capsys):
