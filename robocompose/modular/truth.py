@@ -40,7 +40,7 @@ CRITERION = {"terrains": 8, "distinct_optima": 3, "regret_ratio": 0.10}
 # and the episode loop of evaluate.py (functions: the rest of that file is caching and batching).
 PHYSICS_MODULES = ("robocompose.modular.robot", "robocompose.modular.terrain", "robocompose.modular.controller",
                    "robocompose.sim.physics")
-EPISODE_FUNCTIONS = ("rollout", "_state", "up_z", "_stop_reason")
+EPISODE_FUNCTIONS = ("rollout", "rollouts", "_episode", "_state", "up_z", "_stop_reason")
 
 
 def exhaustive_terrain(terrain_seed: int, settings: EvalSettings, rule: FitnessRule,
