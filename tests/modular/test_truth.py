@@ -4,11 +4,15 @@ import pandas as pd
 import pytest
 
 from robocompose.evaluation.cache import EvaluationCache
-from robocompose.modular.evaluate import EvalSettings, FitnessRule
+from robocompose.modular.evaluate import EvalSettings, FitnessRule, rollouts
+from robocompose.modular.terrain import generate_terrain
 from robocompose.modular.truth import (
+    COMMITTED_DIR,
     canonical,
+    committed_path,
     exhaustive_terrain,
     mirror,
+    provenance,
     read_committed,
     terrain_criterion,
     truth_summary,
@@ -103,3 +107,16 @@ def test_the_physics_digest_ignores_error_types_imports_and_layout_but_not_code(
             '        raise InputError(f"negative {x}")\n    return 2 * x\n')
     other = base.replace("2 * x", "3 * x")
     assert _rollout_code(base) == _rollout_code(same) != _rollout_code(other)
+
+
+@pytest.mark.parametrize("terrain_seed, designs", [(1000, ("bbbbbb", "lwlwlw")), (1004, ("lwbbnw", "lnllnl", "wwwwww"))])
+def test_rollouts_reproduce_the_committed_tables_to_the_byte(terrain_seed, designs):
+    record = json.loads(committed_path(terrain_seed).with_suffix(".json").read_text())
+    settings, rule = EvalSettings(**record["settings"]), FitnessRule(**record["fitness"])
+    if {k: record[k] for k in ("settings", "fitness", "physics_digest")} != provenance(settings, rule):
+        pytest.skip(f"{COMMITTED_DIR} was measured with other physics code; the stage does not read it")
+    table = pd.read_parquet(committed_path(terrain_seed)).set_index("design")
+    for design, result in zip(designs, rollouts(designs, generate_terrain(terrain_seed, settings.terrain), settings),
+                              strict=True):
+        row = table.loc[design]
+        assert (result.distance, result.status, result.sim_steps) == (row.distance, row.status, row.sim_steps)
