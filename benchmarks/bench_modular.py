@@ -34,8 +34,8 @@ from robocompose.sim.physics import connect
 SETTINGS = load_modular_params("params.yaml").eval
 TERRAIN = 1000
 STEPS_DESIGNS = ("llllll", "wwwwww", "bbbbbb", "lwbllw")
-BATCH = 24
-ROUNDS = 2  # alternated rounds; the machine is shared, so each figure takes the best round
+BATCH = 48
+ROUNDS = 3  # alternated rounds; the machine is shared, so each figure takes the best round
 
 
 def _raw_seconds(design: str, steps: int) -> float:

@@ -231,8 +231,8 @@ def simulate(job: tuple[tuple[str, ...], int, EvalSettings]) -> list[dict]:
 
 
 def chunk_size(designs: int, workers: int) -> int:
-    """Designs per work item: up to CHUNK, but at least 4 items per worker so the last ones balance."""
-    return max(1, min(CHUNK, math.ceil(designs / (4 * workers))))
+    """Designs per work item: up to CHUNK, but at least 8 items per worker so the last ones balance."""
+    return max(1, min(CHUNK, math.ceil(designs / (8 * workers))))
 
 
 def evaluate_designs(designs: Sequence[str], terrain_seed: int, settings: EvalSettings, rule: FitnessRule,

@@ -78,8 +78,8 @@ def test_rollouts_in_one_client_equal_rollouts_each_in_a_fresh_client_in_any_ord
     assert len(set(alone)) == len(designs)  # the designs differ, so a leaked world would show
 
 
-def test_work_items_keep_four_per_worker_when_a_batch_is_small():
-    assert chunk_size(1296, 2) == 8 and chunk_size(10, 2) == 2 and chunk_size(3, 2) == 1 and chunk_size(0, 2) == 1
+def test_work_items_keep_eight_per_worker_when_a_batch_is_small():
+    assert chunk_size(1296, 2) == 8 and chunk_size(48, 2) == 3 and chunk_size(10, 2) == 1 and chunk_size(0, 2) == 1
 
 
 def test_a_stalled_robot_stops_after_the_stall_window():
