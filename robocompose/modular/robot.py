@@ -28,6 +28,7 @@ none; joint damping is the reference's damping/friction figure, applied as pybul
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -161,32 +162,44 @@ class ModularRobot:
         states = pb.getJointStates(self.body, [j.index for j in self.joints], physicsClientId=self.client)
         return np.array([s[0] for s in states]), np.array([s[1] for s in states])
 
-    def command(self, targets: np.ndarray) -> None:
-        """Send (J,) targets: positions (clipped to the joint limits) for joints, velocities for drives.
+    @functools.cached_property
+    def target_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """(J,) lower and (J,) upper bounds of the targets: joint limits for positions, +-rated speed for drives."""
+        bounds = [(-j.actuator.speed, j.actuator.speed) if j.role == "drive" else j.limits for j in self.joints]
+        return np.array([b[0] for b in bounds]), np.array([b[1] for b in bounds])
+
+    def command(self, targets: np.ndarray, sent: np.ndarray | None = None) -> np.ndarray:
+        """Send (J,) targets: positions (clipped to the joint limits) for joints, velocities for drives; returns the
+        (J,) targets as sent.
 
         Positions are servoed at up to the actuator's rated speed; drives are velocity-controlled, with
-        velocities clipped to the rated speed. Forces are capped at 0.8 x the rated torque.
+        velocities clipped to the rated speed. Forces are capped at 0.8 x the rated torque. `sent`, the return
+        value of the previous call: joints whose target has not changed since are skipped, since a pybullet
+        motor keeps its command until the next (the bytes of a rollout are the same either way).
         """
-        for joint, target in zip(self.joints, targets, strict=True):
+        clipped = np.clip(targets, *self.target_bounds)
+        for k, (joint, target) in enumerate(zip(self.joints, clipped.tolist(), strict=True)):
+            if sent is not None and target == sent[k]:
+                continue
             act = joint.actuator
             if joint.role == "drive":
-                pb.setJointMotorControl2(self.body, joint.index, pb.VELOCITY_CONTROL,
-                                         targetVelocity=float(np.clip(target, -act.speed, act.speed)),
+                pb.setJointMotorControl2(self.body, joint.index, pb.VELOCITY_CONTROL, targetVelocity=target,
                                          force=act.max_force, physicsClientId=self.client)
             else:
-                pb.setJointMotorControl2(self.body, joint.index, pb.POSITION_CONTROL,
-                                         targetPosition=float(np.clip(target, *joint.limits)), targetVelocity=0.0,
-                                         positionGain=POSITION_GAIN, velocityGain=VELOCITY_GAIN,
+                pb.setJointMotorControl2(self.body, joint.index, pb.POSITION_CONTROL, targetPosition=target,
+                                         targetVelocity=0.0, positionGain=POSITION_GAIN, velocityGain=VELOCITY_GAIN,
                                          force=act.max_force, maxVelocity=act.speed, physicsClientId=self.client)
+        return clipped
 
-    def pose(self, targets: np.ndarray) -> None:
-        """Put the joints at (J,) `targets` (clipped to limits; drives at rest) and hold them there."""
+    def pose(self, targets: np.ndarray) -> np.ndarray:
+        """Put the joints at (J,) `targets` (clipped to limits; drives at rest) and hold them there; returns the
+        (J,) targets as sent (see `command`)."""
         held = np.array([0.0 if j.role == "drive" else np.clip(t, *j.limits)
                          for j, t in zip(self.joints, targets, strict=True)])
         for joint, position in zip(self.joints, held, strict=True):
             if joint.role != "drive":
                 pb.resetJointState(self.body, joint.index, float(position), physicsClientId=self.client)
-        self.command(held)
+        return self.command(held)
 
     def rest_targets(self) -> np.ndarray:
         """(J,) targets of the rest pose (drives at rest)."""
@@ -282,6 +295,13 @@ def inertial_frame(shapes: list[dict]) -> tuple[np.ndarray, tuple[float, float, 
     return com, tuple(float(v) for v in Rotation.from_matrix(axes).as_quat()), moments
 
 
+@functools.cache
+def _parts_inertial(parts: tuple) -> tuple[np.ndarray, tuple[float, float, float, float], np.ndarray]:
+    """`inertial_frame` of a link's parts given as a tuple of sorted item tuples (hashable): the same module
+    links recur in every design, so a batch of builds computes each once. Callers must not modify the arrays."""
+    return inertial_frame([dict(items) for items in parts])
+
+
 def _link_mass(length: float) -> float:
     return 0.4 * (length + 0.03) + 0.26
 
@@ -375,7 +395,7 @@ def build_robot(design: str, client: int, position=(0.0, 0.0, START_HEIGHT), vis
     chassis_shape = [_cylinder(CHASSIS_RADIUS, CHASSIS_THICKNESS, CHASSIS_MASS, (0, 0, 0), kind="chassis")]
     shapes = [_collision_and_visual(client, chassis_shape, visual)]
     shapes += [_collision_and_visual(client, link.shapes, visual) for link in links]
-    inertials = [inertial_frame(link.shapes) for link in links]
+    inertials = [_parts_inertial(tuple(tuple(sorted(shape.items())) for shape in link.shapes)) for link in links]
     body = pb.createMultiBody(
         baseMass=CHASSIS_MASS, baseCollisionShapeIndex=shapes[0][0], baseVisualShapeIndex=shapes[0][1],
         basePosition=list(position), baseOrientation=[0, 0, 0, 1],

@@ -4,7 +4,16 @@ import numpy as np
 import pytest
 
 from robocompose.fanout.cache import EvaluationCache
-from robocompose.modular.evaluate import EvalSettings, FitnessRule, evaluate_designs, rollout, task_id, up_z
+from robocompose.modular.evaluate import (
+    EvalSettings,
+    FitnessRule,
+    chunk_size,
+    evaluate_designs,
+    rollout,
+    rollouts,
+    task_id,
+    up_z,
+)
 from robocompose.modular.terrain import TerrainConfig, generate_terrain
 
 SHORT = EvalSettings(control_steps=36)  # 3 s episodes
@@ -49,6 +58,28 @@ def test_on_flat_ground_wheels_win_and_on_rough_ground_legs_do():
 def test_rollouts_are_deterministic():
     a, b = flat_rollout("lwbnlw"), flat_rollout("lwbnlw")
     assert (a.distance, a.status, a.sim_steps) == (b.distance, b.status, b.sim_steps)
+
+
+ROUGH = EvalSettings(control_steps=12, terrain=TerrainConfig(x_range=(-1.0, 5.0), max_height_range=(0.2, 0.2)))
+
+
+def _outcome(result):
+    return result.distance, result.status, result.sim_steps
+
+
+def test_rollouts_in_one_client_equal_rollouts_each_in_a_fresh_client_in_any_order():
+    # One client per work item: each design's world is reset and rebuilt, so a robot swapped in after others
+    # moves exactly as it does alone (removeBody instead of the reset does not; see `rollouts`).
+    terrain = generate_terrain(3, ROUGH.terrain)
+    designs = ["bbbbbb", "lwbllw", "wnwwnw"]
+    alone = [_outcome(rollout(d, terrain, ROUGH)) for d in designs]
+    assert [_outcome(r) for r in rollouts(designs, terrain, ROUGH)] == alone
+    assert [_outcome(r) for r in rollouts(designs[::-1], terrain, ROUGH)] == alone[::-1]
+    assert len(set(alone)) == len(designs)  # the designs differ, so a leaked world would show
+
+
+def test_work_items_keep_eight_per_worker_when_a_batch_is_small():
+    assert chunk_size(1296, 2) == 8 and chunk_size(48, 2) == 3 and chunk_size(10, 2) == 1 and chunk_size(0, 2) == 1
 
 
 def test_a_stalled_robot_stops_after_the_stall_window():

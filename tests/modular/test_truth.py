@@ -4,9 +4,11 @@ import pandas as pd
 import pytest
 
 from robocompose.fanout.cache import EvaluationCache
-from robocompose.modular.evaluate import EvalSettings, FitnessRule
+from robocompose.modular.evaluate import EvalSettings, FitnessRule, rollouts
+from robocompose.modular.terrain import generate_terrain
 from robocompose.modular.truth import (
     canonical,
+    committed_path,
     exhaustive_terrain,
     mirror,
     read_committed,
@@ -124,3 +126,15 @@ def test_the_physics_digest_follows_what_a_rollout_runs(monkeypatch):
     assert physics_digest() != before
     monkeypatch.undo()
     assert physics_digest() == before
+
+
+@pytest.mark.parametrize("terrain_seed, designs", [(1000, ("bbbbbb", "lwlwlw")),
+                                                   (1004, ("lwbbnw", "lnllnl", "wwwwww"))])  # ok, flipped, stalled
+def test_rollouts_reproduce_the_committed_tables_to_the_byte(terrain_seed, designs):
+    record = json.loads(committed_path(terrain_seed).with_suffix(".json").read_text())
+    settings = EvalSettings(**record["settings"])
+    table = pd.read_parquet(committed_path(terrain_seed)).set_index("design")
+    for design, result in zip(designs, rollouts(designs, generate_terrain(terrain_seed, settings.terrain), settings),
+                              strict=True):
+        row = table.loc[design]
+        assert (result.distance, result.status, result.sim_steps) == (row.distance, row.status, row.sim_steps)
