@@ -21,7 +21,7 @@ def test_floor_points_count_designs_per_number_of_points():
 
 
 def test_gallery_pictures_the_references_and_the_picked_designs_the_same_way_twice(tmp_path):
-    designs, _ = enumerate_designs(EnumerateConfig(n=3, seed=0, workers=1, chunk=8), progress=None)
+    designs, _ = enumerate_designs(EnumerateConfig(n=3, seed=0, chunk=8), progress=None)
     first = draw_gallery(designs, GalleryConfig(designs=2, seed=0), tmp_path / "a" / "gallery.png")
     second = draw_gallery(designs, GalleryConfig(designs=2, seed=0), tmp_path / "b" / "gallery.png")
     assert first.stat().st_size > 10_000 and not (tmp_path / "a" / "gallery.tile.png").exists()
