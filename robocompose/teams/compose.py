@@ -44,9 +44,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _ship(args: argparse.Namespace) -> None:
     import shutil
 
-    from robocompose.teams.generative import teams_generator_info
-
     from robocompose.io import atomic_write_json
+    from robocompose.teams.generative import teams_generator_info
 
     info = teams_generator_info(args.source)  # checked: a checksum, a teams generator, the current design head
     shutil.copyfile(args.source, SHIPPED_MODEL)
