@@ -16,15 +16,16 @@ import time
 import numpy as np
 import torch
 
+from robocompose.eggan.learners import LEARNERS
 from robocompose.io.provenance import ROOT
 from robocompose.search.nsga2 import NSGA2Config
 from robocompose.teams.chips import synthetic_chip
 from robocompose.teams.compose import SHIPPED_MODEL
 from robocompose.teams.decompose import DecomposeConfig, decompose_chip
-from robocompose.teams.eggan_problem import query_front
+from robocompose.teams.eggan_problem import TeamsProblem
 from robocompose.teams.ergodic import CoverageConfig
 from robocompose.teams.evaluator import AllocationEvaluator, chip_coverage
-from robocompose.teams.generative import load_generator
+from robocompose.teams.generative import query_front, teams_generator_info
 from robocompose.teams.nsga2 import allocation_nsga2
 from robocompose.teams.species import SPECIES
 
@@ -34,16 +35,18 @@ CHIP_SEED = 7  # not the default profile's chip seed (0)
 
 def run() -> dict[str, float]:
     torch.set_num_threads(1)
-    generator, saved = load_generator(ROOT / SHIPPED_MODEL)
+    saved = teams_generator_info(ROOT / SHIPPED_MODEL)
     params = saved["params"]
     coverage = CoverageConfig(**params["coverage"])
     chip = synthetic_chip(CHIP_SEED)
     started = time.perf_counter()
     decomposition = decompose_chip(chip, DecomposeConfig(**{**params["decompose"], "n_regions": saved["n_regions"]}))
     decompose_ms = 1000 * (time.perf_counter() - started)
-    query_front(generator, chip, decomposition, coverage, params["eggan"]["samples"], seed=0)  # warm-up
-    queries = [query_front(generator, chip, decomposition, coverage, params["eggan"]["samples"], seed=0)
-               for _ in range(QUERIES)]
+    learner = LEARNERS["teams"]["eggan"]
+    generator, _ = learner.load(ROOT / SHIPPED_MODEL, TeamsProblem([(chip, decomposition)], coverage))
+    draws = learner.answer(generator, params["eggan"]["samples"])
+    query_front(draws, chip, decomposition, coverage, seed=0)  # warm-up
+    queries = [query_front(draws, chip, decomposition, coverage, seed=0) for _ in range(QUERIES)]
     query_seconds = float(np.mean([q.generator_seconds for q in queries]))
     evaluate = AllocationEvaluator(chip_coverage(chip, decomposition, coverage), chip.chip_id, seed=0)
     nsga2 = allocation_nsga2(evaluate, decomposition.n_regions, len(SPECIES), coverage.robots_per_species,

@@ -12,13 +12,14 @@ from pathlib import Path
 
 import torch
 
+from robocompose.eggan.learners import LEARNERS
 from robocompose.io import atomic_write_json, read_table, write_table
 from robocompose.io.timings import timed
 from robocompose.params import load_section
 from robocompose.stage import run_stage
 from robocompose.teams.eggan_problem import EvolutionConfig
 from robocompose.teams.experiments import decomposed_chips
-from robocompose.teams.generative import coverage_examples, eggan_queries, save_generator, train_generator
+from robocompose.teams.generative import coverage_examples, eggan_queries, save_teams_generator, train_generator
 from robocompose.teams.params import TeamsParams
 
 FIGURE_CHIPS, FIGURE_BUDGET = 3, 30  # Fig. 5.4: three test chips at deployment budget 30
@@ -37,8 +38,8 @@ def main() -> None:
                                            Path("reports/plots/teams_eggan.csv"))
         timing["training_seconds"] = round(timing.elapsed(), 1)
         queried = test_chips[:max(experiments.table_5_4_chips, experiments.table_5_5_chips)]
-        queries, fronts, timing["queries"] = eggan_queries(trained.generator, queried, params.coverage,
-                                                           params.eggan.samples, experiments.seeds)
+        draws = LEARNERS["teams"]["eggan"].answer(trained.generator, params.eggan.samples)
+        queries, fronts, timing["queries"] = eggan_queries(draws, queried, params.coverage, experiments.seeds)
         write_table(queries, "data/teams/eggan_queries.parquet", "teams_eggan_queries")
         write_table(fronts, "data/teams/eggan_fronts.parquet", "teams_eggan_fronts")
         write_table(coverage_examples(queried[:FIGURE_CHIPS], fronts, params.coverage, FIGURE_BUDGET,
@@ -51,7 +52,7 @@ def main() -> None:
         settings = {name: dataclasses.asdict(getattr(params, name))
                     for name in ("chips", "decompose", "coverage", "eggan")}
         settings["evolution"] = dataclasses.asdict(evolution)
-        save_generator(trained, problem.n_regions, settings, metrics, Path("models/teams_eggan.pt"))
+        save_teams_generator(trained, problem, settings, metrics, Path("models/teams_eggan.pt"))
         atomic_write_json("reports/metrics/teams_eggan.json", metrics)
 
 

@@ -26,7 +26,7 @@ def main() -> None:
     compute = load_section(ComputeConfig, "compute")
     cache = compute.open_cache()
     trainers = {**{variant: partial(train_variant, variant) for variant in VARIANTS},
-                **{name: partial(train_baseline, name) for name in baselines()}}
+                **{name: partial(train_baseline, name) for name in baselines("modular")}}
     metrics = {}
     with timed("train_eggan_modular") as timing, compute.executor() as executor:
         for method, train_method in trainers.items():

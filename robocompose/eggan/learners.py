@@ -1,11 +1,13 @@
-"""The learners of Part II by name: learned methods that answer a task in real time with candidate designs.
+"""The learners of Part II by world and name: learned methods that answer a task in real time with designs.
 
-A learner is read from its model file (`load(path, problem)`) and answers through `answer(model, samples)`:
-a function (problem, task, query seed, k) -> k candidate designs, best first. A learned baseline also says
-how it trains on a problem under the problem's budget of real evaluations (`training`); EG-GAN itself trains
-with `robocompose.eggan.train` (Algorithm 1, checkpointed), each world choosing its evolution. Every learner
-works on an `EgganProblem` (DQN on a `SequentialProblem`), so both worlds take theirs from here: a new learner
-is its own file (trainer, file writer and reader) plus one line in `LEARNERS`.
+`LEARNERS[world][name]`. A learner is read from its model file (`load(path, problem)`) and answers through
+`answer(model, samples)`, in its world's way: a modular learner gives an `Answer`, (problem, task, query seed,
+k) -> k candidate designs, best first; a teams learner gives its `Draws`, (problem, task, query seed) -> the
+designs it drew, whose front the teams world measures with the ergodic optimiser (`teams.eggan_problem.
+query_front`). A learned baseline also says how it trains on a problem under the problem's budget of real
+evaluations (`training`); EG-GAN itself trains with `robocompose.eggan.train` (Algorithm 1, checkpointed), each
+world choosing its evolution. Every learner works on an `EgganProblem` (DQN on a `SequentialProblem`): a new
+learner is its own file (trainer, file writer and reader) plus one line under its world in `LEARNERS`.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from robocompose.eggan.problem import Design, EgganProblem, Task
 from robocompose.eggan.query import generate, load_generator, rank_distinct, save_generator
 
 Answer = Callable[[EgganProblem, Task, int, int], list[Design]]  # (problem, task, query seed, k) -> designs
+Draws = Callable[[EgganProblem, Task, int], list[Design]]  # (problem, task, query seed) -> the designs drawn
 
 
 def generator_answer(generator: torch.nn.Module, samples: int) -> Answer:
@@ -40,6 +43,15 @@ def generator_answer(generator: torch.nn.Module, samples: int) -> Answer:
         return [r.design for r in ranked]
 
     return answer
+
+
+def generator_draws(generator: torch.nn.Module, samples: int) -> Draws:
+    """A generator's draws: one design for each of `samples` noise vectors (continuous designs, unranked)."""
+
+    def draws(problem: EgganProblem, task: Task, query_seed: int) -> list[Design]:
+        return generate(generator, problem, task, samples, seed=query_seed)[0].designs
+
+    return draws
 
 
 def dqn_answer(net: torch.nn.Module, samples: int) -> Answer:
@@ -66,22 +78,28 @@ class Training:
 class Learner:
     title: str  # the thesis's name of the method
     load: Callable  # (path, problem) -> (model, info)
-    answer: Callable[[Any, int], Answer]  # (model, samples per draw) -> its answer
+    answer: Callable[[Any, int], Answer | Draws]  # (model, samples per draw) -> its answer in its world's way
     training: Training | None = None  # None: trained by robocompose.eggan.train (EG-GAN)
 
 
-LEARNERS: dict[str, Learner] = {  # the baselines in the order of the thesis's Table 5.1
-    "eggan": Learner("EG-GAN", load_generator, generator_answer),
-    "fit2form": Learner("Fit2form", load_generator, generator_answer,
-                        Training(Fit2formConfig, train_fit2form, save_generator, lambda settings, rows: {})),
-    "dqn": Learner("DQN", load_dqn, dqn_answer,
-                   Training(DQNConfig, train_dqn, save_dqn, lambda settings, rows: {"episodes": rows[-1]["episodes"]})),
-    "molgan": Learner("MolGAN", load_generator, generator_answer,
-                      Training(MolganConfig, train_molgan, save_generator,
-                               lambda settings, rows: {"lam": settings.lam})),
+LEARNERS: dict[str, dict[str, Learner]] = {
+    "modular": {  # the baselines in the order of the thesis's Table 5.1
+        "eggan": Learner("EG-GAN", load_generator, generator_answer),
+        "fit2form": Learner("Fit2form", load_generator, generator_answer,
+                            Training(Fit2formConfig, train_fit2form, save_generator, lambda settings, rows: {})),
+        "dqn": Learner("DQN", load_dqn, dqn_answer,
+                       Training(DQNConfig, train_dqn, save_dqn,
+                                lambda settings, rows: {"episodes": rows[-1]["episodes"]})),
+        "molgan": Learner("MolGAN", load_generator, generator_answer,
+                          Training(MolganConfig, train_molgan, save_generator,
+                                   lambda settings, rows: {"lam": settings.lam})),
+    },
+    "teams": {  # Tables 5.4 and 5.5 (NSGA-II and the random allocations are not learned: teams/baselines.py)
+        "eggan": Learner("EG-GAN", load_generator, generator_draws),
+    },
 }
 
 
-def baselines() -> dict[str, Learner]:
-    """The learned baselines (the learners that train themselves), in registry order."""
-    return {name: learner for name, learner in LEARNERS.items() if learner.training is not None}
+def baselines(world: str) -> dict[str, Learner]:
+    """The learned baselines of `world` (its learners that train themselves), in registry order."""
+    return {name: learner for name, learner in LEARNERS[world].items() if learner.training is not None}

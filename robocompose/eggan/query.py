@@ -59,6 +59,7 @@ def rank_distinct(problem: EgganProblem, sampled: Sampled, output: torch.Tensor,
 # --- the generator as a file: weights, sizes and provenance (the shipped default generator is one) ---
 
 MODEL_CODE = ("robocompose.eggan.networks",)  # the modules a saved generator's weights are meaningful for
+KIND = "an EG-GAN generator"  # what a generator file is, for the errors of a file of another kind
 
 
 def model_code_digest() -> str:
@@ -81,11 +82,17 @@ def save_generator(generator: Generator, problem: EgganProblem, path: str | Path
     return save_model(info, state, path)
 
 
+def generator_info(path: str | Path) -> dict:
+    """The info of a generator file (its problem, sizes, provenance and meta) without building the generator:
+    what a world reads first when the file fixes the problem's sizes (the teams world's K)."""
+    return load_model(path, KIND)[0]
+
+
 def load_generator(path: str | Path, problem: EgganProblem) -> tuple[Generator, dict]:
     """A saved generator for `problem`, in eval mode, and its info; a clear error if it does not fit."""
     from robocompose.eggan.networks import NetworkConfig
 
-    info, state = load_model(path, "an EG-GAN generator")
+    info, state = load_model(path, KIND)
     if info["problem"] != problem.name or tuple(info["design_shape"]) != tuple(problem.design_shape) or tuple(
             info["task_shape"]) != tuple(problem.task_shape):
         raise InputError(f"{path}: a generator for {info['problem']} {info['task_shape']} -> {info['design_shape']}, "

@@ -83,17 +83,17 @@ def train_variant(variant: str, modular: ModularParams, params: EgganModularPara
 
 
 # Table 5.1's rows, in its order: the learned baselines, random sampling, EG-GAN's two variants
-REALTIME_METHODS = (*baselines(), "random", "ga", "crowding")
+REALTIME_METHODS = (*baselines("modular"), "random", "ga", "crowding")
 
 
 def method_title(method: str) -> str:
     """The thesis's name of a row of Table 5.1."""
-    return "Random sampling" if method == "random" else VARIANTS.get(method) or LEARNERS[method].title
+    return "Random sampling" if method == "random" else VARIANTS.get(method) or LEARNERS["modular"][method].title
 
 
 def learner_of(method: str) -> Learner:
     """The learner of a learned row of Table 5.1 (an EG-GAN variant is the EG-GAN learner)."""
-    return LEARNERS["eggan"] if method in VARIANTS else LEARNERS[method]
+    return LEARNERS["modular"]["eggan"] if method in VARIANTS else LEARNERS["modular"][method]
 
 
 def realtime_proposers(problem: ModularEgganProblem, params: EgganModularParams, models: Path) -> dict[str, Proposer]:
@@ -113,9 +113,9 @@ def realtime_proposers(problem: ModularEgganProblem, params: EgganModularParams,
 
 def train_baseline(name: str, modular: ModularParams, params: EgganModularParams, cache: EvaluationCache | None,
                    executor: Executor | None, out: Path, progress: bool = False) -> dict:
-    """One learned baseline (`robocompose.eggan.learners.baselines()`) on the same problem and budget of real
+    """One learned baseline (`robocompose.eggan.learners.baselines("modular")`) on the same problem and budget of real
     rollouts as EG-GAN; writes out/eggan_modular_NAME.{pt,json} and returns its metrics."""
-    learner = LEARNERS[name]
+    learner = LEARNERS["modular"][name]
     training = learner.training
     config = build_config(training.settings, params.baselines.get(name, {}), f"eggan_modular.baselines.{name}")
     problem = make_problem(modular, params, cache, executor, config.iterations * config.tasks)

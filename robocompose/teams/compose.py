@@ -44,10 +44,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _ship(args: argparse.Namespace) -> None:
     import shutil
 
-    from robocompose.teams.generative import load_generator
+    from robocompose.io import atomic_write_json
+    from robocompose.teams.generative import teams_generator_info
 
-    load_generator(args.source)  # checked: a checksum, a teams generator, the current design head
+    info = teams_generator_info(args.source)  # checked: a checksum, a teams generator, the current design head
     shutil.copyfile(args.source, SHIPPED_MODEL)
+    atomic_write_json(SHIPPED_MODEL.with_suffix(".json"), info)  # the info beside it, as save_generator writes it
     print(json.dumps({"shipped": str(SHIPPED_MODEL), "from": str(args.source), "bytes": SHIPPED_MODEL.stat().st_size}))
 
 
@@ -56,14 +58,16 @@ def _compose(args: argparse.Namespace) -> None:
 
     import torch
 
+    from robocompose.eggan.learners import LEARNERS
     from robocompose.teams.cli import first_chip
     from robocompose.teams.decompose import DecomposeConfig, decompose_chip
-    from robocompose.teams.eggan_problem import query_front
+    from robocompose.teams.eggan_problem import TeamsProblem
     from robocompose.teams.ergodic import CoverageConfig
-    from robocompose.teams.generative import load_generator
+    from robocompose.teams.generative import query_front, teams_generator_info
 
     torch.set_num_threads(1)
-    generator, saved = load_generator(args.model or SHIPPED_MODEL)
+    path = args.model or SHIPPED_MODEL
+    saved = teams_generator_info(path)
     k = saved["n_regions"]
     if args.regions is not None and args.regions != k:
         raise InputError(f"--regions {args.regions}: the generator was trained for K = {k} regions (its task "
@@ -76,7 +80,10 @@ def _compose(args: argparse.Namespace) -> None:
     started = time.perf_counter()
     decomposition = decompose_chip(chip, DecomposeConfig(**{**saved["params"]["decompose"], "n_regions": k}))
     decomposition_ms = 1000 * (time.perf_counter() - started)
-    query = query_front(generator, chip, decomposition, coverage, saved["params"]["eggan"]["samples"], args.seed)
+    learner = LEARNERS["teams"]["eggan"]
+    generator, _ = learner.load(path, TeamsProblem([(chip, decomposition)], coverage))  # K, species: the chip's
+    query = query_front(learner.answer(generator, saved["params"]["eggan"]["samples"]), chip, decomposition,
+                        coverage, args.seed)
     front = [{"deployment_cost": int(deploy), "coverage_cost": float(cost), "counts": counts.tolist()}
              for (cost, deploy), counts in zip(query.front, query.counts, strict=True)]
     out = {"chip": chip.chip_id, "regions": k, "hypervolume": query.hypervolume,

@@ -1,4 +1,4 @@
-"""Team formation as an EG-GAN problem (thesis 5.2), and the front of a query.
+"""Team formation as an EG-GAN problem (thesis 5.2).
 
 Task: a training chip; its tensor is the K x 4 terrain-feature matrix of its regions (rows: terrain
 shares of a region), flattened, so the generator is the thesis's MLP on (z, task).
@@ -22,33 +22,26 @@ Fitness: the ergodic trajectory optimiser itself. A team's plan depends only on 
 counts (ergodic.ChipCoverage.deploy), and the coverage cost is a sum over teams, so every team cost is
 cached per (chip, region, team counts) and an allocation costs the sum of its teams' entries; the
 cache is part of the problem's state, so a resumed training sees the same values.
-
-The front of a query (`query_front`): the trained generator on one task (robocompose.eggan.query's
-`generate`), `samples` noise vectors -> allocations -> both objectives measured by the optimiser -> the
-non-dominated set and its hypervolume.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
-import time
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 
 import numpy as np
 import torch
 
-from robocompose.eggan.networks import Generator
 from robocompose.eggan.problem import Objective, Sampled
-from robocompose.eggan.query import generate
 from robocompose.io.provenance import code_digest
-from robocompose.search.nsga2 import non_dominated, nsga2_generation
+from robocompose.search.nsga2 import nsga2_generation
 from robocompose.teams.chips import Chip
 from robocompose.teams.decompose import Decomposition, terrain_features
 from robocompose.teams.ergodic import ChipCoverage, CoverageConfig, allocation_id
-from robocompose.teams.evaluator import AllocationEvaluator, chip_coverage
-from robocompose.teams.nsga2 import AllocationProblem, team_hypervolume
+from robocompose.teams.evaluator import chip_coverage
+from robocompose.teams.nsga2 import AllocationProblem
 from robocompose.teams.species import SPECIES, allocation_to_counts, deployment_cost
 
 
@@ -188,31 +181,3 @@ class TeamsProblem:
         if sum(key[2]):
             return self.team_cost[key]
         return self.chip_coverage(key[0]).empty_team_costs()[key[1]]
-
-
-# ---- the front of a query ----------------------------------------------------------------------------
-
-@dataclass
-class QueryFront:
-    front: np.ndarray  # (F, 2) non-dominated [coverage cost, deployment cost], by deployment cost
-    counts: np.ndarray  # (F, K, O) their allocations
-    hypervolume: float
-    generator_seconds: float  # wall time of the generator's part (noise, forward pass, rounding)
-    distinct: int  # distinct allocations among the samples
-
-
-def query_front(generator: Generator, chip: Chip, decomposition: Decomposition, coverage: CoverageConfig,
-                samples: int, seed: int, evaluator: AllocationEvaluator | None = None) -> QueryFront:
-    """The front of one query: `samples` noise vectors -> allocations -> objectives measured by the
-    ergodic optimiser (robots' starts seeded by `seed`) -> the non-dominated set."""
-    problem = TeamsProblem([(chip, decomposition)], coverage)  # the task: this chip's features
-    started = time.perf_counter()
-    sampled, _ = generate(generator, problem, 0, samples, seed)
-    counts = allocation_to_counts(np.stack(sampled.designs), coverage.robots_per_species)  # (S, K, O)
-    seconds = time.perf_counter() - started
-    distinct = np.unique(counts.reshape(len(counts), -1), axis=0).reshape(-1, *counts.shape[1:])
-    evaluate = evaluator or AllocationEvaluator(chip_coverage(chip, decomposition, coverage), chip.chip_id, seed)
-    objectives = evaluate(distinct)
-    keep = non_dominated(objectives)
-    keep = keep[np.argsort(objectives[keep, 1], kind="stable")]
-    return QueryFront(objectives[keep], distinct[keep], team_hypervolume(objectives[keep]), seconds, len(distinct))

@@ -4,44 +4,39 @@ and the queries on held-out chips that fill Tables 5.4 and 5.5.
 Training: robocompose.eggan.train (Algorithm 1) on eggan_problem.TeamsProblem over the training chips,
 continuous designs (GAN loss, eq. 4.1), NSGA-II data creation, Adam at `lr` for both networks (the
 group's code: 1e-3; the thesis: 1e-5 over 20 hours).
-Generator file: the generator's weights with the network sizes, K, the settings it was trained with,
-its training metrics and the code digest of the network module, so `compose teams` can rebuild it and
-a test can check it still matches the code.
-Queries: on each held-out chip and seed, `samples` noise vectors -> the front (eggan_problem.query_front),
-every objective measured by the ergodic optimiser; the generator's wall time is recorded apart (it is
-not reproducible, so it stays out of the DVC-hashed tables).
+Generator file: robocompose.eggan.query's one generator format (weights, sizes, the network code digest),
+with the teams world's meta: K, the design head, the settings it was trained with and its training metrics,
+so `compose teams` can rebuild it and a test can check it still matches the code.
+Queries: a teams learner of robocompose.eggan.learners (EG-GAN: `samples` noise vectors) on each held-out
+chip and seed -> the front (`query_front`), every objective measured by the ergodic optimiser; the learner's
+wall time is recorded apart (it is not reproducible, so it stays out of the DVC-hashed tables).
 """
 
 from __future__ import annotations
 
-import dataclasses
-import hashlib
+import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from robocompose.eggan.networks import Generator, NetworkConfig
+from robocompose.eggan.learners import Draws
+from robocompose.eggan.networks import NetworkConfig
+from robocompose.eggan.query import generator_info, save_generator
 from robocompose.eggan.train import TrainConfig, Trained, train
 from robocompose.io import InputError
-from robocompose.io.provenance import ROOT
-from robocompose.io.torch_file import load_torch, save_torch
+from robocompose.search.nsga2 import non_dominated
 from robocompose.teams.baselines import joint_plan
 from robocompose.teams.chips import Chip
 from robocompose.teams.decompose import Decomposition
-from robocompose.teams.eggan_problem import DESIGN_HEAD, EvolutionConfig, TeamsProblem, query_front
+from robocompose.teams.eggan_problem import DESIGN_HEAD, EvolutionConfig, TeamsProblem
 from robocompose.teams.ergodic import CoverageConfig
-from robocompose.teams.evaluator import chip_coverage
+from robocompose.teams.evaluator import AllocationEvaluator, chip_coverage
 from robocompose.teams.experiments import baseline_draws
+from robocompose.teams.nsga2 import team_hypervolume
 from robocompose.teams.params import EgganConfig
-from robocompose.teams.species import SPECIES
-
-MODEL_CODE = "robocompose/eggan/networks.py"  # the code a generator file's weights belong to
-
-
-def model_code_digest() -> str:
-    """SHA-256 (16 hex digits) of the network module's own source: the architecture the weights fit."""
-    return hashlib.sha256((ROOT / MODEL_CODE).read_bytes()).hexdigest()[:16]
+from robocompose.teams.species import allocation_to_counts
 
 
 def train_config(config: EgganConfig, threads: int) -> TrainConfig:
@@ -67,40 +62,61 @@ def train_generator(chips: list[tuple[Chip, Decomposition]], coverage: CoverageC
     return trained, problem
 
 
-def save_generator(trained: Trained, n_regions: int, params: dict, metrics: dict, path: Path) -> None:
-    """The generator file: weights, sizes, K, the settings and metrics of its training, the code digest."""
-    save_torch({"generator": trained.generator.state_dict(), "network": dataclasses.asdict(trained.network),
-                "n_regions": n_regions, "n_species": len(SPECIES), "params": params, "metrics": metrics,
-                "code_digest": model_code_digest(), "design_head": DESIGN_HEAD, "run_key": trained.key}, path)
+def save_teams_generator(trained: Trained, problem: TeamsProblem, params: dict, metrics: dict, path: Path) -> Path:
+    """The generator file (robocompose.eggan.query's format) with K, the design head, the settings and metrics of
+    its training and its run key."""
+    return save_generator(trained.generator, problem, path, {
+        "n_regions": problem.n_regions, "design_head": DESIGN_HEAD, "params": params, "metrics": metrics,
+        "run_key": trained.key})
 
 
-def load_generator(path: Path) -> tuple[Generator, dict]:
-    """(the generator in eval mode, the file's contents without the weights); a clear error if unusable."""
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: no such generator file (expected one written by the teams_eggan stage)")
-    saved = load_torch(path)  # the checksum first (ArtifactError naming the file); tensors and plain data only
-    if not isinstance(saved, dict) or "generator" not in saved or "network" not in saved:
-        raise InputError(f"{path}: not a teams generator file (expected keys generator, network, n_regions)")
-    if saved.get("design_head") != DESIGN_HEAD:
-        raise InputError(f"{path}: trained with design head {saved.get('design_head')!r}, the code's is "
+def teams_generator_info(path: Path) -> dict:
+    """The info of a teams generator file (K, settings, metrics, provenance), checked to be one for the teams
+    problem and its current design head, before the problem it fits (K regions of a chip) is built."""
+    info = generator_info(path)  # the checksum first (ArtifactError naming the file); tensors and plain data only
+    if info.get("problem") != TeamsProblem.name:
+        raise InputError(f"{path}: not a teams generator file (a generator for {info.get('problem')!r})")
+    if info.get("design_head") != DESIGN_HEAD:
+        raise InputError(f"{path}: trained with design head {info.get('design_head')!r}, the code's is "
                          f"{DESIGN_HEAD!r}: retrain (stage teams_eggan)")
-    k, o = saved["n_regions"], saved["n_species"]
-    generator = Generator((k * 4,), (k + 1, o), NetworkConfig(**saved["network"]))
-    generator.load_state_dict(saved["generator"])
-    return generator.eval(), {key: value for key, value in saved.items() if key != "generator"}
+    return info
 
 
-def eggan_queries(generator: Generator, chips: list[tuple[Chip, Decomposition]], coverage: CoverageConfig,
-                  samples: int, seeds: list[int]) -> tuple[pd.DataFrame, pd.DataFrame, list[dict]]:
-    """Query every chip x seed: the "teams_eggan_queries" and "teams_eggan_fronts" tables and the
-    generator's wall times (chip_id, seed, milliseconds) for the untracked timings file."""
+@dataclass
+class QueryFront:
+    front: np.ndarray  # (F, 2) non-dominated [coverage cost, deployment cost], by deployment cost
+    counts: np.ndarray  # (F, K, O) their allocations
+    hypervolume: float
+    generator_seconds: float  # wall time of the learner's part (its draws: noise, forward pass; rounding)
+    distinct: int  # distinct allocations among the draws
+
+
+def query_front(draws: Draws, chip: Chip, decomposition: Decomposition, coverage: CoverageConfig, seed: int,
+                evaluator: AllocationEvaluator | None = None) -> QueryFront:
+    """The front of one query: a teams learner's draws (seeded by `seed`) -> allocations -> objectives measured
+    by the ergodic optimiser (robots' starts seeded by `seed`) -> the non-dominated set."""
+    problem = TeamsProblem([(chip, decomposition)], coverage)  # the task: this chip's features
+    started = time.perf_counter()
+    counts = allocation_to_counts(np.stack(draws(problem, 0, seed)), coverage.robots_per_species)  # (S, K, O)
+    seconds = time.perf_counter() - started
+    distinct = np.unique(counts.reshape(len(counts), -1), axis=0).reshape(-1, *counts.shape[1:])
+    evaluate = evaluator or AllocationEvaluator(chip_coverage(chip, decomposition, coverage), chip.chip_id, seed)
+    objectives = evaluate(distinct)
+    keep = non_dominated(objectives)
+    keep = keep[np.argsort(objectives[keep, 1], kind="stable")]
+    return QueryFront(objectives[keep], distinct[keep], team_hypervolume(objectives[keep]), seconds, len(distinct))
+
+
+def eggan_queries(draws: Draws, chips: list[tuple[Chip, Decomposition]], coverage: CoverageConfig,
+                  seeds: list[int]) -> tuple[pd.DataFrame, pd.DataFrame, list[dict]]:
+    """Query a learner's draws on every chip x seed: the "teams_eggan_queries" and "teams_eggan_fronts" tables
+    and the learner's wall times (chip_id, seed, milliseconds) for the untracked timings file."""
     from tqdm import tqdm
 
     queries, fronts, timings = [], [], []
     for chip, decomposition in tqdm(chips, desc="eggan queries", mininterval=5.0):
         for seed in seeds:
-            query = query_front(generator, chip, decomposition, coverage, samples, seed)
+            query = query_front(draws, chip, decomposition, coverage, seed)
             queries.append((chip.chip_id, seed, query.hypervolume, query.distinct, len(query.front)))
             fronts += [(chip.chip_id, seed, float(cost), int(deploy), counts.ravel().tolist())
                        for (cost, deploy), counts in zip(query.front, query.counts, strict=True)]

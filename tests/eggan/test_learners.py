@@ -14,11 +14,14 @@ from robocompose.eggan.train import TrainConfig, train
 NETWORK = NetworkConfig(latent=8, hidden=16)
 
 
-def test_the_registry_holds_eggan_and_the_three_learned_baselines_of_table_5_1():
-    assert list(LEARNERS) == ["eggan", "fit2form", "dqn", "molgan"]
-    assert list(baselines()) == ["fit2form", "dqn", "molgan"] and LEARNERS["eggan"].training is None
-    assert [LEARNERS[n].training.settings for n in baselines()] == [Fit2formConfig, DQNConfig, MolganConfig]
-    for learner in baselines().values():
+def test_the_registry_holds_each_worlds_learners_eggan_and_table_5_1s_three_learned_baselines():
+    assert list(LEARNERS) == ["modular", "teams"]
+    modular = LEARNERS["modular"]
+    assert list(modular) == ["eggan", "fit2form", "dqn", "molgan"]
+    assert list(baselines("modular")) == ["fit2form", "dqn", "molgan"] and modular["eggan"].training is None
+    assert [modular[n].training.settings for n in baselines("modular")] == [Fit2formConfig, DQNConfig, MolganConfig]
+    assert list(LEARNERS["teams"]) == ["eggan"] and baselines("teams") == {}
+    for learner in baselines("modular").values():
         assert list(inspect.signature(learner.training.train).parameters)[:4] == ["problem", "network", "config",
                                                                                   "progress"]
 
@@ -29,7 +32,7 @@ def test_a_trained_eggan_generator_answers_through_its_registry_entry(tmp_path, 
     trained = train(match_problem, NETWORK, TrainConfig(iterations=4, batch=16, tasks=4, samples=4, log_every=2,
                                                         checkpoint_every=2))
     path = save_generator(trained.generator, match_problem, tmp_path / "g.pt", {})
-    learner = LEARNERS["eggan"]
+    learner = LEARNERS["modular"]["eggan"]
     answer = learner.answer(learner.load(path, match_problem)[0], 16)
     designs = answer(match_problem, 1, 0, 3)
     assert len(designs) == len(set(map(match_problem.design_id, designs))) == 3
@@ -38,7 +41,7 @@ def test_a_trained_eggan_generator_answers_through_its_registry_entry(tmp_path, 
 
 def test_a_generator_baseline_trains_saves_loads_and_answers_through_its_entry(tmp_path, match_problem):
     """Fit2form on the toy problem (MolGAN and DQN need a modular problem: tests/modular/test_eggan_experiments.py)."""
-    name, learner = "fit2form", LEARNERS["fit2form"]
+    name, learner = "fit2form", LEARNERS["modular"]["fit2form"]
     config = learner.training.settings(iterations=2, tasks=2)
     model, rows = learner.training.train(match_problem, NETWORK, config, False)
     assert rows and isinstance(learner.training.metrics(config, rows), dict)
@@ -46,3 +49,18 @@ def test_a_generator_baseline_trains_saves_loads_and_answers_through_its_entry(t
     assert learner.load is load_generator
     designs = learner.answer(learner.load(path, match_problem)[0], 8)(match_problem, 2, 5, 2)
     assert len(designs) == 2
+
+
+def test_a_teams_learner_draws_one_design_per_noise_vector_fixed_by_the_query_seed(tmp_path, match_problem):
+    """The teams world's EG-GAN entry: the draws its front is measured on (the toy problem stands in for teams)."""
+    from robocompose.eggan.query import generate, save_generator
+
+    trained = train(match_problem, NETWORK, TrainConfig(iterations=2, batch=8, tasks=2, samples=4, log_every=1,
+                                                        checkpoint_every=2))
+    learner = LEARNERS["teams"]["eggan"]
+    draws = learner.answer(learner.load(save_generator(trained.generator, match_problem, tmp_path / "g.pt", {}),
+                                        match_problem)[0], 12)
+    designs = draws(match_problem, 1, 7)
+    assert len(designs) == 12 and designs == draws(match_problem, 1, 7)
+    assert designs == generate(trained.generator, match_problem, 1, 12, seed=7)[0].designs
+    assert designs != draws(match_problem, 1, 8)

@@ -4,7 +4,8 @@ import pytest
 import torch
 
 from robocompose.eggan.networks import Generator, NetworkConfig
-from robocompose.eggan.query import generate, load_generator, rank_distinct, save_generator
+from robocompose.eggan.query import generate, generator_info, load_generator, rank_distinct, save_generator
+from robocompose.io.errors import InputError
 
 
 def test_ranking_is_distinct_sorted_and_probabilities(match_problem):
@@ -30,3 +31,16 @@ def test_generator_file_round_trip(tmp_path, match_problem, half):
     a, b = generator(z, generator.encode(task).expand(4, -1)), loaded(z, loaded.encode(task).expand(4, -1))
     assert torch.allclose(a, b, atol=1e-2 if half else 0) and info["note"] == 1
     assert info["weights"] == ("float16" if half else "float32")
+
+
+def test_generator_info_reads_the_files_info_and_names_a_file_of_another_kind(tmp_path, match_problem):
+    from robocompose.io.torch_file import save_torch
+
+    generator = Generator(match_problem.task_shape, match_problem.design_shape, NetworkConfig(latent=8, hidden=16))
+    path = save_generator(generator, match_problem, tmp_path / "g.pt", {"note": 1})
+    info = generator_info(path)
+    assert info == load_generator(path, match_problem)[1]
+    assert info["problem"] == "match" and info["design_shape"] == [6, 4] and info["note"] == 1
+    save_torch({"weights": 1}, tmp_path / "other.pt")
+    with pytest.raises(InputError, match="other.pt: not an EG-GAN generator file"):
+        generator_info(tmp_path / "other.pt")

@@ -69,7 +69,7 @@ def tiny_model(tmp_path_factory):
     from robocompose.teams.decompose import DecomposeConfig, decompose_chip
     from robocompose.teams.eggan_problem import TeamsProblem
     from robocompose.teams.ergodic import CoverageConfig
-    from robocompose.teams.generative import save_generator
+    from robocompose.teams.generative import save_teams_generator
     from robocompose.teams.params import EgganConfig
 
     coverage, decompose = CoverageConfig(iterations=3, n_observations=5), DecomposeConfig(n_regions=3)
@@ -80,7 +80,7 @@ def tiny_model(tmp_path_factory):
     params = {"coverage": dataclasses.asdict(coverage), "decompose": dataclasses.asdict(decompose),
               "eggan": dataclasses.asdict(EgganConfig(samples=16))}
     path = tmp_path_factory.mktemp("model") / "teams.pt"
-    save_generator(trained, 3, params, {}, path)
+    save_teams_generator(trained, problem, params, {}, path)
     return path
 
 
@@ -124,6 +124,18 @@ def test_compose_teams_rejects_a_chip_in_the_wrong_format(tmp_path, tiny_model, 
     assert main(["compose", "teams", "--chip", str(tmp_path / "small.png"), "--model", str(tiny_model)]) == 2
     assert "no 300 x 300 window" in capsys.readouterr().err
 
+
+def test_ship_teams_copies_a_checked_generator_and_writes_its_info_beside(tmp_path, tiny_model, capsys,
+                                                                          monkeypatch):
+    import robocompose.teams.compose as compose
+
+    monkeypatch.setattr(compose, "SHIPPED_MODEL", tmp_path / "shipped" / "generator.pt")
+    (tmp_path / "shipped").mkdir()
+    out = run(["compose", "ship-teams", "--from", str(tiny_model)], capsys)
+    assert out["bytes"] == tiny_model.stat().st_size
+    assert (tmp_path / "shipped" / "generator.pt").read_bytes() == tiny_model.read_bytes()
+    assert json.loads((tmp_path / "shipped" / "generator.json").read_text()) == json.loads(
+        tiny_model.with_suffix(".json").read_text())
 
 def test_nsga2_on_a_dask_cluster_gives_the_local_front(capsys, dask_address):
     argv = ["teams", "nsga2", "--synthetic-seed", "1", "--regions", "3", "--pop", "6", "--generations", "2"]

@@ -4,13 +4,12 @@ import torch
 
 from robocompose.eggan.networks import NetworkConfig
 from robocompose.eggan.train import TrainConfig, train
-from robocompose.search.nsga2 import hypervolume, non_dominated
+from robocompose.search.nsga2 import hypervolume
 from robocompose.teams.chips import synthetic_chip
 from robocompose.teams.decompose import DecomposeConfig, decompose_chip
-from robocompose.teams.eggan_problem import TeamsProblem, query_front, with_depot_row
+from robocompose.teams.eggan_problem import TeamsProblem, with_depot_row
 from robocompose.teams.ergodic import CoverageConfig
 from robocompose.teams.evaluator import chip_coverage
-from robocompose.teams.nsga2 import team_hypervolume
 
 TINY = CoverageConfig(iterations=3, n_observations=5)
 NETWORK = NetworkConfig(latent=4, hidden=16)
@@ -74,14 +73,3 @@ def test_a_killed_training_resumes_to_the_same_checkpoint(chips, tmp_path):
         assert torch.equal(tensor, resumed.generator.state_dict()[name]), name
     assert whole.rows == resumed.rows
 
-
-def test_query_front_is_measured_and_non_dominated(chips):
-    trained = train(TeamsProblem(chips, TINY), NETWORK,
-                    TrainConfig(iterations=2, batch=8, tasks=2, evolution="nsga2", log_every=1, checkpoint_every=2))
-    chip, decomposition = chips[1]
-    query = query_front(trained.generator, chip, decomposition, TINY, samples=32, seed=0)
-    assert 1 <= len(query.front) <= query.distinct <= 32
-    assert non_dominated(query.front).tolist() == list(range(len(query.front)))
-    measured, _, _ = chip_coverage(chip, decomposition, TINY).evaluate(query.counts, seed=0)
-    np.testing.assert_allclose(query.front[:, 0], measured, rtol=1e-5)
-    assert query.hypervolume == team_hypervolume(query.front) and query.generator_seconds > 0

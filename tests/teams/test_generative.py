@@ -1,55 +1,92 @@
 import dataclasses
 
+import numpy as np
 import pytest
 import torch
 
+from robocompose.eggan.learners import LEARNERS
 from robocompose.eggan.networks import NetworkConfig
+from robocompose.eggan.query import model_code_digest
 from robocompose.eggan.train import TrainConfig, train
 from robocompose.io import InputError
 from robocompose.io.provenance import ROOT
 from robocompose.io.torch_file import load_torch, save_torch
 from robocompose.params import load_section
+from robocompose.search.nsga2 import non_dominated
 from robocompose.teams.chips import synthetic_chip
 from robocompose.teams.compose import SHIPPED_MODEL
 from robocompose.teams.decompose import DecomposeConfig, decompose_chip
 from robocompose.teams.eggan_problem import TeamsProblem
 from robocompose.teams.ergodic import CoverageConfig
-from robocompose.teams.generative import load_generator, model_code_digest, save_generator
+from robocompose.teams.evaluator import chip_coverage
+from robocompose.teams.generative import query_front, save_teams_generator, teams_generator_info
+from robocompose.teams.nsga2 import team_hypervolume
 from robocompose.teams.params import TeamsParams
 
+TINY = CoverageConfig(iterations=3, n_observations=5)
 
-def test_generator_file_round_trips_weights_settings_and_metrics(tmp_path):
-    chips = [synthetic_chip(6, 0, size=40)]
-    problem = TeamsProblem([(chips[0], decompose_chip(chips[0], DecomposeConfig(n_regions=3)))],
-                           CoverageConfig(iterations=2, n_observations=4))
+
+@pytest.fixture(scope="module")
+def trained_problem():
+    chips = [synthetic_chip(6, index, size=40) for index in range(2)]
+    problem = TeamsProblem([(chip, decompose_chip(chip, DecomposeConfig(n_regions=3))) for chip in chips], TINY)
     trained = train(problem, NetworkConfig(latent=4, hidden=8),
-                    TrainConfig(iterations=1, batch=4, tasks=1, evolution="nsga2", log_every=1, checkpoint_every=1))
-    save_generator(trained, 3, {"coverage": {"iterations": 2}}, {"mean_hypervolume": 1.5}, tmp_path / "g.pt")
-    generator, saved = load_generator(tmp_path / "g.pt")
+                    TrainConfig(iterations=2, batch=8, tasks=2, evolution="nsga2", log_every=1, checkpoint_every=2))
+    return trained, problem
+
+
+def test_generator_file_round_trips_weights_settings_and_metrics(tmp_path, trained_problem):
+    trained, problem = trained_problem
+    path = save_teams_generator(trained, problem, {"coverage": {"iterations": 2}}, {"mean_hypervolume": 1.5},
+                                tmp_path / "g.pt")
+    info = teams_generator_info(path)
+    assert info["n_regions"] == 3 and info["problem"] == "teams" and info["design_shape"] == [4, 3]
+    assert info["params"] == {"coverage": {"iterations": 2}} and info["metrics"]["mean_hypervolume"] == 1.5
+    assert info["model_code"] == model_code_digest() and info["run_key"] == trained.key
+    generator, loaded_info = LEARNERS["teams"]["eggan"].load(path, problem)
     for name, tensor in trained.generator.state_dict().items():
         assert torch.equal(tensor, generator.state_dict()[name])
-    assert saved["params"] == {"coverage": {"iterations": 2}} and saved["metrics"]["mean_hypervolume"] == 1.5
-    assert saved["code_digest"] == model_code_digest() and not generator.training
-    with pytest.raises(InputError, match="no such generator file"):
-        load_generator(tmp_path / "missing.pt")
+    assert loaded_info == info and not generator.training
+    with pytest.raises(InputError, match="no such file"):
+        teams_generator_info(tmp_path / "missing.pt")
     save_torch({"weights": 1}, tmp_path / "other.pt")
-    with pytest.raises(InputError, match="not a teams generator file"):
-        load_generator(tmp_path / "other.pt")
-    save_torch(load_torch(tmp_path / "g.pt") | {"design_head": "softmax-depot"}, tmp_path / "old.pt")
+    with pytest.raises(InputError, match="not an EG-GAN generator file"):
+        teams_generator_info(tmp_path / "other.pt")
+    saved = load_torch(path)
+    save_torch(saved | {"info": saved["info"].replace('"teams"', '"modular"')}, tmp_path / "modular.pt")
+    with pytest.raises(InputError, match="not a teams generator file \\(a generator for 'modular'\\)"):
+        teams_generator_info(tmp_path / "modular.pt")
+    save_torch(saved | {"info": saved["info"].replace("share-split", "softmax-depot")}, tmp_path / "old.pt")
     with pytest.raises(InputError, match="trained with design head 'softmax-depot'.*retrain"):
-        load_generator(tmp_path / "old.pt")
-    data = bytearray((tmp_path / "g.pt").read_bytes())
+        teams_generator_info(tmp_path / "old.pt")
+    data = bytearray(path.read_bytes())
     data[len(data) * 3 // 4] ^= 0xFF  # a flipped byte inside the weights: torch.load alone would not notice
-    (tmp_path / "g.pt").write_bytes(bytes(data))
-    with pytest.raises(InputError, match=f"{tmp_path / 'g.pt'}: checksum mismatch"):
-        load_generator(tmp_path / "g.pt")
+    path.write_bytes(bytes(data))
+    with pytest.raises(InputError, match=f"{path}: checksum mismatch"):
+        teams_generator_info(path)
+
+
+def test_query_front_is_the_learners_draws_measured_and_non_dominated(trained_problem):
+    trained, problem = trained_problem
+    chip, decomposition = problem.chips[1]
+    query = query_front(LEARNERS["teams"]["eggan"].answer(trained.generator, 32), chip, decomposition, TINY, seed=0)
+    assert 1 <= len(query.front) <= query.distinct <= 32
+    assert non_dominated(query.front).tolist() == list(range(len(query.front)))
+    measured, _, _ = chip_coverage(chip, decomposition, TINY).evaluate(query.counts, seed=0)
+    np.testing.assert_allclose(query.front[:, 0], measured, rtol=1e-5)
+    assert query.hypervolume == team_hypervolume(query.front) and query.generator_seconds > 0
+    one = query_front(lambda problem, task, seed: [np.full((3, 3), 0.1)] * 4, chip, decomposition, TINY, seed=0)
+    assert one.distinct == 1 and one.counts.tolist() == [[[2, 2, 2]] * 3]  # 10% of 20 robots of each species
 
 
 def test_the_shipped_generator_is_the_default_profiles_and_matches_the_model_code():
-    _, saved = load_generator(ROOT / SHIPPED_MODEL)
-    assert saved["code_digest"] == model_code_digest(), "retrain and ship: the network code changed"
+    info = teams_generator_info(ROOT / SHIPPED_MODEL)
+    assert info["model_code"] == model_code_digest(), "retrain and ship: the network code changed"
     default = load_section(TeamsParams, "teams", ROOT / "profiles" / "default.yaml")
     for name in ("chips", "decompose", "coverage", "eggan"):
-        assert saved["params"][name] == dataclasses.asdict(getattr(default, name)), name
-    assert saved["n_regions"] == default.decompose.n_regions
+        assert info["params"][name] == dataclasses.asdict(getattr(default, name)), name
+    assert info["n_regions"] == default.decompose.n_regions
+    chip = synthetic_chip(0, 0)
+    problem = TeamsProblem([(chip, decompose_chip(chip, default.decompose))], default.coverage)
+    LEARNERS["teams"]["eggan"].load(ROOT / SHIPPED_MODEL, problem)  # its weights fit a problem of its K
     assert (ROOT / SHIPPED_MODEL).stat().st_size < 1_000_000  # a small file in the repository
