@@ -1,6 +1,8 @@
 import numpy as np
+import pytest
+from bayes_opt import BayesianOptimization, acquisition
 
-from robocompose.glso.bo import BOConfig, LatentBO, decode
+from robocompose.glso.bo import BOConfig, ExpectedImprovement, LatentBO, decode
 from robocompose.glso.method import Proposal, SearchEnv
 from robocompose.latent.model import GraphVAE, VAEConfig
 from robocompose.latent.train import load_model
@@ -37,12 +39,39 @@ def test_domain_reduction_shrinks_the_bounds_after_the_initial_points_only():
     assert np.all(np.abs(points[-1]) <= 3)
 
 
-def test_best_so_far_comes_from_the_whole_history_not_optimizer_max():
-    bo = LatentBO(BOConfig(init=3), seed=1, budget=20, env=LATENT_2)
-    _drive(bo, 14)
-    history = max(bo.optimizer.space.target)
-    inside = bo.optimizer.max  # only points inside the current (reduced) bounds
-    assert inside is None or inside["target"] <= history
+def test_bo_on_a_smooth_bowl_gets_closer_to_the_optimum_than_random_sampling_of_the_same_budget():
+    bo = LatentBO(BOConfig(init=5, random_every=0), seed=1, budget=16, env=LATENT_2)
+    points = _drive(bo, 16)
+    bo_error = min(np.linalg.norm(z - 1.0) for z in points)
+    random = np.random.default_rng(1).uniform(-3, 3, (16, 2))
+    assert bo_error < 0.25 < min(np.linalg.norm(random - 1.0, axis=1))
+    # domain reduction re-centres on the best point: the current window holds it and is narrower than [-3, 3]
+    best = points[int(np.argmax(bo.optimizer.space.target))]
+    bounds = bo.optimizer.space.bounds
+    assert ((bounds[:, 0] <= best) & (best <= bounds[:, 1])).all() and (bounds[:, 1] - bounds[:, 0] < 3).all()
+
+
+@pytest.mark.parametrize(("dim", "objective", "window"), [
+    (3, lambda x: float(-np.sum((x - 1) ** 2) + np.sin(3 * x).sum()), (-3.0, 3.0)),
+    (8, lambda x: float(-np.sum((x - 1) ** 2) + np.sin(3 * x).sum()), (-3.0, 3.0)),
+    (4, lambda x: float(np.sum(x)), (-1.0, 0.5)),  # the maximiser lies on the upper bounds: steps turn back
+])
+def test_batched_expected_improvement_picks_what_stock_bayes_opt_picks_on_the_same_gp(dim, objective, window):
+    rng = np.random.default_rng(dim)
+    keys = [f"z{i}" for i in range(dim)]
+    optimizer = BayesianOptimization(f=None, pbounds={k: (-3, 3) for k in keys}, random_state=0, verbose=0)
+    optimizer.set_gp_params(alpha=1e-3)
+    for x in np.vstack([rng.uniform(-3, 3, (10, dim)), rng.uniform(*window, (5, dim))]):  # 5 inside the window
+        optimizer.register(dict(zip(keys, x, strict=True)), objective(x))
+    optimizer.set_bounds({k: window for k in keys})
+    gp, space = optimizer._gp, optimizer.space
+    stock = acquisition.ExpectedImprovement(xi=0.01)
+    stock._fit_gp(gp, space)  # one GP for both; the same seed gives both the same 10,000 random candidates
+    expected = stock.suggest(gp, space, fit_gp=False, random_state=7)
+    batched = ExpectedImprovement(xi=0.01).suggest(gp, space, fit_gp=False, random_state=7)
+    np.testing.assert_allclose(batched, expected, atol=1e-4)
+    acq = stock._get_acq(gp)  # the negated EI of the same incumbent
+    assert float(acq(batched)[0]) == pytest.approx(float(acq(expected)[0]), rel=1e-7, abs=1e-12)
 
 
 def test_decoding_is_greedy_and_deterministic(tiny_models):

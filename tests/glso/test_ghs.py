@@ -1,6 +1,7 @@
 import math
 
 import numpy as np
+import pytest
 import torch
 
 from robocompose.glso.ghs import N_FEATURES, GHSConfig, GraphHeuristicSearch, collate, exp_decay, features
@@ -41,9 +42,25 @@ def test_v_hat_is_the_best_reward_below_each_state_and_training_fits_it():
     assert after < before
 
 
-def test_the_proposed_design_is_the_sample_with_the_highest_prediction():
-    search = GraphHeuristicSearch(GHSConfig(num_samples=4), seed=2, budget=100, env=None)
-    search.rng = np.random.default_rng(0)
-    search.config = GHSConfig(num_samples=4, eps_sample_start=0.0, eps_sample_end=0.0)  # always 4 samples
-    proposal = search.propose(None)
-    assert proposal.tree.design_id == derive(proposal.rules).tree.design_id
+def test_the_proposed_design_is_the_sample_with_the_highest_prediction(monkeypatch):
+    search = GraphHeuristicSearch(GHSConfig(num_samples=4, eps_sample_start=0.0, eps_sample_end=0.0, eps_start=1.0,
+                                            eps_end=1.0), seed=2, budget=100, env=None)  # 4 random derivations
+    rollout, samples = search._rollout, []
+
+    def recorded(eps, memo):
+        sample = rollout(eps, memo)
+        samples.append(sample)
+        return sample
+
+    monkeypatch.setattr(search, "_rollout", recorded)
+    picked = []
+    for _ in range(6):
+        samples.clear()
+        proposal = search.propose(None)
+        finals = [states[-1] for states, _ in filter(None, samples)]
+        predicted = search.predict(finals)
+        assert len(finals) == 4 and len(set(predicted)) > 1
+        best = int(np.argmax(predicted))
+        assert search.predict([proposal.info[-1]])[0] == pytest.approx(predicted[best], abs=1e-6) and proposal.tree.design_id == derive(proposal.rules).tree.design_id
+        picked.append(best)
+    assert len(set(picked)) > 1  # the pick is the prediction's, not a fixed position among the samples

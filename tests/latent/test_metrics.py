@@ -1,4 +1,5 @@
 import numpy as np
+import pytest
 import torch
 
 from robocompose.latent.constraints import replay
@@ -17,7 +18,12 @@ def test_grammar_model_decodes_only_valid_designs(trees):
     model = GraphVAE(VAEConfig(hidden=16, latent=4, max_nodes=30))
     metrics = vae_metrics(model, _designs(trees[:30], "grammar"), _designs(trees[30:], "grammar"), 40, seed=0)
     assert metrics["prior_validity"] == 1.0 and metrics["prior_grammar_valid"] == 1.0
-    assert 0 <= metrics["prior_rest_valid"] <= 1 and 0 < metrics["uniqueness"] <= 1 and 0 <= metrics["novelty"] <= 1
+    # uniqueness and novelty are the counts of the same 40 prior decodes (all valid here)
+    decoded = {t.design_id for t in prior_decodes(model, 40, seed=0)}
+    known = {t.design_id for t in trees[:30]}
+    assert metrics["uniqueness"] == pytest.approx(len(decoded) / 40, abs=1e-6)
+    assert metrics["novelty"] == pytest.approx(len(decoded - known) / len(decoded), abs=1e-6)
+    assert metrics["prior_rest_valid"] <= metrics["prior_validity"]  # the rest check only removes designs
     assert metrics["heldout_designs"] == 10 and metrics["property_mse"] > 0
     # The original's unmasked decoding of the same untrained model: labels from all 42 tokens, so (almost)
     # nothing it decodes is a grammar design.

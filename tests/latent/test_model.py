@@ -25,8 +25,16 @@ def test_label_accuracy_counts_only_labels_the_mask_leaves_open(trees):
     torch.testing.assert_close(out["label_acc"], hits[free].float().mean())
 
 
-def test_stop_head_has_glsos_extra_hidden_layer():
+def test_stop_logit_is_glsos_equation_for_each_predictions_own_token_tree_and_messages():
+    torch.manual_seed(0)
     decoder = GraphVAE(VAEConfig(hidden=8, latent=3)).decoder
-    # x and message -> hidden (U_i), then with z -> hidden (U), then -> 1 (U_o)
-    assert decoder.stop_x.in_features == decoder.stop_h.in_features == 8
-    assert (decoder.stop_hidden.in_features, decoder.stop_z.in_features, decoder.stop_u.out_features) == (8, 3, 1)
+    tokens, tree = torch.tensor([3, 0, 3, 41, 7]), torch.tensor([0, 1, 1, 2, 0])
+    z, incoming = torch.randn(3, 3), torch.randn(5, 8)
+    x = decoder.gru.embedding.weight[tokens]  # (P, H): each prediction's node token
+    # u . tau(V tau(W1 x + W3 sum h) + W2 z), GLSO's U_i = (W1, W3), U = (V, W2), U_o = u
+    inner = torch.relu(x @ decoder.stop_x.weight.T + decoder.stop_x.bias + incoming @ decoder.stop_h.weight.T)
+    hidden = torch.relu(inner @ decoder.stop_hidden.weight.T + decoder.stop_hidden.bias
+                        + z[tree] @ decoder.stop_z.weight.T)
+    expected = (hidden @ decoder.stop_u.weight.T + decoder.stop_u.bias).squeeze(1)
+    with torch.no_grad():
+        torch.testing.assert_close(decoder.stop_logits(tokens, tree, z, incoming), expected)

@@ -62,7 +62,8 @@ def test_budget_real_values_and_penalties(fake_rollouts):
         assert problem.evaluate(seed, [design])[0, 0] == value == design.count("w") - seed % 3
     assert problem.evaluate(20_000, ["nnnnnn"])[0, 0] == PARAMS.fitness.penalty  # rejected designs: the penalty
     error = problem.surrogate_error()
-    assert error["heldout"] == len(problem.real) // 5 and error["mae"] >= 0
+    # the fake distance (wheels minus terrain_seed % 3) is learnable: the surrogate ranks held-out rollouts
+    assert error["heldout"] == len(problem.real) // 5 and error["spearman"] > 0.8
 
 
 def test_state_round_trip_and_key(fake_rollouts):
