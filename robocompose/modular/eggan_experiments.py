@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from robocompose.eggan.learners import LEARNERS, Learner, baselines
+from robocompose.eggan.learners import LEARNERS, Answer, Learner, baselines, generator_answer
 from robocompose.eggan.query import save_generator
 from robocompose.eggan.train import train
 from robocompose.fanout.cache import EvaluationCache
@@ -48,15 +48,28 @@ Proposer = Callable[[ModularEgganProblem, int, int, int], list[str]]
 
 def make_problem(modular: ModularParams, params: EgganModularParams, cache: EvaluationCache | None,
                  executor: Executor | None, evaluate_calls: int | None = None) -> ModularEgganProblem:
-    """The training problem. `evaluate_calls`: how many evaluate calls the method's run makes; the real rounds
-    are then spaced so that every method spends the same budget evenly over its run (the default spacing
-    otherwise)."""
+    """The training problem. `evaluate_calls` (surrogate source): how many evaluate calls the method's run makes;
+    the real rounds are then spaced so that every method spends the same budget evenly over its run (the default
+    spacing otherwise). With the table source every method has the same budget of distinct look-ups instead."""
     fitness = params.fitness
-    if evaluate_calls is not None:
+    if evaluate_calls is not None and fitness.source == "surrogate":
         rounds = max(1, math.ceil((fitness.budget - fitness.warmup) / fitness.real_per_round))
         fitness = dataclasses.replace(fitness, real_every=max(1, evaluate_calls // rounds))
     return ModularEgganProblem(modular, fitness, cache, executor, modular.experiments.mutation_rate,
                                modular.experiments.crossover_rate)
+
+
+def validation_scores(problem: ModularEgganProblem, answer: Answer, candidates: int) -> dict[str, float]:
+    """A learner's score on the pool's validation terrains (never trained on), from their tables: per terrain the
+    best table fitness among its `candidates` answers (query seed 0) and the regret to the terrain's optimum,
+    averaged; the validation curve of training and the final check of every learner."""
+    best, regret = [], []
+    for seed in problem.validation_tasks():
+        table = problem.table(seed)
+        top = max(table[d] for d in answer(problem, seed, 0, candidates))
+        best.append(top)
+        regret.append(max(table.values()) - top)
+    return {"val_max_distance": float(np.mean(best)), "val_regret": float(np.mean(regret))}
 
 
 def train_variant(variant: str, modular: ModularParams, params: EgganModularParams, cache: EvaluationCache | None,
@@ -70,12 +83,16 @@ def train_variant(variant: str, modular: ModularParams, params: EgganModularPara
     problem = make_problem(modular, params, cache, executor,
                            config.iterations * config.tasks * (1 + config.evolution_steps))
     name = f"eggan_modular_{variant}"
+    validate = None
+    if problem.fitness.source == "table":
+        def validate(generator):
+            return validation_scores(problem, generator_answer(generator, params.protocol.samples),
+                                     params.protocol.candidates)
     trained = train(problem, params.network, config, out / "checkpoints" / f"{name}.pt",
-                    Path("reports/plots") / f"{name}.csv", out / f"{name}.mcap", progress=progress)
-    metrics = {"method": VARIANTS[variant], "iterations": config.iterations, "batch": config.batch,
-               "tasks_per_iteration": config.tasks, "evolution": variant, "evolution_steps": config.evolution_steps,
-               "real_evaluations": problem.real_evaluations, "surrogate_heldout": problem.surrogate_error(),
-               "final": {k: v for k, v in trained.rows[-1].items()} if trained.rows else {}}
+                    Path("reports/plots") / f"{name}.csv", out / f"{name}.mcap", progress=progress, validate=validate)
+    metrics = {"method": VARIANTS[variant], **_common_metrics(problem, config.iterations, trained.rows),
+               "batch": config.batch, "tasks_per_iteration": config.tasks, "evolution": variant,
+               "evolution_steps": config.evolution_steps}
     save_generator(trained.generator, problem, out / f"{name}.pt",
                    {"run_key": trained.key, "settings_hash": modular.eval.settings_hash(),
                     "train": dataclasses.asdict(config), "metrics": metrics})
@@ -120,13 +137,26 @@ def train_baseline(name: str, modular: ModularParams, params: EgganModularParams
     config = build_config(training.settings, params.baselines.get(name, {}), f"eggan_modular.baselines.{name}")
     problem = make_problem(modular, params, cache, executor, config.iterations * config.tasks)
     model, rows = training.train(problem, params.network, config, progress)
-    metrics = {"method": learner.title, "iterations": config.iterations, **training.metrics(config, rows),
-               "real_evaluations": problem.real_evaluations, "surrogate_heldout": problem.surrogate_error(),
-               "final": rows[-1]}
+    if problem.fitness.source == "table":
+        rows[-1] = {**rows[-1], **validation_scores(problem, learner.answer(model, params.protocol.samples),
+                                                    params.protocol.candidates)}
+    metrics = {"method": learner.title, **_common_metrics(problem, config.iterations, rows),
+               **training.metrics(config, rows)}
     training.save(model, problem, out / f"eggan_modular_{name}.pt",
                   {"settings_hash": modular.eval.settings_hash(), "train": dataclasses.asdict(config),
                    "metrics": metrics})
     return metrics
+
+
+def _common_metrics(problem: ModularEgganProblem, iterations: int, rows: list[dict]) -> dict:
+    """What every learner's metrics say: its fitness source and evaluations (distinct table look-ups or real
+    rollouts), the iterations asked for and done (fewer: the budget ran out), its surrogate's error if it had
+    one, and its last log row (with the validation scores on the table source)."""
+    final = dict(rows[-1]) if rows else {}
+    return {"fitness_source": problem.fitness.source, "iterations": iterations,
+            "iterations_done": int(final.get("iteration", 0)), "real_evaluations": problem.real_evaluations,
+            "evaluation_budget": problem.fitness.lookups if problem.fitness.source == "table"
+            else problem.fitness.budget, "surrogate_heldout": problem.surrogate_error(), "final": final}
 
 
 def random_proposer(problem: ModularEgganProblem, terrain_seed: int, query_seed: int, candidates: int) -> list[str]:

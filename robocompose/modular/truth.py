@@ -230,3 +230,20 @@ def exhaustive_metrics(table: pd.DataFrame, sources: dict[int, str], near_optima
         "criterion": {**rounded(totals), "per_terrain": [rounded(row) for row in per_terrain.to_dict("records")]},
         "simulation_cpu_seconds": round(float(table.seconds.sum()), 1),
         "statuses": table.status.value_counts().sort_index().to_dict()}
+
+
+def pool_metrics(table: pd.DataFrame, splits: dict[str, list[int]], sizes: list[int]) -> dict:
+    """reports/metrics/modular_pool.json: per split of the training pool (training, validation terrains) its
+    distinct optima up to mirror, best-on-average design and that design's regret (`terrain_criterion`), and the
+    same for the first `sizes` training terrains (how the best fixed design changes as the pool grows)."""
+
+    def criterion(seeds: list[int]) -> dict:
+        per_terrain, totals = terrain_criterion(table[table.terrain_seed.isin(seeds)])
+        return {**{k: round(v, 4) if isinstance(v, float) else v for k, v in totals.items() if k != "holds"},
+                "optimum_designs": dict(zip(per_terrain.terrain_seed.astype(str), per_terrain.optimum_design,
+                                            strict=True))}
+
+    train = splits["training"]
+    return {**{name: {"seeds": [min(seeds), max(seeds)], **criterion(seeds)} for name, seeds in splits.items()},
+            "by_size": {str(n): criterion(train[:n]) for n in sizes if n <= len(train)},
+            "simulated_designs": int((table.sim_steps > 0).sum())}
