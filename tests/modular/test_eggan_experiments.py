@@ -29,7 +29,7 @@ from robocompose.modular.robot import PORT_XY
 from robocompose.params import build_config
 
 MODULAR = ModularParams(EvalSettings(control_steps=10), FitnessRule(), ExperimentsConfig())
-SECTION = {"fitness": {"train_terrains": 6, "warmup": 20, "warmup_terrains": 4, "budget": 40, "real_per_round": 4,
+SECTION = {"fitness": {"source": "surrogate", "train_terrains": 6, "warmup": 20, "warmup_terrains": 4, "budget": 40, "real_per_round": 4,
                        "surrogate": {"steps": 10, "hidden": 16}},
            "network": {"latent": 8, "hidden": 16, "filters": 4},
            "baselines": {"molgan": {"iterations": 6, "tasks": 2, "samples": 4, "n_critic": 2,
