@@ -9,12 +9,17 @@
 - `terrain_criterion`: does the best design depend on the terrain? Per terrain its optimum, the single design
   best on average over the terrains, and that design's regret; the count of distinct optima up to the
   left-right mirror (thesis Fig. 5.1: near-flat ground favours wheels, rough ground other modules).
+- The training pool (`pool_tables`: committed tables of the training terrains under `reports/modular/pool/`, read
+  strictly) and what Table 5.1's table-based rows take from tables: the terrain-agnostic `portfolio` (best on
+  average over the pool), each terrain's `top_designs` (the exhaustive optimum) and the `symmetric_ceiling` of a
+  designer confined to left-right symmetric designs (DQN).
 """
 
 from __future__ import annotations
 
 import json
 import time
+from collections.abc import Sequence
 from dataclasses import asdict
 from pathlib import Path
 
@@ -24,6 +29,7 @@ from robocompose.fanout.cache import EvaluationCache
 from robocompose.fanout.executor import Executor
 from robocompose.io import atomic_write_json, read_table, write_table
 from robocompose.io.atomic import read_json
+from robocompose.io.errors import InputError
 from robocompose.io.provenance import result_digest
 from robocompose.modular import evaluate
 from robocompose.modular.evaluate import EvalSettings, FitnessRule, evaluate_designs
@@ -31,6 +37,7 @@ from robocompose.modular.robot import all_designs
 from robocompose.modular.terrain import TerrainConfig, generate_terrain
 
 COMMITTED_DIR = Path("reports/modular/exhaustive")
+POOL_DIR = Path("reports/modular/pool")  # the training pool's committed tables (same format)
 # Issue 13's terrain criterion: on >= 8 terrains, >= 3 distinct optima (up to mirror) and the best-on-average
 # design's mean regret >= 10% of the mean optimum.
 CRITERION = {"terrains": 8, "distinct_optima": 3, "regret_ratio": 0.10}
@@ -230,3 +237,61 @@ def exhaustive_metrics(table: pd.DataFrame, sources: dict[int, str], near_optima
         "criterion": {**rounded(totals), "per_terrain": [rounded(row) for row in per_terrain.to_dict("records")]},
         "simulation_cpu_seconds": round(float(table.seconds.sum()), 1),
         "statuses": table.status.value_counts().sort_index().to_dict()}
+
+
+def pool_tables(directory: Path, seeds: Sequence[int], settings: EvalSettings, rule: FitnessRule) -> pd.DataFrame:
+    """The committed tables of the training pool's `seeds` under `directory`, one table; InputError naming the first
+    table that is missing or was measured under other settings, fitness rule or physics code."""
+    if len(seeds) == 0:
+        raise InputError(f"{directory}: expected at least one training-pool terrain seed, found none")
+    frames = []
+    for seed in seeds:
+        table = read_committed(seed, settings, rule, directory)
+        if table is None:
+            path = committed_path(seed, directory)
+            found = ("measured under other settings, fitness rule or physics code (its .json record)"
+                     if path.exists() and path.with_suffix(".json").exists() else "missing (.parquet or .json)")
+            raise InputError(f"{path}: training-pool table {found}; expected the exhaustive table of terrain {seed} "
+                             f"under the current modular.eval, modular.fitness and physics (pool seeds {seeds[0]}.."
+                             f"{seeds[-1]}: eggan_modular.fitness.train_seed_base, train_terrains)")
+        frames.append(table)
+    return pd.concat(frames, ignore_index=True)
+
+
+def _ranked(fitness: pd.Series, k: int) -> list[str]:
+    """The `k` designs (the index) of highest fitness, ties broken by the first port string."""
+    order = pd.DataFrame({"design": fitness.index, "fitness": fitness.to_numpy()})
+    return list(order.sort_values(["fitness", "design"], ascending=[False, True]).design.head(k))
+
+
+def portfolio(tables: pd.DataFrame, k: int) -> list[str]:
+    """The `k` designs of highest mean fitness over the terrains of `tables` (penalties included), ties broken by
+    the first port string: one terrain-agnostic answer for every terrain. Every design must be on every terrain."""
+    fitness = tables.pivot(index="design", columns="terrain_seed", values="fitness")
+    if fitness.isna().any(axis=None):
+        design = fitness.index[fitness.isna().any(axis=1)][0]
+        raise InputError(f"portfolio: expected every design on every pool terrain, {design} is missing on "
+                         f"{[int(s) for s in fitness.columns[fitness.loc[design].isna()]]}")
+    return _ranked(fitness.mean(axis=1), k)
+
+
+def top_designs(table: pd.DataFrame, k: int) -> list[str]:
+    """One terrain's `k` fittest designs of its exhaustive table (ties: the first port string)."""
+    if table.terrain_seed.nunique() != 1:
+        raise ValueError(f"top designs of one terrain, found seeds {sorted(table.terrain_seed.unique())}")
+    return _ranked(table.set_index("design").fitness, k)
+
+
+def symmetric_ceiling(tables: pd.DataFrame) -> dict:
+    """What a designer of left-right symmetric designs only (`mirror(d) == d`, as Whitman's DQN builds: one module
+    per mirrored port pair) can reach on the terrains of `tables`: `ceiling`, the mean over terrains of each
+    terrain's best symmetric fitness (the most its max distance can be), and the single symmetric design best on
+    average (`best_design`, its `best_design_mean`)."""
+    symmetric = tables[tables.design.map(lambda d: mirror(d) == d)]
+    if symmetric.empty:
+        raise ValueError("symmetric ceiling: the tables hold no left-right symmetric design")
+    per_terrain = symmetric.groupby("terrain_seed").fitness.max()
+    means = symmetric.pivot(index="design", columns="terrain_seed", values="fitness").mean(axis=1)
+    best = _ranked(means, 1)[0]
+    return {"terrains": len(per_terrain), "designs": len(means), "ceiling": float(per_terrain.mean()),
+            "best_design": best, "best_design_mean": float(means[best])}
