@@ -27,7 +27,6 @@ from torch import nn
 
 from robocompose.io.errors import InputError
 
-
 NORMS = {"layer": nn.LayerNorm, "batch": nn.BatchNorm1d, "none": lambda width: nn.Identity()}
 
 

@@ -7,14 +7,18 @@ and code provenance.
 Protocol (`realtime_table`), for every method that answers a query in real time (a `Proposer`: terrain ->
 candidate designs) on every held-out test terrain and query:
 - the method outputs `candidates` designs (EG-GAN: the most probable distinct designs among `samples` draws);
-- all of them are simulated (real evaluator, through the cache; on a terrain the exhaustive table covers, its
-  rollouts answer); max distance = the best valid one;
+- every candidate is answered from the terrain's exhaustive table (the simulator's measured result of every
+  design: no new rollout; a test terrain without a table is an InputError); max distance = the best valid one;
 - distinct solutions = the niching metric (delta 1 Hamming, epsilon 0.5 m) over the valid candidates (0 if none:
   penalty scores are not distances);
 - EC: `ec_draws` random caps on one module type; the answer is the best satisfying valid candidate, else a
-  random valid satisfying design (modular `ec_answers`); the answer is simulated. Answers are valid designs,
+  random valid satisfying design (modular `ec_answers`), looked up the same way. Answers are valid designs,
   so EC is a distance; a query whose candidates are all invalid is counted as a failure, not averaged;
-- regret = the terrain's exhaustive optimum minus max distance, where the exhaustive table has the terrain.
+- regret = the terrain's exhaustive optimum minus max distance.
+
+Beside the thesis's rows, two from tables (`table_proposers`): the terrain-agnostic portfolio (the designs best on
+average over the training pool, `robocompose.modular.truth.portfolio`) and the exhaustive optimum (each test
+terrain's fittest designs, `robocompose.modular.truth.top_designs`: an oracle upper bound, not a method).
 """
 
 from __future__ import annotations
@@ -33,9 +37,10 @@ from robocompose.eggan.query import save_generator
 from robocompose.eggan.train import train
 from robocompose.fanout.cache import EvaluationCache
 from robocompose.fanout.executor import Executor
+from robocompose.io.errors import InputError
 from robocompose.modular.eggan_params import VARIANTS, EgganModularParams
 from robocompose.modular.eggan_problem import ModularEgganProblem
-from robocompose.modular.evaluate import Result, evaluate_designs
+from robocompose.modular.evaluate import Result
 from robocompose.modular.experiments import DELTA, EPSILON, _seed, ec_answers, emergency_constraints
 from robocompose.modular.params import ModularParams
 from robocompose.modular.problem import hamming
@@ -99,13 +104,17 @@ def train_variant(variant: str, modular: ModularParams, params: EgganModularPara
     return metrics
 
 
-# Table 5.1's rows, in its order: the learned baselines, random sampling, EG-GAN's two variants
-REALTIME_METHODS = (*baselines("modular"), "random", "ga", "crowding")
+# Table 5.1's rows, in its order: the learned baselines, random sampling, EG-GAN's two variants; ours beside them,
+# read from tables: the terrain-agnostic portfolio (after random sampling) and the oracle (last)
+REALTIME_METHODS = (*baselines("modular"), "random", "portfolio", "ga", "crowding", "optimum")
+TABLE_METHODS = {"portfolio": "Portfolio (terrain-agnostic)", "optimum": "Exhaustive optimum (oracle)"}
 
 
 def method_title(method: str) -> str:
-    """The thesis's name of a row of Table 5.1."""
-    return "Random sampling" if method == "random" else VARIANTS.get(method) or LEARNERS["modular"][method].title
+    """The name of a row of Table 5.1 (the thesis's, where it has the row)."""
+    if method == "random":
+        return "Random sampling"
+    return TABLE_METHODS.get(method) or VARIANTS.get(method) or LEARNERS["modular"][method].title
 
 
 def learner_of(method: str) -> Learner:
@@ -113,13 +122,18 @@ def learner_of(method: str) -> Learner:
     return LEARNERS["modular"]["eggan"] if method in VARIANTS else LEARNERS["modular"][method]
 
 
-def realtime_proposers(problem: ModularEgganProblem, params: EgganModularParams, models: Path) -> dict[str, Proposer]:
-    """Every real-time method of Table 5.1, each learned one from its trained model under `models`."""
+def realtime_proposers(problem: ModularEgganProblem, params: EgganModularParams, models: Path,
+                       portfolio: list[str], optima: dict[int, list[str]]) -> dict[str, Proposer]:
+    """Every row of Table 5.1: each learned method from its trained model under `models`, random sampling, and the
+    rows from tables (`table_proposers` of the `portfolio` designs and each test terrain's fittest designs)."""
+    tables = table_proposers(portfolio, optima)
     proposers: dict[str, Proposer] = {}
     for method in REALTIME_METHODS:
         path = models / f"eggan_modular_{method}.pt"
         if method == "random":
             proposers[method] = random_proposer
+        elif method in tables:
+            proposers[method] = tables[method]
         elif path.exists():
             learner = learner_of(method)
             proposers[method] = learner.answer(learner.load(path, problem)[0], params.protocol.samples)
@@ -165,27 +179,49 @@ def random_proposer(problem: ModularEgganProblem, terrain_seed: int, query_seed:
     return ["".join("nlwb"[int(i)] for i in row) for row in rng.integers(4, size=(candidates, 6))]
 
 
+def table_proposers(portfolio: list[str], optima: dict[int, list[str]]) -> dict[str, Proposer]:
+    """Table 5.1's rows from tables: "portfolio" answers every query with the same `portfolio` designs (best on
+    average over the training pool); "optimum" with `optima[terrain]`, the terrain's fittest designs in its
+    exhaustive table (the oracle upper bound)."""
+
+    def first(designs: list[str], candidates: int, what: str) -> list[str]:
+        if candidates > len(designs):
+            raise InputError(f"eggan_modular.protocol.candidates: expected at most the {len(designs)} designs of "
+                             f"{what}, found {candidates}")
+        return designs[:candidates]
+
+    def portfolio_proposer(problem: ModularEgganProblem, terrain_seed: int, query_seed: int,
+                           candidates: int) -> list[str]:
+        return first(portfolio, candidates, "the portfolio")
+
+    def optimum_proposer(problem: ModularEgganProblem, terrain_seed: int, query_seed: int,
+                         candidates: int) -> list[str]:
+        return first(optima[terrain_seed], candidates, f"terrain {terrain_seed}'s optimum")
+
+    return {"portfolio": portfolio_proposer, "optimum": optimum_proposer}
+
+
 def realtime_table(proposers: dict[str, Proposer], problem: ModularEgganProblem, modular: ModularParams,
-                   params: EgganModularParams, truth: pd.DataFrame | None, cache: EvaluationCache | None,
-                   executor: Executor | None) -> tuple[pd.DataFrame, dict[str, float]]:
-    """One row per method x test terrain x query (see the module docstring), and each method's median query
-    wall time in ms (kept apart from the table, so that the table's bytes depend on the inputs only)."""
+                   params: EgganModularParams, truth: pd.DataFrame) -> tuple[pd.DataFrame, dict[str, float]]:
+    """One row per method x test terrain x query (see the module docstring), every candidate answered from the
+    exhaustive table `truth`, and each method's median query wall time in ms (kept apart from the table, so that
+    the table's bytes depend on the inputs only)."""
     p = params.protocol
     rule = modular.fitness
+    missing = sorted(set(p.test_terrains) - set(truth.terrain_seed.unique()))
+    if missing:
+        raise InputError(f"eggan_modular.protocol.test_terrains: expected every test terrain in the exhaustive table "
+                         f"(modular.experiments.truth_terrains, stage modular_exhaustive), missing {missing}")
     rows, query_ms = [], {}
     for terrain_seed in p.test_terrains:
-        optimum, known = np.nan, None
-        if truth is not None and (truth.terrain_seed == terrain_seed).any():
-            table = truth[truth.terrain_seed == terrain_seed]
-            optimum = float(table.fitness.max())
-            known = {d: Result(None if pd.isna(x) else float(x), s, 0, 0.0)
-                     for d, x, s in zip(table.design, table.distance, table.status, strict=True)}
+        table = truth[truth.terrain_seed == terrain_seed]
+        optimum = float(table.fitness.max())
+        known = {d: Result(None if pd.isna(x) else float(x), s, 0, 0.0)
+                 for d, x, s in zip(table.design, table.distance, table.status, strict=True)}
 
-        def simulate(designs: list[str], terrain_seed=terrain_seed, known=known) -> list[Result]:
-            """Real results: the exhaustive table's rollouts where it covers the terrain, else new rollouts."""
-            if known is not None:
-                return [known[d] for d in designs]
-            return evaluate_designs(designs, terrain_seed, modular.eval, rule, cache, executor)
+        def measured(designs: list[str], known=known) -> list[Result]:
+            """The simulator's measured results, from the terrain's exhaustive table."""
+            return [known[d] for d in designs]
 
         for method, propose in proposers.items():
             problem.encode_task(terrain_seed)  # the height map is the query's input: not part of its time
@@ -194,14 +230,14 @@ def realtime_table(proposers: dict[str, Proposer], problem: ModularEgganProblem,
                 started = time.perf_counter()
                 candidates = propose(problem, terrain_seed, query_seed, p.candidates)
                 query_ms.setdefault(method, []).append((time.perf_counter() - started) * 1000)
-                results = simulate(candidates)
+                results = measured(candidates)
                 fitness = np.array([rule.fitness(r) for r in results])
                 valid = np.array([r.distance is not None for r in results])
                 rng = np.random.default_rng([query_seed, terrain_seed, 7919])  # the same caps for every method
                 constraints = emergency_constraints(rng, p.ec_draws)
                 ok = [c for c, v in zip(candidates, valid, strict=True) if v]
                 answers = ec_answers(ok, fitness[valid], constraints, rng, valid=lambda d: not rule.skips(d))
-                ec = simulate(answers)
+                ec = measured(answers)
                 ec_ok = [r.distance for r in ec if r.distance is not None]
                 best = float(fitness[valid].max()) if valid.any() else np.nan
                 rows.append({

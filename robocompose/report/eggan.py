@@ -3,8 +3,10 @@ EG-GAN-crowding row beside the GA runs, the training budgets and surrogate error
 Fig. 5.1 (two test terrains, the generator's top designs, a random constraint and the designs that survive it).
 
 Built from `train_eggan_modular` (reports/metrics/eggan_modular.json, reports/plots/eggan_modular_*.csv) and
-`modular_realtime` (data/modular/realtime.parquet; data/modular/fig5_1.json, Fig. 5.1's generated designs); every
-distance is a pybullet rollout.
+`modular_realtime` (data/modular/realtime.parquet; reports/metrics/modular_realtime.json: the portfolio's designs and
+DQN's symmetric-space ceiling; data/modular/fig5_1.json, Fig. 5.1's generated designs); every distance is a pybullet
+rollout, read from the test terrain's exhaustive table. Beside the thesis's rows: a terrain-agnostic portfolio
+(the designs best on average over the training pool) and each terrain's exhaustive optimum (an oracle bound).
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from pathlib import Path
 import pandas as pd
 
 from robocompose.io import read_json, read_table
+from robocompose.report.modular import THESIS_TABLE_5_2
 
 # Thesis Table 5.1 (learned controller): max distance (m), distinct solutions, max distance under EC (m).
 THESIS_TABLE_5_1 = {"Fit2form": ("4.03 ± 0.91", "1.2 ± 0.2", "2.55 ± 1.31"),
@@ -26,8 +29,11 @@ THESIS_TABLE_5_1 = {"Fit2form": ("4.03 ± 0.91", "1.2 ± 0.2", "2.55 ± 1.31"),
 # Thesis, hand-crafted controller ("effect of the controller"): max distance (m).
 THESIS_HANDCRAFTED = {"Fit2form": "3.81 ± 1.22", "Random sampling": "0.86 ± 0.81", "EG-GAN-crowding": "4.96 ± 0.45"}
 THESIS_QUERY_MIN = 0.003  # EG-GAN-crowding's runtime in Table 5.2
-NAMES = {"fit2form": "Fit2form", "dqn": "DQN based", "molgan": "MolGAN", "random": "Random sampling", "ga": "EG-GAN",
-         "crowding": "EG-GAN-crowding"}
+NAMES = {"fit2form": "Fit2form", "dqn": "DQN based", "molgan": "MolGAN", "random": "Random sampling",
+         "portfolio": "Portfolio (terrain-agnostic baseline)", "ga": "EG-GAN", "crowding": "EG-GAN-crowding",
+         "optimum": "Exhaustive optimum (oracle)"}
+NOT_IN_THESIS = ("-", "-", "-")
+LEARNED = ("fit2form", "dqn", "molgan", "ga", "crowding")  # rows with a training budget
 
 
 def _ms(values: pd.Series, digits: int = 2) -> str:
@@ -38,23 +44,27 @@ def _ms(values: pd.Series, digits: int = 2) -> str:
 def section(reports_dir: Path, data_dir: Path) -> str:
     realtime_path = Path(data_dir) / "modular" / "realtime.parquet"
     metrics_path = Path(reports_dir) / "metrics" / "eggan_modular.json"
+    protocol_path = Path(reports_dir) / "metrics" / "modular_realtime.json"
     title = "## EG-GAN: modular robots for a terrain in real time (thesis ch. 4, 5.1; Tables 5.1, 5.2)"
     if not realtime_path.exists() or not metrics_path.exists():
         return (f"{title}\n\nNot run yet: missing {realtime_path} or {metrics_path} (stages `train_eggan_modular`, "
                 "`modular_realtime`).\n")
     table = read_table(realtime_path, "modular_realtime")
     metrics = json.loads(metrics_path.read_text())
+    protocol = read_json(protocol_path) if protocol_path.exists() else {}
+    ceiling = protocol.get("dqn_symmetric_ceiling")
     seeds = ", ".join(map(str, sorted(table.terrain_seed.unique())))
     lines = [title, "",
              "Trained on terrain seeds disjoint from the test terrains; tested on "
              f"{table.terrain_seed.nunique()} held-out terrains ({seeds})"
              f" x {table['query'].nunique()} queries per method (thesis: 10 x 20). Every method outputs "
-             f"{int(table.candidates.max())} candidates per query, all simulated (pybullet, hand-crafted gait); "
+             f"{int(table.candidates.max())} candidates per query, each answered from the test terrain's exhaustive "
+             "table (the pybullet rollout of every design, hand-crafted gait; no rollout at test time); "
              "max distance = the best valid candidate; distinct = niching metric (delta 1 Hamming, epsilon 0.5 m) "
              "over the candidates; EC = the best candidate satisfying a random cap on one module type (else a random "
-             "valid satisfying design), simulated; regret = the terrain's exhaustive optimum minus max distance "
-             "(only where the exhaustive table covers the terrain). Thesis columns: its learned controller; the "
-             "hand-crafted column is the thesis's experiment with a controller like ours.", "",
+             "valid satisfying design), looked up the same way; regret = the terrain's exhaustive optimum minus max "
+             "distance. Thesis columns: its learned controller; the hand-crafted column is the thesis's experiment "
+             "with a controller like ours; '-': a row the thesis does not have.", "",
              "### Table 5.1: real-time methods", "",
              "| method | max distance (m) | distinct | EC distance (m) | regret (m) | no valid candidate / EC failures "
              "| real rollouts in training | thesis distance | thesis distinct | thesis EC | thesis hand-crafted |",
@@ -63,12 +73,14 @@ def section(reports_dir: Path, data_dir: Path) -> str:
         group = table[table.method == method]
         if group.empty:
             continue
-        spent = metrics.get(method, {}).get("real_evaluations", "-" if method == "random" else "n/a")
-        thesis = THESIS_TABLE_5_1[name]
-        lines.append(f"| {name} | {_ms(group.max_distance)} | {_ms(group.distinct, 1)} | {_ms(group.ec_distance)} | "
+        spent = metrics.get(method, {}).get("real_evaluations", "n/a" if method in LEARNED else "-")
+        thesis = THESIS_TABLE_5_1.get(name, NOT_IN_THESIS)
+        label = f"{name} (symmetric designs only: ceiling {ceiling['ceiling']:.2f} m)" if method == "dqn" and ceiling \
+            else name
+        lines.append(f"| {label} | {_ms(group.max_distance)} | {_ms(group.distinct, 1)} | {_ms(group.ec_distance)} | "
                      f"{_ms(group.regret)} | {int(group.max_distance.isna().sum())} / {int(group.ec_failures.sum())} | "
                      f"{spent} | {thesis[0]} | {thesis[1]} | {thesis[2]} | {THESIS_HANDCRAFTED.get(name, '-')} |")
-    lines += ["", _verdict(table), ""]
+    lines += ["", *_table_rows_lines(protocol, set(table.method)), _verdict(table), ""]
     lines += _training_lines(metrics)
     lines += _table_5_2(table, reports_dir, data_dir)
     fig_5_1 = Path(data_dir) / "modular" / "fig5_1.json"
@@ -114,16 +126,46 @@ def _figure_5_1(records: list[dict], path: Path) -> str:
     return "Constraints drawn: " + "; ".join(used) + "."
 
 
+def _table_rows_lines(protocol: dict, methods: set[str]) -> list[str]:
+    """Paragraphs on the rows the thesis does not have and on DQN's ceiling (reports/metrics/modular_realtime.json)."""
+    lines = []
+    chosen, ceiling = protocol.get("portfolio_designs"), protocol.get("dqn_symmetric_ceiling")
+    if chosen and "portfolio" in methods:
+        lines.append(f"Portfolio (terrain-agnostic baseline): every query on every terrain gets the same "
+                     f"{len(chosen['designs'])} designs, those of highest mean fitness over the training pool's "
+                     f"{chosen['pool_terrains']} exhaustive tables (penalties included): "
+                     + ", ".join(f"`{d}`" for d in chosen["designs"]) + ". A method that reads the terrain should "
+                     "beat it.")
+    if "optimum" in methods:
+        lines.append("Exhaustive optimum (oracle): each test terrain's fittest designs of its table; no method can "
+                     "score more (regret 0 by construction). An upper bound, not a method.")
+    if ceiling and "dqn" in methods:
+        lines.append(f"DQN builds left-right symmetric designs only (one module per mirrored port pair: "
+                     f"{ceiling['designs']} designs). On these {ceiling['terrains']} test terrains the best symmetric "
+                     f"design of each terrain averages {ceiling['ceiling']:.2f} m: the ceiling of its max distance; "
+                     f"the single symmetric design best on average, `{ceiling['best_design']}`, "
+                     f"{ceiling['best_design_mean']:.2f} m.")
+    return [line for text in lines for line in (text, "")]
+
+
 def _verdict(table: pd.DataFrame) -> str:
     means = table.groupby("method")[["max_distance", "distinct"]].mean()
     if not {"crowding", "random", "ga"} <= set(means.index):
         return ""
     beats = means.max_distance["crowding"] > means.max_distance["random"]
     diverse = means.distinct["crowding"] > means.distinct["ga"]
-    return (f"EG-GAN-crowding {'beats' if beats else 'does not beat'} random sampling on max distance "
+    text = (f"EG-GAN-crowding {'beats' if beats else 'does not beat'} random sampling on max distance "
             f"({means.max_distance['crowding']:.2f} vs {means.max_distance['random']:.2f} m) and "
             f"{'has' if diverse else 'does not have'} more distinct solutions than EG-GAN "
             f"({means.distinct['crowding']:.1f} vs {means.distinct['ga']:.1f}).")
+    if "portfolio" in means.index:
+        ahead = means.max_distance["crowding"] > means.max_distance["portfolio"]
+        text += (f" It {'beats' if ahead else 'does not beat'} the terrain-agnostic portfolio "
+                 f"({means.max_distance['portfolio']:.2f} m).")
+    if "optimum" in means.index:
+        text += (f" It reaches {means.max_distance['crowding'] / means.max_distance['optimum']:.0%} of the exhaustive "
+                 f"optimum ({means.max_distance['optimum']:.2f} m).")
+    return text
 
 
 def _training_lines(metrics: dict) -> list[str]:
@@ -146,7 +188,8 @@ def _table_5_2(table: pd.DataFrame, reports_dir: Path, data_dir: Path) -> list[s
     runs_path = Path(data_dir) / "modular" / "runs.parquet"
     crowding = table[table.method == "crowding"]
     lines = ["### Table 5.2: EG-GAN-crowding beside the GA runs", "",
-             "| method | max distance (m) | distinct | runtime | test terrains |", "|---|---|---|---|---|"]
+             "| method | max distance (m) | distinct | runtime | test terrains | thesis distance | thesis distinct | "
+             "thesis runtime (min) |", "|---|---|---|---|---|---|---|---|"]
     if runs_path.exists():
         runs = read_table(runs_path, "modular_runs")
         for method, name in (("ga20", "GA-20"), ("ga50", "GA-50"), ("crowding", "GA-crowding")):
@@ -154,14 +197,16 @@ def _table_5_2(table: pd.DataFrame, reports_dir: Path, data_dir: Path) -> list[s
             if len(group):
                 lines.append(f"| {name} | {_ms(group.best_distance)} | {_ms(group.distinct, 1)} | "
                              f"{int(group.evaluations.mean())} rollouts (see the modular section's runtimes) | "
-                             f"{', '.join(map(str, sorted(group.terrain_seed.unique())))} |")
+                             f"{', '.join(map(str, sorted(group.terrain_seed.unique())))} | "
+                             + " | ".join(THESIS_TABLE_5_2[method]) + " |")
     bench = Path(reports_dir) / "benchmarks.json"
     query_ms = read_json(bench).get("eggan.modular.query_ms") if bench.exists() else None
     if len(crowding):
         runtime = "not benchmarked (`make bench`)" if query_ms is None else f"{query_ms:.1f} ms per query"
         lines.append(f"| EG-GAN-crowding | {_ms(crowding.max_distance)} | {_ms(crowding.distinct, 1)} | "
-                     f"{runtime} (thesis {THESIS_QUERY_MIN} min) | "
-                     f"{', '.join(map(str, sorted(crowding.terrain_seed.unique())))} |")
+                     f"{runtime} | {', '.join(map(str, sorted(crowding.terrain_seed.unique())))} | "
+                     f"{THESIS_TABLE_5_1['EG-GAN-crowding'][0]} | {THESIS_TABLE_5_1['EG-GAN-crowding'][1]} | "
+                     f"{THESIS_QUERY_MIN} |")
     lines += ["", "The GA rows search each test terrain from scratch (their runtime is simulation); EG-GAN-crowding's "
               "runtime is `eggan.modular.query_ms` of `make bench` (one query: 64 samples, one core, the ranking "
               "included; reports/benchmarks.json). The protocol's queries keep drawing batches of 64 until 10 "

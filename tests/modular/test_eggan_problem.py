@@ -17,17 +17,17 @@ from robocompose.eggan.networks import NetworkConfig
 from robocompose.eggan.problem import BudgetSpent
 from robocompose.eggan.surrogate import SurrogateConfig
 from robocompose.eggan.train import TrainConfig, train
+from robocompose.io import write_table
+from robocompose.io.errors import InputError
 from robocompose.modular import eggan_problem
 from robocompose.modular.eggan_problem import FitnessConfig, ModularEgganProblem
-from robocompose.io.errors import InputError
 from robocompose.modular.evaluate import EvalSettings, FitnessRule, Result
 from robocompose.modular.params import ExperimentsConfig, ModularParams
 from robocompose.modular.robot import all_designs
-from robocompose.io import write_table
 
 PARAMS = ModularParams(EvalSettings(control_steps=10), FitnessRule(), ExperimentsConfig())
-FITNESS = FitnessConfig(source="surrogate", train_terrains=12, warmup=20, warmup_terrains=4, budget=30, real_every=6, real_per_round=4,
-                        surrogate=SurrogateConfig(steps=200, hidden=16))
+FITNESS = FitnessConfig(source="surrogate", train_terrains=12, warmup=20, warmup_terrains=4, budget=30, real_every=6,
+                        real_per_round=4, surrogate=SurrogateConfig(steps=200, hidden=16))
 
 
 @pytest.fixture

@@ -2,7 +2,9 @@ import json
 import runpy
 from pathlib import Path
 
-from robocompose.io import read_table
+import pytest
+
+from robocompose.io import read_table, write_table
 from robocompose.modular.params import ModularParams
 from robocompose.modular.truth import write_committed
 from robocompose.params import load_section
@@ -46,3 +48,21 @@ def test_exhaustive_then_baselines_write_their_tables_and_metrics(tmp_path, monk
     assert sorted(runs.method) == ["crowding", "ga20", "ga50", "random"] and (runs.terrain_seed == 1007).all()
     assert set(json.loads(Path("reports/metrics/modular_baselines.json").read_text())) == set(runs.method)
     assert "modular_baselines" in json.loads(Path("reports/timings.json").read_text())
+
+
+def test_realtime_stops_with_one_line_naming_a_missing_pool_table(tmp_path, monkeypatch, capsys, synthetic_truth):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr("sys.argv", ["stages/modular_realtime.py"])
+    (tmp_path / "params.yaml").write_text(TINY + "eggan_modular: {fitness: {train_seed_base: 20000, train_terrains: 2}"
+                                          ", protocol: {test_terrains: [1007]}}\n")
+    params = load_section(ModularParams, "modular")
+    write_table(synthetic_truth(lambda d: float(d.count("w"))), "data/modular/exhaustive.parquet", "modular_exhaustive")
+    write_committed(synthetic_truth(lambda d: float(d.count("l")), 20000), params.eval, params.fitness, seconds=1.0,
+                    directory=Path("reports/modular/pool"))  # 20001 is missing
+    with pytest.raises(SystemExit) as exit_:
+        runpy.run_path(str(STAGES / "modular_realtime.py"), run_name="__main__")
+    assert exit_.value.code == 2
+    error = capsys.readouterr().err
+    assert error.startswith("stage modular_realtime: error: reports/modular/pool/blocks-20001.parquet: training-pool "
+                            "table missing") and error.count("\n") == 1
+    assert not Path("data/modular/realtime.parquet").exists()
