@@ -2,6 +2,10 @@ import json
 import runpy
 from pathlib import Path
 
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
+
 from robocompose.io import read_table
 from robocompose.modular.params import ModularParams
 from robocompose.modular.truth import write_committed
@@ -11,7 +15,7 @@ STAGES = Path(__file__).resolve().parents[2] / "stages"
 TINY = """
 modular:
   eval: {control_steps: 2, settle_steps: 5}
-  experiments: {test_terrains: [1007], truth_terrains: [1007, 1008], ga_seeds: [0], generations: 1,
+  experiments: {test_terrains: [1007], truth_terrains: [1007, 1008], ga_seeds: [0, 1], generations: 1,
                 random_designs: 3, ec_draws: 2}
 compute: {workers: 1, cache: data/cache.parquet}
 """
@@ -34,15 +38,27 @@ def test_exhaustive_then_baselines_write_their_tables_and_metrics(tmp_path, monk
     assert metrics["criterion"]["terrains"] == 2 and len(metrics["criterion"]["per_terrain"]) == 2
     simulated = truth[truth.sim_steps > 0].groupby("terrain_seed").size()
     assert metrics["simulated"] == {str(k): int(v) for k, v in simulated.items()}
-    assert set(metrics["tallest_block_cm"]) == {"1007", "1008"}
-    picture = Path("reports/plots/modular_terrains.png")  # the report's picture of the first terrains
-    assert picture.stat().st_size > 5000
+    simulated_best = truth[truth.terrain_seed == 1008].sort_values(["fitness", "design"], ascending=[False, True])
+    assert metrics["best_design"] == {"1007": "wwwwww", "1008": simulated_best.design.iloc[0]}
+    picture = plt.imread("reports/plots/modular_terrains.png")  # one 400 x 440 px column per gallery terrain
+    assert picture.shape[:2] == (440, 400 * params.experiments.gallery)
     first = Path("data/modular/exhaustive.parquet").read_bytes()
     runpy.run_path(str(STAGES / "modular_exhaustive.py"), run_name="__main__")  # from the cache: same bytes
     assert Path("data/modular/exhaustive.parquet").read_bytes() == first
 
     runpy.run_path(str(STAGES / "modular_baselines.py"), run_name="__main__")
     runs = read_table("data/modular/runs.parquet", "modular_runs")
-    assert sorted(runs.method) == ["crowding", "ga20", "ga50", "random"] and (runs.terrain_seed == 1007).all()
-    assert set(json.loads(Path("reports/metrics/modular_baselines.json").read_text())) == set(runs.method)
+    assert sorted(runs.method) == sorted(["crowding", "ga20", "ga50", "random"] * 2)
+    assert (runs.terrain_seed == 1007).all()
+    table = truth[truth.terrain_seed == 1007].set_index("design").distance
+    np.testing.assert_array_equal(runs.best_distance, table[runs.best_design])  # a real entry (NaN: unstable)
+    assert (runs.optimum == 6.0).all() and (runs.best_distance.dropna() <= 6.0).all()
+    assert (runs.ec_distance <= runs.ec_optimum).all()  # a constrained answer never beats the constrained best
+    assert runs.groupby("method").evaluations.first().to_dict() == {"crowding": 50, "ga20": 20, "ga50": 50,
+                                                                    "random": 3}
+    baselines = pd.DataFrame(json.loads(Path("reports/metrics/modular_baselines.json").read_text())).T
+    means = runs.groupby("method").best_distance.mean().round(4)
+    pd.testing.assert_series_equal(baselines.best_distance.astype(float), means, check_names=False)
+    pd.testing.assert_series_equal(baselines.regret.astype(float), (6.0 - means).round(4), check_names=False)
+    assert baselines.failed_runs.to_dict() == runs.best_distance.isna().groupby(runs.method).sum().to_dict()
     assert "modular_baselines" in json.loads(Path("reports/timings.json").read_text())
