@@ -15,8 +15,9 @@ from robocompose.io import InputError
 from robocompose.io.torch_file import save_torch
 from robocompose.modular.compose import SHIPPED_MODEL, parse_caps
 from robocompose.modular.eggan_problem import FitnessConfig, ModularEgganProblem
-from robocompose.modular.evaluate import EvalSettings, FitnessRule
+from robocompose.modular.evaluate import EvalSettings, FitnessRule, rollout
 from robocompose.modular.params import ExperimentsConfig, ModularParams
+from robocompose.modular.terrain import generate_terrain
 
 PARAMS = ModularParams(EvalSettings(), FitnessRule(), ExperimentsConfig())
 TINY = """
@@ -48,13 +49,15 @@ def test_compose_prints_k_distinct_valid_designs_within_the_caps(tmp_path, model
         assert design.count("l") <= 1 and design.count("w") <= 2 and not PARAMS.fitness.skips(design)
 
 
-def test_compose_simulate_adds_distances(tmp_path, model, capsys):
+def test_compose_simulate_adds_each_designs_rollout_on_the_terrain(tmp_path, model, capsys):
     params = tmp_path / "params.yaml"
     params.write_text(TINY)
     assert main(["compose", "modular", "--terrain-seed", "3", "--k", "2", "--model", str(model), "--simulate",
                  "--params", str(params)]) == 0
-    out = json.loads(capsys.readouterr().out)
-    assert all(d["status"] in ("ok", "flipped", "left_course", "stalled") for d in out["designs"])
+    settings = EvalSettings(control_steps=3, settle_steps=10)
+    for entry in json.loads(capsys.readouterr().out)["designs"]:
+        result = rollout(entry["design"], generate_terrain(3, settings.terrain), settings)
+        assert (entry["distance"], entry["status"]) == (result.distance, result.status)
 
 
 @pytest.mark.parametrize("heights, message", [
