@@ -67,7 +67,7 @@ def section(reports_dir: Path, data_dir: Path) -> str:
              "with a controller like ours; '-': a row the thesis does not have.", "",
              "### Table 5.1: real-time methods", "",
              "| method | max distance (m) | distinct | EC distance (m) | regret (m) | no valid candidate / EC failures "
-             "| real rollouts in training | thesis distance | thesis distinct | thesis EC | thesis hand-crafted |",
+             "| evaluations in training | thesis distance | thesis distinct | thesis EC | thesis hand-crafted |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for method, name in NAMES.items():
         group = table[table.method == method]
@@ -81,7 +81,8 @@ def section(reports_dir: Path, data_dir: Path) -> str:
                      f"{_ms(group.regret)} | {int(group.max_distance.isna().sum())} / {int(group.ec_failures.sum())} | "
                      f"{spent} | {thesis[0]} | {thesis[1]} | {thesis[2]} | {THESIS_HANDCRAFTED.get(name, '-')} |")
     lines += ["", *_table_rows_lines(protocol, set(table.method)), _verdict(table), ""]
-    lines += _training_lines(metrics)
+    lines += _pool_lines(Path(reports_dir) / "metrics" / "modular_pool.json")
+    lines += _training_lines(metrics, reports_dir)
     lines += _table_5_2(table, reports_dir, data_dir)
     fig_5_1 = Path(data_dir) / "modular" / "fig5_1.json"
     if fig_5_1.exists():
@@ -168,20 +169,95 @@ def _verdict(table: pd.DataFrame) -> str:
     return text
 
 
-def _training_lines(metrics: dict) -> list[str]:
-    lines = ["### Training (surrogate fitness, real rollouts)", "",
-             "| method | iterations | real rollouts | surrogate held-out MAE (m) | RMSE (m) | Spearman | held-out "
-             "rollouts | real distance std (m) |", "|---|---|---|---|---|---|---|---|"]
-    for method, m in metrics.items():
-        s = {"mae": float("nan"), "rmse": float("nan"), "spearman": float("nan"), "real_std": float("nan"),
-             **m.get("surrogate_heldout", {})}
-        lines.append(f"| {m.get('method', method)} | {m.get('iterations')} | {m.get('real_evaluations')} | "
-                     f"{s['mae']:.2f} | {s['rmse']:.2f} | {s['spearman']:.2f} | {s.get('heldout')} | "
-                     f"{s['real_std']:.2f} |")
-    lines += ["", "Training fitness: a real rollout where one was made, else the surrogate fitted on the real "
-              "rollouts (every fifth held out of the fit; the error above is on those). Curves: "
-              "`reports/plots/eggan_modular_{crowding,ga}.csv` (DVC plots) and `models/eggan_modular_*.mcap`.", ""]
+def _pool_lines(path: Path) -> list[str]:
+    """The training pool (stage modular_pool): per split its terrains, distinct optima, best-on-average design and
+    regret, and how the best fixed design's regret changes with the pool's size."""
+    if not path.exists():
+        return []
+    pool = read_json(path)
+    lines = ["### Training pool: exact ground truth", "",
+             "| split | terrains (seeds) | distinct optima (up to mirror) | best-on-average design | its mean regret "
+             "(m) | regret / mean optimum |", "|---|---|---|---|---|---|"]
+    for split in ("training", "validation"):
+        p = pool[split]
+        lines.append(f"| {split} | {p['terrains']} ({p['seeds'][0]}..{p['seeds'][1]}) | {p['distinct_optima']} | "
+                     f"`{p['average_design']}` | {p['mean_regret']:.2f} | {p['regret_ratio']:.0%} |")
+    sizes = ", ".join(f"{n} terrains: `{p['average_design']}` {p['mean_regret']:.2f} m"
+                      for n, p in pool.get("by_size", {}).items())
+    lines += ["", "Every design on every pool terrain, simulated once (`robocompose modular exhaustive`, committed under "
+              f"reports/modular/pool/); {pool['simulated_designs']} rollouts. Best fixed design and its regret by pool "
+              f"size: {sizes or 'n/a'}.", ""]
     return lines
+
+
+CHANCE = 0.05  # a discriminator whose accuracy stays within this of 1/2 gives the generator no signal
+
+
+def _training_lines(metrics: dict, reports_dir: Path) -> list[str]:
+    """Each learner's fitness source, iterations, evaluations against the budget, discriminator accuracy (flagged at
+    chance), validation-terrain score, surrogate error where a surrogate was used; the validation curves."""
+    lines = ["### Training", "",
+             "| method | fitness | iterations (done / asked) | evaluations / budget | discriminator accuracy | "
+             "validation max distance (m) | validation regret (m) | surrogate Spearman within a terrain |",
+             "|---|---|---|---|---|---|---|---|"]
+    flagged = []
+    for method, m in metrics.items():
+        final, name = m.get("final", {}), m.get("method", method)
+        accuracy = final.get("d_accuracy")
+        if accuracy is not None and abs(accuracy - 0.5) < CHANCE:
+            flagged.append(name)
+        surrogate = m.get("surrogate_heldout") or {}
+        source = {"table": "exact (pool tables)", "surrogate": "surrogate + rollouts"}.get(m.get("fitness_source"),
+                                                                                           "surrogate + rollouts")
+        lines.append(f"| {name} | {source} | {m.get('iterations_done', m.get('iterations'))} / {m.get('iterations')} | "
+                     f"{m.get('real_evaluations')} / {m.get('evaluation_budget', '-')} | "
+                     f"{'-' if accuracy is None else f'{accuracy:.2f}'} | {_number(final.get('val_max_distance'))} | "
+                     f"{_number(final.get('val_regret'))} | {_number(surrogate.get('spearman_within_terrain'))} |")
+    lines += ["", "Exact fitness: a design's fitness on a training terrain is its entry in that terrain's exhaustive "
+              "table (the pybullet rollout); evaluations = distinct (terrain, design) look-ups, the same budget for "
+              "every learner, which stops when it is spent. Validation: the pool's validation terrains (never "
+              "trained on), the best of each learner's 10 candidates, from their tables.", ""]
+    if flagged:
+        lines += [f"**Discriminator at chance** (accuracy within {CHANCE} of 0.5 at the end of training): "
+                  + ", ".join(flagged) + ". Its generator had no signal to learn from.", ""]
+    curves = {variant: Path(reports_dir) / "plots" / f"eggan_modular_{variant}.csv" for variant in ("crowding", "ga")}
+    if all(path.exists() for path in curves.values()):
+        figure = Path(reports_dir) / "figures" / "eggan_modular_validation.png"
+        if _validation_figure(curves, figure):
+            lines += ["![validation curves](figures/eggan_modular_validation.png)", "",
+                      "Validation-terrain max distance and discriminator accuracy over training "
+                      "(`reports/plots/eggan_modular_{crowding,ga}.csv`).", ""]
+    return lines
+
+
+def _number(value) -> str:
+    return "-" if value is None or value != value else f"{value:.2f}"
+
+
+def _validation_figure(curves: dict[str, Path], path: Path) -> bool:
+    """Validation max distance and discriminator accuracy against iteration, per EG-GAN variant (False: no curve)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    frames = {variant: pd.read_csv(csv) for variant, csv in curves.items()}
+    if not all("val_max_distance" in frame for frame in frames.values()):
+        return False
+    fig, (left, right) = plt.subplots(1, 2, figsize=(10, 3.5))
+    for variant, frame in frames.items():
+        scored = frame.dropna(subset=["val_max_distance"])
+        left.plot(scored.iteration, scored.val_max_distance, marker="o", label=NAMES[variant])
+        right.plot(frame.iteration, frame.d_accuracy, label=NAMES[variant])
+    left.set(xlabel="iteration", ylabel="validation max distance (m)")
+    right.axhline(0.5, color="grey", linestyle=":")
+    right.set(xlabel="iteration", ylabel="discriminator accuracy")
+    left.legend()
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+    return True
 
 
 def _table_5_2(table: pd.DataFrame, reports_dir: Path, data_dir: Path) -> list[str]:
