@@ -184,9 +184,9 @@ def _pool_lines(path: Path) -> list[str]:
                      f"`{p['average_design']}` | {p['mean_regret']:.2f} | {p['regret_ratio']:.0%} |")
     sizes = ", ".join(f"{n} terrains: `{p['average_design']}` {p['mean_regret']:.2f} m"
                       for n, p in pool.get("by_size", {}).items())
-    lines += ["", "Every design on every pool terrain, simulated once (`robocompose modular exhaustive`, committed under "
-              f"reports/modular/pool/); {pool['simulated_designs']} rollouts. Best fixed design and its regret by pool "
-              f"size: {sizes or 'n/a'}.", ""]
+    lines += ["", "Every design on every pool terrain, simulated once (`robocompose modular exhaustive`, committed "
+              f"under reports/modular/pool/); {pool['simulated_designs']} rollouts. Best fixed design and its regret "
+              f"by pool size: {sizes or 'n/a'}.", ""]
     return lines
 
 

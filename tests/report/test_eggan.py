@@ -113,3 +113,18 @@ def test_training_lines_flag_a_discriminator_at_chance_and_draw_the_validation_c
     assert "**Discriminator at chance** (accuracy within 0.05 of 0.5 at the end of training): EG-GAN." in text
     assert (reports / "figures" / "eggan_modular_validation.png").stat().st_size > 0
     assert "![validation curves](figures/eggan_modular_validation.png)" in text
+
+
+def test_the_pool_table_comes_from_the_pool_stage_metrics(tmp_path):
+    data, reports = tmp_path / "data", tmp_path / "reports"
+    write_table(_table(), data / "modular" / "realtime.parquet", "modular_realtime")
+    (reports / "metrics").mkdir(parents=True)
+    (reports / "metrics" / "eggan_modular.json").write_text("{}")
+    split = {"terrains": 2, "distinct_optima": 2, "average_design": "llllll", "mean_regret": 3.0,
+             "regret_ratio": 0.4615}
+    (reports / "metrics" / "modular_pool.json").write_text(json.dumps({
+        "training": {"seeds": [20000, 20001], **split}, "validation": {"seeds": [20040, 20040], **split, "terrains": 1},
+        "by_size": {"8": {**split, "mean_regret": 1.25}}, "simulated_designs": 3888}))
+    text = section(reports, data)
+    assert "| training | 2 (20000..20001) | 2 | `llllll` | 3.00 | 46% |" in text
+    assert "| validation | 1 (20040..20040) |" in text and "8 terrains: `llllll` 1.25 m" in text
