@@ -83,6 +83,7 @@ def section(reports_dir: Path, data_dir: Path) -> str:
     lines += ["", *_table_rows_lines(protocol, set(table.method)), _verdict(table), ""]
     lines += _pool_lines(Path(reports_dir) / "metrics" / "modular_pool.json")
     lines += _training_lines(metrics, reports_dir)
+    lines += _pool_size_lines(Path(data_dir) / "modular" / "pool_size.parquet", Path(reports_dir) / "figures")
     lines += _table_5_2(table, reports_dir, data_dir)
     fig_5_1 = Path(data_dir) / "modular" / "fig5_1.json"
     if fig_5_1.exists():
@@ -188,6 +189,39 @@ def _pool_lines(path: Path) -> list[str]:
               f"under reports/modular/pool/); {pool['simulated_designs']} rollouts. Best fixed design and its regret "
               f"by pool size: {sizes or 'n/a'}.", ""]
     return lines
+
+
+def _pool_size_lines(path: Path, figures: Path) -> list[str]:
+    """Held-out score against the training pool's size (stage modular_pool_size): a table and a figure."""
+    if not path.exists():
+        return []
+    study = read_table(path, "modular_pool_size")
+    grouped = study.groupby(["pool_terrains", "method"])
+    lines = ["### Beyond the thesis: held-out score against the training pool's size", "",
+             "| pool terrains | method | max distance (m) | regret (m) | EG-GAN iterations / look-ups |",
+             "|---|---|---|---|---|"]
+    for (n, method), group in grouped:
+        cost = f"{group.iterations_done.iloc[0]} / {group.lookups.iloc[0]}" if method == "crowding" else "-"
+        lines.append(f"| {n} | {NAMES[method]} | {_ms(group.max_distance)} | {_ms(group.regret)} | {cost} |")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    means = grouped.max_distance.mean().unstack("method")
+    fig, ax = plt.subplots(figsize=(5, 3.5))
+    for method in means.columns:
+        ax.plot(means.index, means[method], marker="o", label=NAMES[method])
+    ax.set(xlabel="training terrains", ylabel="test max distance (m)")
+    ax.legend()
+    fig.tight_layout()
+    figures.mkdir(parents=True, exist_ok=True)
+    fig.savefig(figures / "eggan_modular_pool_size.png", dpi=80)
+    plt.close(fig)
+    return [*lines, "", "![pool size](figures/eggan_modular_pool_size.png)", "",
+            f"EG-GAN-crowding trained on the first n training terrains ({int(study.iterations_done.max())} "
+            "iterations at most), beside the portfolio of the same n terrains; both on the test terrains x "
+            f"{study['query'].nunique()} queries, from their tables.", ""]
 
 
 CHANCE = 0.05  # a discriminator whose accuracy stays within this of 1/2 gives the generator no signal
