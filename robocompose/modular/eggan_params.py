@@ -39,10 +39,11 @@ class PoolSizeConfig:
     queries: int = 5  # test queries per terrain and method
 
     def __post_init__(self):
-        check_field(bool(self.sizes) and all(isinstance(n, int) and n >= 1 for n in self.sizes), "pool_size.sizes",
-                    "a list of positive integers", self.sizes)
+        check_field(bool(self.sizes) and all(isinstance(n, int) and n >= 1 for n in self.sizes),
+                    "eggan_modular.pool_size.sizes", "a list of positive integers", self.sizes)
         for name in ("iterations", "queries"):
-            check_field(getattr(self, name) >= 1, f"pool_size.{name}", "a positive integer", getattr(self, name))
+            value = getattr(self, name)
+            check_field(value >= 1, f"eggan_modular.pool_size.{name}", "a positive integer", value)
 
 
 @dataclass(frozen=True)

@@ -18,10 +18,11 @@ import pandas as pd
 
 from robocompose.eggan.learners import generator_answer
 from robocompose.eggan.train import train
-from robocompose.modular.eggan_experiments import make_problem, realtime_table, table_proposers
 from robocompose.modular.eggan_params import EgganModularParams, PoolSizeConfig
+from robocompose.modular.eggan_problem import ModularEgganProblem
 from robocompose.modular.params import ModularParams
-from robocompose.modular.truth import portfolio
+from robocompose.modular.protocol import realtime_table, table_proposers
+from robocompose.modular.table_designs import portfolio
 
 
 def study_sizes(config: PoolSizeConfig, train_terrains: int) -> list[int]:
@@ -40,7 +41,8 @@ def pool_size_study(modular: ModularParams, params: EgganModularParams, config: 
                                     fitness=dataclasses.replace(params.fitness, train_terrains=n))
         train_config = dataclasses.replace(sized.train, iterations=config.iterations, evolution="crowding",
                                            evolution_steps=sized.evolution_steps["crowding"], validate_every=0)
-        problem = make_problem(modular, sized, None, None)
+        problem = ModularEgganProblem(modular, sized.fitness, mutation_rate=modular.experiments.mutation_rate,
+                                      crossover_rate=modular.experiments.crossover_rate)
         trained = train(problem, sized.network, train_config, checkpoints / f"crowding_{n}.pt",
                         progress=progress)
         chosen = portfolio(pool[pool.terrain_seed.isin(sized.fitness.train_seeds)], protocol.candidates)

@@ -9,10 +9,7 @@
 - `terrain_criterion`: does the best design depend on the terrain? Per terrain its optimum, the single design
   best on average over the terrains, and that design's regret; the count of distinct optima up to the
   left-right mirror (thesis Fig. 5.1: near-flat ground favours wheels, rough ground other modules).
-- The training pool (`pool_metrics`: its distinct optima, best-on-average design and regret per split) and what
-  Table 5.1's table-based rows take from tables: the terrain-agnostic `portfolio` (best on average over the
-  pool's training terrains), each terrain's `top_designs` (the exhaustive optimum) and the `symmetric_ceiling`
-  of a designer confined to left-right symmetric designs (DQN).
+- `pool_metrics`: the training pool's distinct optima, best-on-average design and regret per split.
 """
 
 from __future__ import annotations
@@ -28,11 +25,10 @@ from robocompose.fanout.cache import EvaluationCache
 from robocompose.fanout.executor import Executor
 from robocompose.io import atomic_write_json, read_table, write_table
 from robocompose.io.atomic import read_json
-from robocompose.io.errors import InputError
 from robocompose.io.provenance import result_digest
 from robocompose.modular import evaluate
 from robocompose.modular.evaluate import EvalSettings, FitnessRule, evaluate_designs
-from robocompose.modular.robot import all_designs
+from robocompose.modular.robot import all_designs, mirror
 from robocompose.modular.terrain import TerrainConfig, generate_terrain
 
 COMMITTED_DIR = Path("reports/modular/exhaustive")
@@ -156,11 +152,6 @@ def _same_distance(measured: float | None, stored: float) -> bool:
     return float(measured).hex() == float(stored).hex()
 
 
-def mirror(design: str) -> str:
-    """The left-right mirror image: ports front-left..front-right reversed (front-left <-> front-right, ...)."""
-    return design[::-1]
-
-
 def canonical(design: str) -> str:
     """One name per mirror pair (the smaller of the design and its mirror)."""
     return min(design, mirror(design))
@@ -252,42 +243,3 @@ def pool_metrics(table: pd.DataFrame, splits: dict[str, list[int]], sizes: list[
     return {**{name: {"seeds": [min(seeds), max(seeds)], **criterion(seeds)} for name, seeds in splits.items()},
             "by_size": {str(n): criterion(train[:n]) for n in sizes if n <= len(train)},
             "simulated_designs": int((table.sim_steps > 0).sum())}
-
-
-def _ranked(fitness: pd.Series, k: int) -> list[str]:
-    """The `k` designs (the index) of highest fitness, ties broken by the first port string."""
-    order = pd.DataFrame({"design": fitness.index, "fitness": fitness.to_numpy()})
-    return list(order.sort_values(["fitness", "design"], ascending=[False, True]).design.head(k))
-
-
-def portfolio(tables: pd.DataFrame, k: int) -> list[str]:
-    """The `k` designs of highest mean fitness over the terrains of `tables` (penalties included), ties broken by
-    the first port string: one terrain-agnostic answer for every terrain. Every design must be on every terrain."""
-    fitness = tables.pivot(index="design", columns="terrain_seed", values="fitness")
-    if fitness.isna().any(axis=None):
-        design = fitness.index[fitness.isna().any(axis=1)][0]
-        raise InputError(f"portfolio: expected every design on every pool terrain, {design} is missing on "
-                         f"{[int(s) for s in fitness.columns[fitness.loc[design].isna()]]}")
-    return _ranked(fitness.mean(axis=1), k)
-
-
-def top_designs(table: pd.DataFrame, k: int) -> list[str]:
-    """One terrain's `k` fittest designs of its exhaustive table (ties: the first port string)."""
-    if table.terrain_seed.nunique() != 1:
-        raise ValueError(f"top designs of one terrain, found seeds {sorted(table.terrain_seed.unique())}")
-    return _ranked(table.set_index("design").fitness, k)
-
-
-def symmetric_ceiling(tables: pd.DataFrame) -> dict:
-    """What a designer of left-right symmetric designs only (`mirror(d) == d`, as Whitman's DQN builds: one module
-    per mirrored port pair) can reach on the terrains of `tables`: `ceiling`, the mean over terrains of each
-    terrain's best symmetric fitness (the most its max distance can be), and the single symmetric design best on
-    average (`best_design`, its `best_design_mean`)."""
-    symmetric = tables[tables.design.map(lambda d: mirror(d) == d)]
-    if symmetric.empty:
-        raise ValueError("symmetric ceiling: the tables hold no left-right symmetric design")
-    per_terrain = symmetric.groupby("terrain_seed").fitness.max()
-    means = symmetric.pivot(index="design", columns="terrain_seed", values="fitness").mean(axis=1)
-    best = _ranked(means, 1)[0]
-    return {"terrains": len(per_terrain), "designs": len(means), "ceiling": float(per_terrain.mean()),
-            "best_design": best, "best_design_mean": float(means[best])}

@@ -19,28 +19,14 @@ from robocompose.eggan.surrogate import SurrogateConfig
 from robocompose.eggan.train import TrainConfig, train
 from robocompose.io import write_table
 from robocompose.io.errors import InputError
-from robocompose.modular import eggan_problem
 from robocompose.modular.eggan_problem import FitnessConfig, ModularEgganProblem
-from robocompose.modular.evaluate import EvalSettings, FitnessRule, Result
+from robocompose.modular.evaluate import EvalSettings, FitnessRule
 from robocompose.modular.params import ExperimentsConfig, ModularParams
 from robocompose.modular.robot import all_designs
 
 PARAMS = ModularParams(EvalSettings(control_steps=10), FitnessRule(), ExperimentsConfig())
 FITNESS = FitnessConfig(source="surrogate", train_terrains=12, warmup=20, warmup_terrains=4, budget=30, real_every=6,
                         real_per_round=4, surrogate=SurrogateConfig(steps=200, hidden=16))
-
-
-@pytest.fixture
-def fake_rollouts(monkeypatch):
-    calls = []
-
-    def fake(designs, terrain_seed, settings, rule, cache=None, executor=None, save_every=0):
-        calls.append((terrain_seed, list(designs)))
-        return [Result(None, "invalid", 0, 0.0) if rule.skips(d) else Result(float(d.count("w")) - terrain_seed % 3,
-                                                                                "ok", 10, 0.01) for d in designs]
-
-    monkeypatch.setattr(eggan_problem, "evaluate_designs", fake)
-    return calls
 
 
 def test_design_tensor_and_sampling_round_trip():
