@@ -253,7 +253,8 @@ def _training_lines(metrics: dict, reports_dir: Path) -> list[str]:
               "trained on), the best of each learner's 10 candidates, from their tables.", ""]
     if flagged:
         lines += [f"**Discriminator at chance** (accuracy within {CHANCE} of 0.5 at the end of training): "
-                  + ", ".join(flagged) + ". Its generator had no signal to learn from.", ""]
+                  + ", ".join(flagged) + ". A generator trained against such a discriminator has no signal to learn "
+                  "from.", ""]
     curves = {variant: Path(reports_dir) / "plots" / f"eggan_modular_{variant}.csv" for variant in ("crowding", "ga")}
     if all(path.exists() for path in curves.values()):
         figure = Path(reports_dir) / "figures" / "eggan_modular_validation.png"
