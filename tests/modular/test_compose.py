@@ -158,3 +158,16 @@ def test_the_shipped_generator_matches_the_current_model_code():
     generator, saved = load_generator(SHIPPED_MODEL, ModularEgganProblem(PARAMS, FitnessConfig()))
     assert saved == info and info["problem"] == "modular" and "metrics" in info
     assert SHIPPED_MODEL.stat().st_size < 2_000_000  # small enough for the repository
+
+
+def test_the_shipped_generator_answers_a_low_and_a_high_block_terrain_differently():
+    """Issue 22's acceptance: terrains never seen (no table), the lowest and highest blocks of 20 seeds."""
+    from robocompose.eggan.learners import generator_answer
+    from robocompose.modular.terrain import generate_terrain
+
+    problem = ModularEgganProblem(PARAMS, FitnessConfig())
+    generator = load_generator(SHIPPED_MODEL, problem)[0]
+    heights = {seed: generate_terrain(seed, PARAMS.eval.terrain).max_height for seed in range(30_000, 30_020)}
+    low, high = min(heights, key=heights.get), max(heights, key=heights.get)
+    answer = generator_answer(generator, 64)
+    assert answer(problem, low, 0, 3) != answer(problem, high, 0, 3)
