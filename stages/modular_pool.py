@@ -1,7 +1,7 @@
 """DVC stage `modular_pool`: the training pool's exact ground truth, every design on every pool terrain (thesis
 5.1's training terrains, disjoint from the test terrains), for training every learner on exact fitness.
 
-params (compute, modular, eggan_modular.fitness) + reports/modular/pool/ (committed tables) ->
+params (compute, modular, eggan_modular.fitness, eggan_modular.pool_size.sizes) + reports/modular/pool/ (committed tables) ->
 data/modular/pool.parquet, reports/metrics/modular_pool.json. A terrain whose committed table was measured under
 the current settings, fitness rule and physics code is read from it; any other (the paper profile's settings) is
 simulated through the shared cache, resumably.
@@ -18,11 +18,10 @@ from robocompose.modular.truth import pool_metrics, truth_tables
 from robocompose.params import load_section
 from robocompose.stage import run_stage
 
-POOL_SIZES = [8, 16, 32, 48]  # training-pool sizes the metrics summarise (the pool-size study's points)
-
 
 def main() -> None:
-    modular, fitness = load_section(ModularParams, "modular"), load_section(EgganModularParams, "eggan_modular").fitness
+    modular, params = load_section(ModularParams, "modular"), load_section(EgganModularParams, "eggan_modular")
+    fitness = params.fitness
     compute = load_section(ComputeConfig, "compute")
     cache = compute.open_cache()
     splits = {"training": fitness.train_seeds, "validation": fitness.validation_seeds}
@@ -31,7 +30,7 @@ def main() -> None:
                                       executor, Path(fitness.pool_dir))
         timing["simulated_terrains"] = sum(source == "simulated" for source in sources.values())
     write_table(table, fitness.pool, "modular_exhaustive")
-    atomic_write_json("reports/metrics/modular_pool.json", {**pool_metrics(table, splits, POOL_SIZES),
+    atomic_write_json("reports/metrics/modular_pool.json", {**pool_metrics(table, splits, params.pool_size.sizes),
                                                              "sources": sorted(set(sources.values()))})
 
 
