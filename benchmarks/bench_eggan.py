@@ -5,8 +5,9 @@ eggan.modular.query_ms: one query of a generator of the default size (thesis 5.1
     softmax, one design per row and the ranking of the distinct ones (median of 50 queries after a warm-up).
     Goal <= 5 ms; thesis 0.003 min (180 ms). The shipped generator when present, else an untrained one.
 eggan.modular.query_vs_rollout: one default rollout (the cheapest real evaluation of one design) / one query.
-eggan.modular.train_iterations_per_s: Algorithm 1 iterations per second at the default batch (8 tasks x 8 z,
-    M = 20, 3 crowding steps) with fitness from a fitted surrogate (no real rollouts inside the timing), one thread.
+eggan.modular.train_iterations_per_s: Algorithm 1 iterations per second at the default profile's batch (4 tasks x
+    32 z, M = 20, 3 crowding steps) with exact fitness from tables (made-up values of the same size as the pool's
+    tables), one thread.
 """
 
 from __future__ import annotations
@@ -20,12 +21,12 @@ import torch
 
 from robocompose.eggan.networks import Discriminator, Generator, NetworkConfig
 from robocompose.eggan.query import generate, load_generator, rank_distinct
-from robocompose.eggan.surrogate import SurrogateConfig
 from robocompose.eggan.train import TrainConfig, train_step
 from robocompose.modular.compose import SHIPPED_MODEL
 from robocompose.modular.eggan_problem import FitnessConfig, ModularEgganProblem
 from robocompose.modular.evaluate import EvalSettings, FitnessRule, rollout
 from robocompose.modular.params import ExperimentsConfig, ModularParams
+from robocompose.modular.robot import all_designs
 from robocompose.modular.terrain import generate_terrain
 
 TERRAIN = 1000
@@ -54,16 +55,14 @@ def run() -> dict[str, float]:
     query_ms = _query_ms(generator, problem, tensor)
     rollout_s = rollout("wwwwww", generate_terrain(TERRAIN, PARAMS.eval.terrain), PARAMS.eval).seconds
 
-    # Training throughput with a surrogate fitted on synthetic data (a rollout-free stand-in of the same size).
-    fitness = FitnessConfig(train_terrains=8, warmup=40, warmup_terrains=8, budget=40,
-                            surrogate=SurrogateConfig(steps=50))
+    # Training throughput on table fitness (the default source), with made-up tables of 8 training terrains.
+    fitness = FitnessConfig(source="table", train_terrains=8)
     bench = ModularEgganProblem(PARAMS, fitness)
     rng = np.random.default_rng(0)
-    for seed in range(fitness.train_seed_base, fitness.train_seed_base + 8):
-        for design in bench.sample_designs(torch.full((5, 6, 4), 0.25), torch.Generator().manual_seed(seed)).designs:
-            bench.real[(seed, design)] = float(rng.normal(3, 1))
-    bench._fit()
-    config = dataclasses.replace(TrainConfig(), evolution_steps=3)
+    designs = all_designs()
+    for seed in fitness.train_seeds:
+        bench._tables[seed] = dict(zip(designs, rng.normal(3, 1, len(designs)).tolist(), strict=True))
+    config = dataclasses.replace(TrainConfig(), batch=128, tasks=4, evolution_steps=3)
     network = NetworkConfig()
     g, d = Generator(bench.task_shape, bench.design_shape, network), Discriminator(bench.task_shape,
                                                                                   bench.design_shape, network)

@@ -1,4 +1,5 @@
-"""DVC stage `modular_baselines`: GA-20, GA-50, GA-crowding and random sampling on every test terrain.
+"""DVC stage `modular_baselines`: GA-20, GA-50, GA-crowding and random sampling on every test terrain (thesis
+Table 5.2; the default profile: the 10 committed terrains 1000-1009 x 3 seeds, ~10 s on 2 busy cores).
 
 params (modular) + data/modular/exhaustive.parquet -> data/modular/runs.parquet, reports/metrics/modular_baselines.json.
 Every fitness is read from the test terrain's exhaustive table (the simulator's measured result for every design);

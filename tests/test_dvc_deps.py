@@ -28,6 +28,9 @@ KNOWN_READS = {
     "teams_baselines": {"data/regions.parquet", "data/teams/chips"},  # the regions table names the chip PNGs
     "evaluate_references": {"data/designs.parquet"},
     "modular_baselines": {"data/modular/exhaustive.parquet"},
+    "train_eggan_modular": {"data/modular/pool.parquet"},  # eggan_modular.fitness.pool
+    "modular_pool_size": {"data/modular/pool.parquet"},
+    "modular_realtime": {"data/modular/pool.parquet"},
     "vae_designs": {"data/designs.parquet", "data/designs_nogram.parquet"},
     **{f"train_vae@{variant}": {"data/designs.parquet", "data/designs_nogram.parquet",  # train_vae.variants
                                 "data/vae_extra_designs.parquet", "data/vae_extra_nogram.parquet"}

@@ -48,7 +48,14 @@ import torch.nn.functional as F
 from torch import nn
 
 from robocompose.eggan.networks import NetworkConfig, TaskEncoder
-from robocompose.eggan.problem import Design, SequentialProblem, Task, check_problem, decision_groups_of
+from robocompose.eggan.problem import (
+    BudgetSpent,
+    Design,
+    SequentialProblem,
+    Task,
+    check_problem,
+    decision_groups_of,
+)
 from robocompose.eggan.storage import load_model, save_model
 from robocompose.eggan.train import iteration_streams
 from robocompose.io.errors import InputError
@@ -211,6 +218,12 @@ def train_dqn(problem: SequentialProblem, network: NetworkConfig, config: DQNCon
     k, e = config.tasks, config.episodes
     rows, fitness_seen, losses = [], [], []
     played = updates = 0
+    def log_row(done: int, temperature: float) -> dict:
+        return {"iteration": done, "episodes": played, "temperature": temperature,
+                "fitness_mean": float(np.mean(fitness_seen)),
+                "td_loss": float(np.mean(losses)) if losses else float("nan"), "updates": updates,
+                "real_evaluations": problem.real_evaluations}
+
     for iteration in tqdm(range(config.iterations), disable=not progress, desc="dqn", mininterval=5.0):
         rng, stream = iteration_streams(config.seed, iteration)
         temperature = config.temperature(played)
@@ -218,8 +231,13 @@ def train_dqn(problem: SequentialProblem, network: NetworkConfig, config: DQNCon
         task_tensor = torch.stack([problem.encode_task(task) for task in tasks]).repeat_interleave(e, dim=0)  # (k*e,..)
         choices = boltzmann_episodes(online, task_tensor, temperature, stream)  # (k*e, G)
         designs = problem.designs_from_choices(choices_to_rows(choices.numpy(), groups))
-        fitness = np.concatenate([np.asarray(problem.evaluate(task, designs[i * e:(i + 1) * e]))[:, 0]
-                                  for i, task in enumerate(tasks)])  # (k*e,)
+        try:
+            fitness = np.concatenate([np.asarray(problem.evaluate(task, designs[i * e:(i + 1) * e]))[:, 0]
+                                      for i, task in enumerate(tasks)])  # (k*e,)
+        except BudgetSpent:
+            if fitness_seen:
+                rows.append(log_row(iteration, temperature))
+            break
         memory.add(task_tensor, choices, torch.as_tensor(sign * fitness, dtype=torch.float32))
         played += k * e
         fitness_seen.append(float(fitness.mean()))
@@ -235,10 +253,7 @@ def train_dqn(problem: SequentialProblem, network: NetworkConfig, config: DQNCon
             if updates % config.target_every == 0:
                 target.load_state_dict(online.state_dict())
         if (iteration + 1) % 10 == 0 or iteration + 1 == config.iterations:
-            rows.append({"iteration": iteration + 1, "episodes": played, "temperature": temperature,
-                         "fitness_mean": float(np.mean(fitness_seen)),
-                         "td_loss": float(np.mean(losses)) if losses else float("nan"), "updates": updates,
-                         "real_evaluations": problem.real_evaluations})
+            rows.append(log_row(iteration + 1, temperature))
             fitness_seen, losses = [], []
     return online.eval(), rows
 

@@ -17,7 +17,7 @@ import numpy as np
 import torch
 
 from robocompose.eggan.networks import Generator, NetworkConfig
-from robocompose.eggan.problem import EgganProblem, check_problem
+from robocompose.eggan.problem import BudgetSpent, EgganProblem, check_problem
 from robocompose.eggan.train import iteration_streams
 
 
@@ -39,7 +39,8 @@ class Fit2formConfig:
 
 def train_fit2form(problem: EgganProblem, network: NetworkConfig, config: Fit2formConfig,
                    progress: bool = False) -> tuple[Generator, list[dict]]:
-    """Train the policy-gradient generator; returns it (eval mode) and one log row per 10 iterations."""
+    """Train the policy-gradient generator until `iterations` or the problem's budget is spent; returns it (eval
+    mode) and one log row per 10 iterations."""
     from tqdm import tqdm
 
     check_problem(problem)
@@ -50,7 +51,7 @@ def train_fit2form(problem: EgganProblem, network: NetworkConfig, config: Fit2fo
     optimiser = torch.optim.Adam(generator.parameters(), lr=config.lr)
     sign = 1.0 if problem.objectives[0].maximise else -1.0
     k, s = config.tasks, config.samples
-    rows, pending = [], []
+    rows, pending, stopped = [], [], False
     for iteration in tqdm(range(config.iterations), disable=not progress, desc="fit2form", mininterval=5.0):
         rng, stream = iteration_streams(config.seed, iteration)
         tasks = [problem.sample_task(rng) for _ in range(k)]
@@ -58,17 +59,24 @@ def train_fit2form(problem: EgganProblem, network: NetworkConfig, config: Fit2fo
         generator.train()
         output = problem.design_head(generator(torch.randn(k * s, network.latent, generator=stream), codes))
         drawn = problem.sample_designs(output, stream)
-        fitness = np.concatenate([np.asarray(problem.evaluate(t, drawn.designs[g * s:(g + 1) * s]))[:, 0]
-                                  for g, t in enumerate(tasks)]).reshape(k, s)  # (k, s)
-        advantage = sign * (fitness - fitness.mean(axis=1, keepdims=True)) / (fitness.std(axis=1, keepdims=True)
-                                                                               + 1e-6)
-        loss = -(torch.as_tensor(advantage.ravel(), dtype=torch.float32) * drawn.log_prob).mean()
-        optimiser.zero_grad()
-        loss.backward()
-        optimiser.step()
-        pending.append(float(fitness.mean()))
-        if (iteration + 1) % 10 == 0 or iteration + 1 == config.iterations:
-            rows.append({"iteration": iteration + 1, "fitness_mean": float(np.mean(pending)),
+        try:
+            fitness = np.concatenate([np.asarray(problem.evaluate(t, drawn.designs[g * s:(g + 1) * s]))[:, 0]
+                                      for g, t in enumerate(tasks)]).reshape(k, s)  # (k, s)
+        except BudgetSpent:
+            stopped = True
+        else:
+            advantage = sign * (fitness - fitness.mean(axis=1, keepdims=True)) / (
+                fitness.std(axis=1, keepdims=True) + 1e-6)
+            loss = -(torch.as_tensor(advantage.ravel(), dtype=torch.float32) * drawn.log_prob).mean()
+            optimiser.zero_grad()
+            loss.backward()
+            optimiser.step()
+            pending.append(float(fitness.mean()))
+        done = iteration + 1 - stopped
+        if pending and (done % 10 == 0 or done == config.iterations or stopped):
+            rows.append({"iteration": done, "fitness_mean": float(np.mean(pending)),
                          "real_evaluations": problem.real_evaluations})
             pending = []
+        if stopped:
+            break
     return generator.eval(), rows

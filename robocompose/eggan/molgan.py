@@ -47,7 +47,7 @@ import torch
 from torch import nn
 
 from robocompose.eggan.networks import Generator, NetworkConfig, TaskEncoder
-from robocompose.eggan.problem import EgganProblem, check_problem
+from robocompose.eggan.problem import BudgetSpent, EgganProblem, check_problem
 from robocompose.eggan.train import iteration_streams
 from robocompose.io.errors import InputError
 
@@ -85,7 +85,7 @@ class Critic(nn.Module):
     """C(x, T) -> (B,) unbounded scores (the WGAN critic), or in (0, 1) with `sigmoid` (the reward net R).
 
     The discriminator's structure (task encoder; MLP of `layers` x `hidden` on [task code, design]) without
-    batch normalisation."""
+    normalisation."""
 
     def __init__(self, task_shape: tuple[int, ...], design_shape: tuple[int, ...], config: NetworkConfig,
                  sigmoid: bool = False):
@@ -155,6 +155,11 @@ def train_molgan(problem: EgganProblem, network: NetworkConfig, config: MolganCo
         output = problem.design_head(generator(torch.randn(len(codes), network.latent, generator=stream), codes))
         return problem.sample_designs(output, stream), output
 
+    def log_row(done: int) -> dict:
+        """The mean of the pending iterations' values, at `done` completed iterations."""
+        return {"iteration": done, **{key: float(np.mean([p[key] for p in pending])) for key in pending[0]},
+                "real_evaluations": problem.real_evaluations}
+
     for iteration in tqdm(range(config.iterations), disable=not progress, desc="molgan", mininterval=5.0):
         rng, stream = iteration_streams(config.seed, iteration)
         tasks = [problem.sample_task(rng) for _ in range(k)]
@@ -175,8 +180,13 @@ def train_molgan(problem: EgganProblem, network: NetworkConfig, config: MolganCo
 
         # generator step: lam * L_WGAN + (1 - lam) * alpha * L_RL on straight-through designs
         sampled, output = draw(generator.encode(task_tensor).repeat_interleave(s, dim=0), stream)
-        fitness = np.concatenate([np.asarray(problem.evaluate(t, sampled.designs[g * s:(g + 1) * s]))[:, 0]
-                                  for g, t in enumerate(tasks)])  # (B,)
+        try:
+            fitness = np.concatenate([np.asarray(problem.evaluate(t, sampled.designs[g * s:(g + 1) * s]))[:, 0]
+                                      for g, t in enumerate(tasks)])  # (B,)
+        except BudgetSpent:  # the critic stepped this iteration; the generator keeps its last completed step
+            if pending:
+                rows.append(log_row(iteration))
+            break
         relaxed = straight_through(sampled.tensor, output)  # (B, R, C)
         loss_wgan = -critic(relaxed, critic.encode(task_tensor).repeat_interleave(s, dim=0)).mean()
         loss_rl = -reward(relaxed, reward.encode(task_tensor).repeat_interleave(s, dim=0)).mean()
@@ -206,8 +216,6 @@ def train_molgan(problem: EgganProblem, network: NetworkConfig, config: MolganCo
                         **{name: value.item() for name, value in (("wasserstein", wasserstein), ("gradient_penalty",
                            penalty), ("loss_wgan", loss_wgan), ("loss_rl", loss_rl), ("reward_mse", mse))}})
         if (iteration + 1) % 10 == 0 or iteration + 1 == config.iterations:
-            rows.append({"iteration": iteration + 1, **{key: float(np.mean([p[key] for p in pending]))
-                                                        for key in pending[0]},
-                         "real_evaluations": problem.real_evaluations})
+            rows.append(log_row(iteration + 1))
             pending = []
     return generator.eval(), rows

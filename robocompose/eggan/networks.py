@@ -4,9 +4,17 @@ Task encoder: a 2-D task (a terrain height map H x W) goes through two 3x3 convo
 (ReLU), is flattened and mapped by one fully connected layer to P numbers (thesis 5.1); a task of any other
 shape is flattened and used as it is (thesis 5.2: an MLP on (z, task)).
 
-Generator G(z, task): [task code, z ~ N(0, I_P)] -> MLP of 3 hidden layers of 64 (batch norm + ReLU each)
+Generator G(z, task): [task code, z ~ N(0, I_P)] -> MLP of 3 hidden layers of 64 (layer norm + ReLU each)
 -> prod(design_shape) logits -> the problem's design head (e.g. a row softmax over 6 ports x 4 modules).
 Discriminator D(x, task): the same structure on [task code, design tensor] -> one logit; D = sigmoid(logit).
+
+Normalisation (`norm`). The thesis says batch normalisation ("batch"); the default is layer normalisation
+("layer"), which normalises each row over its own hidden units. Batch norm subtracts the batch mean of every
+unit: a batch holds several tasks (one task per batch would remove the task's contribution altogether), so one
+task's rows shift another's, and at query time the running means of training answer instead. Layer norm (and
+"none") keep every row a function of its own (z, task) only, in training and in a query alike
+(tests/eggan/test_networks.py checks it). On the toy problem of tests/eggan batch norm learns fastest; what
+each choice does on the modular pool is measured in docs/eggan.md.
 """
 
 from __future__ import annotations
@@ -19,6 +27,8 @@ from torch import nn
 
 from robocompose.io.errors import InputError
 
+NORMS = {"layer": nn.LayerNorm, "batch": nn.BatchNorm1d, "none": lambda width: nn.Identity()}
+
 
 @dataclass(frozen=True)
 class NetworkConfig:
@@ -28,11 +38,14 @@ class NetworkConfig:
     hidden: int = 64  # width of the 3 hidden layers (thesis 64)
     layers: int = 3  # hidden layers (thesis 3)
     filters: int = 32  # filters of each 3x3 convolution (thesis 32)
+    norm: str = "layer"  # hidden-layer normalisation: "layer" (ours), "batch" (the thesis's; mixes tasks), "none"
 
     def __post_init__(self):
         for name, value in asdict(self).items():
-            if not isinstance(value, int) or value < 1:
+            if name != "norm" and (not isinstance(value, int) or value < 1):
                 raise InputError(f"network.{name}: expected a positive integer, found {value!r}")
+        if self.norm not in NORMS:
+            raise InputError(f"network.norm: expected one of {sorted(NORMS)}, found {self.norm!r}")
 
 
 class TaskEncoder(nn.Module):
@@ -59,11 +72,12 @@ class TaskEncoder(nn.Module):
 
 
 def mlp(inputs: int, outputs: int, config: NetworkConfig) -> nn.Sequential:
-    """`layers` hidden layers of `hidden` units with batch norm and ReLU, then a linear output layer."""
+    """`layers` hidden layers of `hidden` units with the configured normalisation and ReLU, then a linear output
+    layer."""
     modules: list[nn.Module] = []
     width = inputs
     for _ in range(config.layers):
-        modules += [nn.Linear(width, config.hidden), nn.BatchNorm1d(config.hidden), nn.ReLU()]
+        modules += [nn.Linear(width, config.hidden), NORMS[config.norm](config.hidden), nn.ReLU()]
         width = config.hidden
     modules.append(nn.Linear(width, outputs))
     return nn.Sequential(*modules)

@@ -23,8 +23,10 @@ Conventions
 - `design_tensor(designs)` -> `(B, *design_shape)` float32: the discriminator's input for evolved designs
   (one-hot rows for a discrete problem), and the same form `sample_designs` gives for generated ones.
 - `evaluate(task, designs)` -> `(B, K)` float64, one column per entry of `objectives`; each objective says
-  whether it is maximised. A problem may answer from a cache or a learned surrogate; it counts the real
-  evaluations it spends in `real_evaluations` (the report's training budget).
+  whether it is maximised. A problem may answer from a cache, a table of exact results or a learned
+  surrogate; it counts the real evaluations it spends in `real_evaluations` (the report's training budget).
+  A problem with a finite budget raises `BudgetSpent` from the call that would exceed it: every trainer stops
+  there, keeping the model of its last completed iteration.
 - `random_designs(rng, n)`: n designs drawn uniformly from the problem's valid designs (the conditional MolGAN
   baseline's "real" data, thesis 5.1); only the baselines that need it call it.
 - `key()`, `state_dict()`, `load_state_dict()`: what enters the trainer's checkpoint key, and the mutable
@@ -58,6 +60,10 @@ from robocompose.search.problem import Problem as SearchProblem
 
 Task = Any
 Design = Any
+
+
+class BudgetSpent(Exception):
+    """A problem's budget of evaluations is spent: the asking call was not answered and nothing was counted."""
 
 
 @dataclass(frozen=True)

@@ -13,12 +13,17 @@ Every iteration t:
    Continuous designs: the conditional GAN loss log(1 - D(G(z, T), T)) (eq. 4.1), minimised;
 5. discriminator step: cross-entropy with X_pop labelled 1 and X_gen labelled 0 (eq. 4.3), one batch.
 
-Several tasks per iteration (the thesis draws one): both networks use batch normalisation as the thesis
-says, and batch normalisation subtracts the batch mean of every hidden unit, so with one task per batch the
-task's contribution (the same for every row) is removed in the first hidden layer and neither network can
-condition on it during training (we measured a discriminator at chance, loss 0.693, on a toy problem whose
-answer is the task). With several tasks per batch only the mean over tasks is removed. `tasks: 1` is the
-thesis's literal setting.
+Several tasks per iteration (the thesis draws one): each task's designs are evolved as their own population,
+and the networks' layer normalisation keeps every row a function of its own (z, task) (networks.py says why
+not batch norm). `tasks: 1` is the thesis's literal setting.
+
+Logged per row: both losses, the discriminator's mean output on X_pop and X_gen and its accuracy (X_pop above
+1/2, X_gen below; 0.5 is chance: a discriminator that cannot tell evolved designs from generated ones gives the
+generator no signal), the distinct designs of a task's draws, each objective's mean and best. With a
+`validate` callback (e.g. the modular problem's validation terrains) every `validate_every` iterations the row
+also holds its scores: the validation curve that says whether training has flattened. A problem whose budget
+of evaluations runs out (`BudgetSpent`) ends the run after the last completed iteration; `Trained.stopped`
+says where.
 
 Every random choice of iteration t comes from generators seeded with (seed, t), and a checkpoint holds the
 networks, both optimisers, the log and the problem's own state (`problem.state_dict()`: a surrogate, its
@@ -33,6 +38,7 @@ import dataclasses
 import hashlib
 import json
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -42,7 +48,7 @@ import torch
 import torch.nn.functional as F
 
 from robocompose.eggan.networks import Discriminator, Generator, NetworkConfig
-from robocompose.eggan.problem import EgganProblem, check_problem
+from robocompose.eggan.problem import BudgetSpent, EgganProblem, check_problem
 from robocompose.io import McapWriter, atomic_write_text
 from robocompose.io.checkpoint import load_checkpoint, save_checkpoint
 from robocompose.io.errors import InputError
@@ -65,6 +71,7 @@ class TrainConfig:
     seed: int = 0
     threads: int = 1  # torch threads (results are bit-identical at a fixed thread count)
     log_every: int = 10  # iterations per logged row (means over the rows' iterations)
+    validate_every: int = 0  # iterations between validation scores (a multiple of log_every; 0: none)
     checkpoint_every: int = 50  # iterations between checkpoints (a multiple of log_every)
 
     def __post_init__(self):
@@ -76,6 +83,9 @@ class TrainConfig:
         if self.tasks < 1 or self.batch % self.tasks or (self.batch // self.tasks) % 2:
             raise InputError(f"batch {self.batch} / tasks {self.tasks}: expected an even number of noise vectors "
                              "per task (the evolution pairs parents)")
+        if not isinstance(self.validate_every, int) or self.validate_every < 0 or self.validate_every % self.log_every:
+            raise InputError(f"validate_every: expected 0 or a multiple of log_every ({self.log_every}), found "
+                             f"{self.validate_every!r}")
         if self.checkpoint_every % self.log_every:
             raise InputError(f"checkpoint_every ({self.checkpoint_every}) must be a multiple of log_every "
                              f"({self.log_every}): logged rows must not straddle a resume")
@@ -85,7 +95,7 @@ class TrainConfig:
 
 
 # Settings that do not change what iteration t computes: a finished run continues when only these grow.
-BOOKKEEPING = ("iterations", "log_every", "checkpoint_every")
+BOOKKEEPING = ("iterations", "log_every", "checkpoint_every", "validate_every")
 
 
 @dataclass
@@ -98,6 +108,7 @@ class Trained:
     key: str
     network: NetworkConfig
     config: TrainConfig
+    stopped: int | None = None  # the iterations completed when the problem's budget ran out (None: it did not)
 
 
 def run_key(problem: EgganProblem, network: NetworkConfig, config: TrainConfig) -> str:
@@ -194,6 +205,7 @@ def train_step(problem: EgganProblem, generator: Generator, discriminator: Discr
     with torch.no_grad():
         row = {"loss_g": float(loss_g), "loss_d": float(loss_d),
                "d_pop": float(torch.sigmoid(logits[:b]).mean()), "d_gen": float(torch.sigmoid(logits[b:]).mean()),
+               "d_accuracy": float(((logits[:b] > 0).sum() + (logits[b:] <= 0).sum()) / (2 * b)),
                "gen_distinct": len({problem.design_id(d) for d in generated.designs[:per]})}
     row.update(_objective_stats("gen", problem, gen_objectives))
     row.update(_objective_stats("pop", problem, pop_objectives))
@@ -212,9 +224,14 @@ def write_logs(rows: list[dict], csv_path: Path | None, mcap_path: Path | None, 
 
 
 
+Validate = Callable[[Generator], dict[str, float]]  # generator -> validation scores (must not change its weights)
+
+
 def train(problem: EgganProblem, network: NetworkConfig, config: TrainConfig, checkpoint: Path | None = None,
-          csv_path: Path | None = None, mcap_path: Path | None = None, progress: bool = False) -> Trained:
-    """Run Algorithm 1 for `config.iterations` iterations, resuming from `checkpoint` if it holds this run."""
+          csv_path: Path | None = None, mcap_path: Path | None = None, progress: bool = False,
+          validate: Validate | None = None) -> Trained:
+    """Run Algorithm 1 for `config.iterations` iterations (or until the problem's budget is spent), resuming from
+    `checkpoint` if it holds this run; `validate` scores the generator every `config.validate_every` iterations."""
     check_problem(problem)
     if config.evolution not in problem.evolution_methods:
         raise InputError(f"evolution: problem {problem.name} supports {list(problem.evolution_methods)}, "
@@ -226,7 +243,7 @@ def train(problem: EgganProblem, network: NetworkConfig, config: TrainConfig, ch
     opt_g = torch.optim.Adam(generator.parameters(), lr=config.lr_generator, betas=(config.beta1, 0.999))
     opt_d = torch.optim.Adam(discriminator.parameters(), lr=config.lr_discriminator, betas=(config.beta1, 0.999))
     key = run_key(problem, network, config)
-    start, rows = 0, []
+    start, rows, stopped = 0, [], None
     saved = load_checkpoint(checkpoint, key)  # None unless it holds this run (a damaged one is moved aside)
     if saved is not None and saved["iteration"] > config.iterations:
         print(f"{checkpoint} is at iteration {saved['iteration']}, past this run's {config.iterations}: starting "
@@ -238,7 +255,7 @@ def train(problem: EgganProblem, network: NetworkConfig, config: TrainConfig, ch
         opt_g.load_state_dict(saved["opt_g"])
         opt_d.load_state_dict(saved["opt_d"])
         problem.load_state_dict(saved["problem"])
-        start, rows = saved["iteration"], saved["rows"]
+        start, rows, stopped = saved["iteration"], saved["rows"], saved.get("stopped")
         print(f"resuming from {checkpoint} at iteration {start}", flush=True)
 
     from tqdm import tqdm
@@ -247,23 +264,35 @@ def train(problem: EgganProblem, network: NetworkConfig, config: TrainConfig, ch
     pending: list[dict] = []
     bar = tqdm(total=config.iterations, initial=start, disable=not progress, desc=f"eggan {problem.name}",
                mininterval=5.0)
-    for iteration in range(start, config.iterations):
-        pending.append(train_step(problem, generator, discriminator, opt_g, opt_d, config, iteration))
-        done = iteration + 1
-        if done % config.log_every == 0 or done == config.iterations:
+    done = start
+    for iteration in range(start, config.iterations if stopped is None else start):
+        try:
+            pending.append(train_step(problem, generator, discriminator, opt_g, opt_d, config, iteration))
+        except BudgetSpent as spent:
+            stopped = iteration
+            print(f"eggan {problem.name}: budget spent at iteration {iteration} ({spent})", flush=True)
+        else:
+            done = iteration + 1
+        final = done == config.iterations or stopped is not None
+        if pending and (done % config.log_every == 0 or final):
             row = {"iteration": done, **pd.DataFrame(pending).mean().to_dict(),
                    "real_evaluations": problem.real_evaluations}
+            if validate is not None and config.validate_every and (done % config.validate_every == 0
+                                                                   or final):
+                row.update(validate(generator))
             rows.append(row)
             pending = []
             bar.set_postfix(loss_d=f"{row['loss_d']:.3f}", real=row["real_evaluations"])
-        if checkpoint is not None and (done % config.checkpoint_every == 0 or done == config.iterations):
+        if checkpoint is not None and (done % config.checkpoint_every == 0 or final) and done > start:
             save_checkpoint(checkpoint, key, {
                 "iteration": done, "generator": generator.state_dict(), "discriminator": discriminator.state_dict(),
                 "opt_g": opt_g.state_dict(), "opt_d": opt_d.state_dict(), "problem": problem.state_dict(),
-                "rows": rows})
+                "rows": rows, "stopped": stopped})
             write_logs(rows, csv_path, mcap_path, topic)
         bar.update(1)
+        if stopped is not None:
+            break
     bar.close()
-    if start >= config.iterations or checkpoint is None:
+    if done == start or checkpoint is None:
         write_logs(rows, csv_path, mcap_path, topic)
-    return Trained(generator.eval(), discriminator.eval(), rows, key, network, config)
+    return Trained(generator.eval(), discriminator.eval(), rows, key, network, config, stopped)

@@ -138,6 +138,16 @@ SCHEMAS: dict[str, pa.Schema] = {
         pa.field("max_distance", pa.float64(), nullable=True), _required("distinct", pa.int64()),
         pa.field("ec_distance", pa.float64(), nullable=True), _required("ec_failures", pa.int64()),
         pa.field("optimum", pa.float64(), nullable=True), pa.field("regret", pa.float64(), nullable=True)]),
+    # The pool-size study (robocompose.modular.pool_size): a modular_realtime row per test query, with the training
+    # pool's size, the iterations its EG-GAN-crowding trained and the distinct look-ups it made.
+    "modular_pool_size": pa.schema([_required(n, t) for n, t in [
+        ("method", pa.string()), ("terrain_seed", pa.int64()), ("query", pa.int64()), ("candidates", pa.int64()),
+        ("valid", pa.int64()), ("best_design", pa.string())]] + [
+        pa.field("max_distance", pa.float64(), nullable=True), _required("distinct", pa.int64()),
+        pa.field("ec_distance", pa.float64(), nullable=True), _required("ec_failures", pa.int64()),
+        pa.field("optimum", pa.float64(), nullable=True), pa.field("regret", pa.float64(), nullable=True),
+        _required("pool_terrains", pa.int64()), _required("iterations_done", pa.int64()),
+        _required("lookups", pa.int64())]),
     # The latent landscape (robocompose.latent.landscape, thesis Fig. 7.1): one row per (VAE variant, dataset
     # design): the first two principal components of its latent mean (and the variance fraction each explains)
     # and, for the scored subset, the evaluator's flat-terrain status and reward ("" / null when not scored).

@@ -31,6 +31,22 @@ class ProtocolConfig:
 
 
 @dataclass(frozen=True)
+class PoolSizeConfig:
+    """The pool-size study (`robocompose.modular.pool_size`)."""
+
+    sizes: list[int] = field(default_factory=lambda: [8, 16, 32, 40])  # training terrains (capped at the pool's)
+    iterations: int = 1000  # EG-GAN-crowding iterations per size (or until the look-up budget is spent)
+    queries: int = 5  # test queries per terrain and method
+
+    def __post_init__(self):
+        check_field(bool(self.sizes) and all(isinstance(n, int) and n >= 1 for n in self.sizes),
+                    "eggan_modular.pool_size.sizes", "a list of positive integers", self.sizes)
+        for name in ("iterations", "queries"):
+            value = getattr(self, name)
+            check_field(value >= 1, f"eggan_modular.pool_size.{name}", "a positive integer", value)
+
+
+@dataclass(frozen=True)
 class EgganModularParams:
     fitness: FitnessConfig = field(default_factory=FitnessConfig)
     network: NetworkConfig = field(default_factory=NetworkConfig)
@@ -38,6 +54,7 @@ class EgganModularParams:
     evolution_steps: dict = field(default_factory=lambda: dict.fromkeys(VARIANTS, 1))  # crowding: steps; ga: GA gens
     protocol: ProtocolConfig = field(default_factory=ProtocolConfig)
     baselines: dict = field(default_factory=dict)  # baseline name -> its config mapping (see robocompose.eggan.<name>)
+    pool_size: PoolSizeConfig = field(default_factory=PoolSizeConfig)
 
     def __post_init__(self) -> None:
         steps = self.evolution_steps

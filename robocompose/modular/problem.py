@@ -13,7 +13,7 @@ import numpy as np
 from robocompose.fanout.cache import EvaluationCache
 from robocompose.fanout.executor import Executor
 from robocompose.modular.evaluate import EvalSettings, FitnessRule, Result, evaluate_designs
-from robocompose.modular.robot import MODULE_LETTERS, N_PORTS, design_to_index, index_to_design
+from robocompose.modular.robot import MODULE_LETTERS, N_PORTS, index_to_design
 
 
 def hamming(a: str, b: str) -> int:
@@ -40,10 +40,14 @@ class ModularProblem:
         return [index_to_design(row) for row in rng.integers(len(MODULE_LETTERS), size=(n, N_PORTS))]
 
     def mutate(self, design: str, rng: np.random.Generator, rate: float) -> str:
-        genes = design_to_index(design)
         redraw = rng.random(N_PORTS) < rate
-        genes[redraw] = rng.integers(len(MODULE_LETTERS), size=int(redraw.sum()))
-        return index_to_design(genes)
+        if not redraw.any():  # the common case at rate 1/6, and no draw is skipped: integers(size=0) draws none
+            return design
+        genes = list(design)
+        for port, module in zip(np.flatnonzero(redraw).tolist(),
+                                rng.integers(len(MODULE_LETTERS), size=int(redraw.sum())).tolist(), strict=True):
+            genes[port] = MODULE_LETTERS[module]
+        return "".join(genes)
 
     def crossover(self, a: str, b: str, rng: np.random.Generator) -> tuple[str, str]:
         swap = rng.random(N_PORTS) < 0.5

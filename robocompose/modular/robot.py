@@ -123,6 +123,11 @@ def all_designs() -> list[str]:
     return ["".join(p) for p in itertools.product(MODULE_LETTERS, repeat=N_PORTS)]
 
 
+def mirror(design: str) -> str:
+    """The left-right mirror image: ports front-left..front-right reversed (front-left <-> front-right, ...)."""
+    return design[::-1]
+
+
 def design_to_index(design: str) -> np.ndarray:
     """(6,) module indices 0..3 of a port string."""
     return np.array([MODULE_LETTERS.index(c) for c in parse_design(design)], dtype=np.int64)

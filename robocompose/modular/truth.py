@@ -9,6 +9,7 @@
 - `terrain_criterion`: does the best design depend on the terrain? Per terrain its optimum, the single design
   best on average over the terrains, and that design's regret; the count of distinct optima up to the
   left-right mirror (thesis Fig. 5.1: near-flat ground favours wheels, rough ground other modules).
+- `pool_metrics`: the training pool's distinct optima, best-on-average design and regret per split.
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from robocompose.io.atomic import read_json
 from robocompose.io.provenance import result_digest
 from robocompose.modular import evaluate
 from robocompose.modular.evaluate import EvalSettings, FitnessRule, evaluate_designs
-from robocompose.modular.robot import all_designs
+from robocompose.modular.robot import all_designs, mirror
 from robocompose.modular.terrain import TerrainConfig, generate_terrain
 
 COMMITTED_DIR = Path("reports/modular/exhaustive")
@@ -151,11 +152,6 @@ def _same_distance(measured: float | None, stored: float) -> bool:
     return float(measured).hex() == float(stored).hex()
 
 
-def mirror(design: str) -> str:
-    """The left-right mirror image: ports front-left..front-right reversed (front-left <-> front-right, ...)."""
-    return design[::-1]
-
-
 def canonical(design: str) -> str:
     """One name per mirror pair (the smaller of the design and its mirror)."""
     return min(design, mirror(design))
@@ -230,3 +226,20 @@ def exhaustive_metrics(table: pd.DataFrame, sources: dict[int, str], near_optima
         "criterion": {**rounded(totals), "per_terrain": [rounded(row) for row in per_terrain.to_dict("records")]},
         "simulation_cpu_seconds": round(float(table.seconds.sum()), 1),
         "statuses": table.status.value_counts().sort_index().to_dict()}
+
+
+def pool_metrics(table: pd.DataFrame, splits: dict[str, list[int]], sizes: list[int]) -> dict:
+    """reports/metrics/modular_pool.json: per split of the training pool (training, validation terrains) its
+    distinct optima up to mirror, best-on-average design and that design's regret (`terrain_criterion`), and the
+    same for the first `sizes` training terrains (how the best fixed design changes as the pool grows)."""
+
+    def criterion(seeds: list[int]) -> dict:
+        per_terrain, totals = terrain_criterion(table[table.terrain_seed.isin(seeds)])
+        return {**{k: round(v, 4) if isinstance(v, float) else v for k, v in totals.items() if k != "holds"},
+                "optimum_designs": dict(zip(per_terrain.terrain_seed.astype(str), per_terrain.optimum_design,
+                                            strict=True))}
+
+    train = splits["training"]
+    return {**{name: {"seeds": [min(seeds), max(seeds)], **criterion(seeds)} for name, seeds in splits.items()},
+            "by_size": {str(n): criterion(train[:n]) for n in sizes if n <= len(train)},
+            "simulated_designs": int((table.sim_steps > 0).sum())}

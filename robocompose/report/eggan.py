@@ -3,8 +3,10 @@ EG-GAN-crowding row beside the GA runs, the training budgets and surrogate error
 Fig. 5.1 (two test terrains, the generator's top designs, a random constraint and the designs that survive it).
 
 Built from `train_eggan_modular` (reports/metrics/eggan_modular.json, reports/plots/eggan_modular_*.csv) and
-`modular_realtime` (data/modular/realtime.parquet; data/modular/fig5_1.json, Fig. 5.1's generated designs); every
-distance is a pybullet rollout.
+`modular_realtime` (data/modular/realtime.parquet; reports/metrics/modular_realtime.json: the portfolio's designs and
+DQN's symmetric-space ceiling; data/modular/fig5_1.json, Fig. 5.1's generated designs); every distance is a pybullet
+rollout, read from the test terrain's exhaustive table. Beside the thesis's rows: a terrain-agnostic portfolio
+(the designs best on average over the training pool) and each terrain's exhaustive optimum (an oracle bound).
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from pathlib import Path
 import pandas as pd
 
 from robocompose.io import read_json, read_table
+from robocompose.report.modular import THESIS_TABLE_5_2
 
 # Thesis Table 5.1 (learned controller): max distance (m), distinct solutions, max distance under EC (m).
 THESIS_TABLE_5_1 = {"Fit2form": ("4.03 ± 0.91", "1.2 ± 0.2", "2.55 ± 1.31"),
@@ -26,8 +29,11 @@ THESIS_TABLE_5_1 = {"Fit2form": ("4.03 ± 0.91", "1.2 ± 0.2", "2.55 ± 1.31"),
 # Thesis, hand-crafted controller ("effect of the controller"): max distance (m).
 THESIS_HANDCRAFTED = {"Fit2form": "3.81 ± 1.22", "Random sampling": "0.86 ± 0.81", "EG-GAN-crowding": "4.96 ± 0.45"}
 THESIS_QUERY_MIN = 0.003  # EG-GAN-crowding's runtime in Table 5.2
-NAMES = {"fit2form": "Fit2form", "dqn": "DQN based", "molgan": "MolGAN", "random": "Random sampling", "ga": "EG-GAN",
-         "crowding": "EG-GAN-crowding"}
+NAMES = {"fit2form": "Fit2form", "dqn": "DQN based", "molgan": "MolGAN", "random": "Random sampling",
+         "portfolio": "Portfolio (terrain-agnostic baseline)", "ga": "EG-GAN", "crowding": "EG-GAN-crowding",
+         "optimum": "Exhaustive optimum (oracle)"}
+NOT_IN_THESIS = ("-", "-", "-")
+LEARNED = ("fit2form", "dqn", "molgan", "ga", "crowding")  # rows with a training budget
 
 
 def _ms(values: pd.Series, digits: int = 2) -> str:
@@ -38,38 +44,46 @@ def _ms(values: pd.Series, digits: int = 2) -> str:
 def section(reports_dir: Path, data_dir: Path) -> str:
     realtime_path = Path(data_dir) / "modular" / "realtime.parquet"
     metrics_path = Path(reports_dir) / "metrics" / "eggan_modular.json"
+    protocol_path = Path(reports_dir) / "metrics" / "modular_realtime.json"
     title = "## EG-GAN: modular robots for a terrain in real time (thesis ch. 4, 5.1; Tables 5.1, 5.2)"
     if not realtime_path.exists() or not metrics_path.exists():
         return (f"{title}\n\nNot run yet: missing {realtime_path} or {metrics_path} (stages `train_eggan_modular`, "
                 "`modular_realtime`).\n")
     table = read_table(realtime_path, "modular_realtime")
     metrics = json.loads(metrics_path.read_text())
+    protocol = read_json(protocol_path) if protocol_path.exists() else {}
+    ceiling = protocol.get("dqn_symmetric_ceiling")
     seeds = ", ".join(map(str, sorted(table.terrain_seed.unique())))
     lines = [title, "",
              "Trained on terrain seeds disjoint from the test terrains; tested on "
              f"{table.terrain_seed.nunique()} held-out terrains ({seeds})"
              f" x {table['query'].nunique()} queries per method (thesis: 10 x 20). Every method outputs "
-             f"{int(table.candidates.max())} candidates per query, all simulated (pybullet, hand-crafted gait); "
+             f"{int(table.candidates.max())} candidates per query, each answered from the test terrain's exhaustive "
+             "table (the pybullet rollout of every design, hand-crafted gait; no rollout at test time); "
              "max distance = the best valid candidate; distinct = niching metric (delta 1 Hamming, epsilon 0.5 m) "
              "over the candidates; EC = the best candidate satisfying a random cap on one module type (else a random "
-             "valid satisfying design), simulated; regret = the terrain's exhaustive optimum minus max distance "
-             "(only where the exhaustive table covers the terrain). Thesis columns: its learned controller; the "
-             "hand-crafted column is the thesis's experiment with a controller like ours.", "",
+             "valid satisfying design), looked up the same way; regret = the terrain's exhaustive optimum minus max "
+             "distance. Thesis columns: its learned controller; the hand-crafted column is the thesis's experiment "
+             "with a controller like ours; '-': a row the thesis does not have.", "",
              "### Table 5.1: real-time methods", "",
              "| method | max distance (m) | distinct | EC distance (m) | regret (m) | no valid candidate / EC failures "
-             "| real rollouts in training | thesis distance | thesis distinct | thesis EC | thesis hand-crafted |",
+             "| evaluations in training | thesis distance | thesis distinct | thesis EC | thesis hand-crafted |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for method, name in NAMES.items():
         group = table[table.method == method]
         if group.empty:
             continue
-        spent = metrics.get(method, {}).get("real_evaluations", "-" if method == "random" else "n/a")
-        thesis = THESIS_TABLE_5_1[name]
-        lines.append(f"| {name} | {_ms(group.max_distance)} | {_ms(group.distinct, 1)} | {_ms(group.ec_distance)} | "
+        spent = metrics.get(method, {}).get("real_evaluations", "n/a" if method in LEARNED else "-")
+        thesis = THESIS_TABLE_5_1.get(name, NOT_IN_THESIS)
+        label = f"{name} (symmetric designs only: ceiling {ceiling['ceiling']:.2f} m)" if method == "dqn" and ceiling \
+            else name
+        lines.append(f"| {label} | {_ms(group.max_distance)} | {_ms(group.distinct, 1)} | {_ms(group.ec_distance)} | "
                      f"{_ms(group.regret)} | {int(group.max_distance.isna().sum())} / {int(group.ec_failures.sum())} | "
                      f"{spent} | {thesis[0]} | {thesis[1]} | {thesis[2]} | {THESIS_HANDCRAFTED.get(name, '-')} |")
-    lines += ["", _verdict(table), ""]
-    lines += _training_lines(metrics)
+    lines += ["", *_table_rows_lines(protocol, set(table.method)), _verdict(table), ""]
+    lines += _pool_lines(Path(reports_dir) / "metrics" / "modular_pool.json")
+    lines += _training_lines(metrics, reports_dir)
+    lines += _pool_size_lines(Path(data_dir) / "modular" / "pool_size.parquet", Path(reports_dir) / "figures")
     lines += _table_5_2(table, reports_dir, data_dir)
     fig_5_1 = Path(data_dir) / "modular" / "fig5_1.json"
     if fig_5_1.exists():
@@ -114,39 +128,179 @@ def _figure_5_1(records: list[dict], path: Path) -> str:
     return "Constraints drawn: " + "; ".join(used) + "."
 
 
+def _table_rows_lines(protocol: dict, methods: set[str]) -> list[str]:
+    """Paragraphs on the rows the thesis does not have and on DQN's ceiling (reports/metrics/modular_realtime.json)."""
+    lines = []
+    chosen, ceiling = protocol.get("portfolio_designs"), protocol.get("dqn_symmetric_ceiling")
+    if chosen and "portfolio" in methods:
+        lines.append(f"Portfolio (terrain-agnostic baseline): every query on every terrain gets the same "
+                     f"{len(chosen['designs'])} designs, those of highest mean fitness over the training pool's "
+                     f"{chosen['pool_terrains']} exhaustive tables (penalties included): "
+                     + ", ".join(f"`{d}`" for d in chosen["designs"]) + ". A method that reads the terrain should "
+                     "beat it.")
+    if "optimum" in methods:
+        lines.append("Exhaustive optimum (oracle): each test terrain's fittest designs of its table; no method can "
+                     "score more (regret 0 by construction). An upper bound, not a method.")
+    if ceiling and "dqn" in methods:
+        lines.append(f"DQN builds left-right symmetric designs only (one module per mirrored port pair: "
+                     f"{ceiling['designs']} designs). On these {ceiling['terrains']} test terrains the best symmetric "
+                     f"design of each terrain averages {ceiling['ceiling']:.2f} m: the ceiling of its max distance; "
+                     f"the single symmetric design best on average, `{ceiling['best_design']}`, "
+                     f"{ceiling['best_design_mean']:.2f} m.")
+    return [line for text in lines for line in (text, "")]
+
+
 def _verdict(table: pd.DataFrame) -> str:
     means = table.groupby("method")[["max_distance", "distinct"]].mean()
     if not {"crowding", "random", "ga"} <= set(means.index):
         return ""
     beats = means.max_distance["crowding"] > means.max_distance["random"]
     diverse = means.distinct["crowding"] > means.distinct["ga"]
-    return (f"EG-GAN-crowding {'beats' if beats else 'does not beat'} random sampling on max distance "
+    text = (f"EG-GAN-crowding {'beats' if beats else 'does not beat'} random sampling on max distance "
             f"({means.max_distance['crowding']:.2f} vs {means.max_distance['random']:.2f} m) and "
             f"{'has' if diverse else 'does not have'} more distinct solutions than EG-GAN "
             f"({means.distinct['crowding']:.1f} vs {means.distinct['ga']:.1f}).")
+    if "portfolio" in means.index:
+        ahead = means.max_distance["crowding"] > means.max_distance["portfolio"]
+        text += (f" It {'beats' if ahead else 'does not beat'} the terrain-agnostic portfolio "
+                 f"({means.max_distance['portfolio']:.2f} m).")
+    if "optimum" in means.index:
+        text += (f" It reaches {means.max_distance['crowding'] / means.max_distance['optimum']:.0%} of the exhaustive "
+                 f"optimum ({means.max_distance['optimum']:.2f} m).")
+    return text
 
 
-def _training_lines(metrics: dict) -> list[str]:
-    lines = ["### Training (surrogate fitness, real rollouts)", "",
-             "| method | iterations | real rollouts | surrogate held-out MAE (m) | RMSE (m) | Spearman | held-out "
-             "rollouts | real distance std (m) |", "|---|---|---|---|---|---|---|---|"]
-    for method, m in metrics.items():
-        s = {"mae": float("nan"), "rmse": float("nan"), "spearman": float("nan"), "real_std": float("nan"),
-             **m.get("surrogate_heldout", {})}
-        lines.append(f"| {m.get('method', method)} | {m.get('iterations')} | {m.get('real_evaluations')} | "
-                     f"{s['mae']:.2f} | {s['rmse']:.2f} | {s['spearman']:.2f} | {s.get('heldout')} | "
-                     f"{s['real_std']:.2f} |")
-    lines += ["", "Training fitness: a real rollout where one was made, else the surrogate fitted on the real "
-              "rollouts (every fifth held out of the fit; the error above is on those). Curves: "
-              "`reports/plots/eggan_modular_{crowding,ga}.csv` (DVC plots) and `models/eggan_modular_*.mcap`.", ""]
+def _pool_lines(path: Path) -> list[str]:
+    """The training pool (stage modular_pool): per split its terrains, distinct optima, best-on-average design and
+    regret, and how the best fixed design's regret changes with the pool's size."""
+    if not path.exists():
+        return []
+    pool = read_json(path)
+    lines = ["### Training pool: exact ground truth", "",
+             "| split | terrains (seeds) | distinct optima (up to mirror) | best-on-average design | its mean regret "
+             "(m) | regret / mean optimum |", "|---|---|---|---|---|---|"]
+    for split in ("training", "validation"):
+        p = pool[split]
+        lines.append(f"| {split} | {p['terrains']} ({p['seeds'][0]}..{p['seeds'][1]}) | {p['distinct_optima']} | "
+                     f"`{p['average_design']}` | {p['mean_regret']:.2f} | {p['regret_ratio']:.0%} |")
+    sizes = ", ".join(f"{n} terrains: `{p['average_design']}` {p['mean_regret']:.2f} m"
+                      for n, p in pool.get("by_size", {}).items())
+    lines += ["", "Every design on every pool terrain, simulated once (`robocompose modular exhaustive`, committed "
+              f"under reports/modular/pool/); {pool['simulated_designs']} rollouts. Best fixed design and its regret "
+              f"by pool size: {sizes or 'n/a'}.", ""]
     return lines
+
+
+def _pool_size_lines(path: Path, figures: Path) -> list[str]:
+    """Held-out score against the training pool's size (stage modular_pool_size): a table and a figure."""
+    if not path.exists():
+        return []
+    study = read_table(path, "modular_pool_size")
+    grouped = study.groupby(["pool_terrains", "method"])
+    lines = ["### Beyond the thesis: held-out score against the training pool's size", "",
+             "| pool terrains | method | max distance (m) | regret (m) | EG-GAN iterations / look-ups |",
+             "|---|---|---|---|---|"]
+    for (n, method), group in grouped:
+        cost = f"{group.iterations_done.iloc[0]} / {group.lookups.iloc[0]}" if method == "crowding" else "-"
+        lines.append(f"| {n} | {NAMES[method]} | {_ms(group.max_distance)} | {_ms(group.regret)} | {cost} |")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    means = grouped.max_distance.mean().unstack("method")
+    fig, ax = plt.subplots(figsize=(5, 3.5))
+    for method in means.columns:
+        ax.plot(means.index, means[method], marker="o", label=NAMES[method])
+    ax.set(xlabel="training terrains", ylabel="test max distance (m)")
+    ax.legend()
+    fig.tight_layout()
+    figures.mkdir(parents=True, exist_ok=True)
+    fig.savefig(figures / "eggan_modular_pool_size.png", dpi=80)
+    plt.close(fig)
+    return [*lines, "", "![pool size](figures/eggan_modular_pool_size.png)", "",
+            f"EG-GAN-crowding trained on the first n training terrains ({int(study.iterations_done.max())} "
+            "iterations at most), beside the portfolio of the same n terrains; both on the test terrains x "
+            f"{study['query'].nunique()} queries, from their tables.", ""]
+
+
+CHANCE = 0.05  # a discriminator whose accuracy stays within this of 1/2 gives the generator no signal
+
+
+def _training_lines(metrics: dict, reports_dir: Path) -> list[str]:
+    """Each learner's fitness source, iterations, evaluations against the budget, discriminator accuracy (flagged at
+    chance), validation-terrain score, surrogate error where a surrogate was used; the validation curves."""
+    lines = ["### Training", "",
+             "| method | fitness | iterations (done / asked) | evaluations / budget | discriminator accuracy | "
+             "validation max distance (m) | validation regret (m) | surrogate Spearman within a terrain |",
+             "|---|---|---|---|---|---|---|---|"]
+    flagged = []
+    for method, m in metrics.items():
+        final, name = m.get("final", {}), m.get("method", method)
+        accuracy = final.get("d_accuracy")
+        if accuracy is not None and abs(accuracy - 0.5) < CHANCE:
+            flagged.append(name)
+        surrogate = m.get("surrogate_heldout") or {}
+        source = {"table": "exact (pool tables)", "surrogate": "surrogate + rollouts"}.get(m.get("fitness_source"),
+                                                                                           "surrogate + rollouts")
+        lines.append(f"| {name} | {source} | {m.get('iterations_done', m.get('iterations'))} / {m.get('iterations')} | "
+                     f"{m.get('real_evaluations')} / {m.get('evaluation_budget', '-')} | "
+                     f"{'-' if accuracy is None else f'{accuracy:.2f}'} | {_number(final.get('val_max_distance'))} | "
+                     f"{_number(final.get('val_regret'))} | {_number(surrogate.get('spearman_within_terrain'))} |")
+    lines += ["", "Exact fitness: a design's fitness on a training terrain is its entry in that terrain's exhaustive "
+              "table (the pybullet rollout); evaluations = distinct (terrain, design) look-ups, the same budget for "
+              "every learner, which stops when it is spent. Validation: the pool's validation terrains (never "
+              "trained on), the best of each learner's 10 candidates, from their tables.", ""]
+    if flagged:
+        lines += [f"**Discriminator at chance** (accuracy within {CHANCE} of 0.5 at the end of training): "
+                  + ", ".join(flagged) + ". A generator trained against such a discriminator has no signal to learn "
+                  "from.", ""]
+    curves = {variant: Path(reports_dir) / "plots" / f"eggan_modular_{variant}.csv" for variant in ("crowding", "ga")}
+    if all(path.exists() for path in curves.values()):
+        figure = Path(reports_dir) / "figures" / "eggan_modular_validation.png"
+        if _validation_figure(curves, figure):
+            lines += ["![validation curves](figures/eggan_modular_validation.png)", "",
+                      "Validation-terrain max distance and discriminator accuracy over training "
+                      "(`reports/plots/eggan_modular_{crowding,ga}.csv`).", ""]
+    return lines
+
+
+def _number(value) -> str:
+    return "-" if value is None or value != value else f"{value:.2f}"
+
+
+def _validation_figure(curves: dict[str, Path], path: Path) -> bool:
+    """Validation max distance and discriminator accuracy against iteration, per EG-GAN variant (False: no curve)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    frames = {variant: pd.read_csv(csv) for variant, csv in curves.items()}
+    if not all("val_max_distance" in frame for frame in frames.values()):
+        return False
+    fig, (left, right) = plt.subplots(1, 2, figsize=(10, 3.5))
+    for variant, frame in frames.items():
+        scored = frame.dropna(subset=["val_max_distance"])
+        left.plot(scored.iteration, scored.val_max_distance, marker="o", label=NAMES[variant])
+        right.plot(frame.iteration, frame.d_accuracy, label=NAMES[variant])
+    left.set(xlabel="iteration", ylabel="validation max distance (m)")
+    right.axhline(0.5, color="grey", linestyle=":")
+    right.set(xlabel="iteration", ylabel="discriminator accuracy")
+    left.legend()
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+    return True
 
 
 def _table_5_2(table: pd.DataFrame, reports_dir: Path, data_dir: Path) -> list[str]:
     runs_path = Path(data_dir) / "modular" / "runs.parquet"
     crowding = table[table.method == "crowding"]
     lines = ["### Table 5.2: EG-GAN-crowding beside the GA runs", "",
-             "| method | max distance (m) | distinct | runtime | test terrains |", "|---|---|---|---|---|"]
+             "| method | max distance (m) | distinct | runtime | test terrains | thesis distance | thesis distinct | "
+             "thesis runtime (min) |", "|---|---|---|---|---|---|---|---|"]
     if runs_path.exists():
         runs = read_table(runs_path, "modular_runs")
         for method, name in (("ga20", "GA-20"), ("ga50", "GA-50"), ("crowding", "GA-crowding")):
@@ -154,14 +308,16 @@ def _table_5_2(table: pd.DataFrame, reports_dir: Path, data_dir: Path) -> list[s
             if len(group):
                 lines.append(f"| {name} | {_ms(group.best_distance)} | {_ms(group.distinct, 1)} | "
                              f"{int(group.evaluations.mean())} rollouts (see the modular section's runtimes) | "
-                             f"{', '.join(map(str, sorted(group.terrain_seed.unique())))} |")
+                             f"{', '.join(map(str, sorted(group.terrain_seed.unique())))} | "
+                             + " | ".join(THESIS_TABLE_5_2[method]) + " |")
     bench = Path(reports_dir) / "benchmarks.json"
     query_ms = read_json(bench).get("eggan.modular.query_ms") if bench.exists() else None
     if len(crowding):
         runtime = "not benchmarked (`make bench`)" if query_ms is None else f"{query_ms:.1f} ms per query"
         lines.append(f"| EG-GAN-crowding | {_ms(crowding.max_distance)} | {_ms(crowding.distinct, 1)} | "
-                     f"{runtime} (thesis {THESIS_QUERY_MIN} min) | "
-                     f"{', '.join(map(str, sorted(crowding.terrain_seed.unique())))} |")
+                     f"{runtime} | {', '.join(map(str, sorted(crowding.terrain_seed.unique())))} | "
+                     f"{THESIS_TABLE_5_1['EG-GAN-crowding'][0]} | {THESIS_TABLE_5_1['EG-GAN-crowding'][1]} | "
+                     f"{THESIS_QUERY_MIN} |")
     lines += ["", "The GA rows search each test terrain from scratch (their runtime is simulation); EG-GAN-crowding's "
               "runtime is `eggan.modular.query_ms` of `make bench` (one query: 64 samples, one core, the ranking "
               "included; reports/benchmarks.json). The protocol's queries keep drawing batches of 64 until 10 "

@@ -48,7 +48,8 @@ def train_config(config: EgganConfig, threads: int) -> TrainConfig:
 
 
 def network_config(config: EgganConfig) -> NetworkConfig:
-    """3 hidden layers of 64 with batch norm and ReLU (thesis 5.2), z of size `latent`."""
+    """3 hidden layers of 64 with layer norm and ReLU (thesis 5.2: batch norm; `robocompose.eggan.networks`), z of
+    size `latent`."""
     return NetworkConfig(latent=config.latent)
 
 

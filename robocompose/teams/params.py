@@ -42,7 +42,7 @@ class ExperimentsConfig:
 class EgganConfig:
     iterations: int = 100  # Algorithm 1 iterations (`tasks` training chips each)
     batch: int = 32  # noise vectors per iteration = |X_gen| = |X_pop|, over `tasks` tasks
-    tasks: int = 4  # training chips per iteration (batch / tasks z each; several, so batch norm keeps the task)
+    tasks: int = 4  # training chips per iteration (batch / tasks z each)
     evolution_steps: int = 1  # NSGA-II generations per iteration (the group's code: 1)
     lr: float = 1e-3  # Adam step of both networks (group's code 1e-3; thesis 1e-5 for 20 h)
     latent: int = 16  # P, the size of z (the group's code: 16)

@@ -44,11 +44,11 @@ def test_a_generator_baseline_trains_saves_loads_and_answers_through_its_entry(t
     name, learner = "fit2form", LEARNERS["modular"]["fit2form"]
     config = learner.training.settings(iterations=2, tasks=2)
     model, rows = learner.training.train(match_problem, NETWORK, config, False)
-    assert rows and isinstance(learner.training.metrics(config, rows), dict)
+    assert rows[-1]["real_evaluations"] == match_problem.real_evaluations == 2 * config.tasks * config.samples
     path = learner.training.save(model, match_problem, tmp_path / f"{name}.pt", {"metrics": {}})
     assert learner.load is load_generator
     designs = learner.answer(learner.load(path, match_problem)[0], 8)(match_problem, 2, 5, 2)
-    assert len(designs) == 2
+    assert len(designs) == 2 and designs == learner.answer(model, 8)(match_problem, 2, 5, 2)  # the file round trip
 
 
 def test_a_teams_learner_draws_one_design_per_noise_vector_fixed_by_the_query_seed(tmp_path, match_problem):

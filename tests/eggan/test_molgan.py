@@ -50,7 +50,7 @@ def test_pure_wgan_moves_the_samples_to_the_real_distribution():
 
 def test_pure_reward_raises_fitness_above_random():
     problem = ValidMatchProblem()
-    generator, rows = train_molgan(problem, NETWORK, MolganConfig(iterations=150, lam=0.0, wgan_only_iterations=0,
+    generator, rows = train_molgan(problem, NETWORK, MolganConfig(iterations=300, lam=0.0, wgan_only_iterations=0,
                                                                   tasks=8, samples=8, n_critic=1))
     tasks = _held_out_tasks(problem)
     matches = [np.mean([sum(a == b for a, b in zip(d, t, strict=True))

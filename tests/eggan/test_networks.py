@@ -1,4 +1,4 @@
-"""Generator and discriminator shapes (thesis 5.1 / 5.2 structure)."""
+"""Generator and discriminator: the thesis 5.1 / 5.2 structure, and rows that depend on their own task only."""
 
 import pytest
 import torch
@@ -15,17 +15,37 @@ def test_height_map_tasks_go_through_two_convolutions_and_flat_tasks_do_not():
     flat = Generator((4, 4, 1), (4, 3), config)
     assert not any(isinstance(m, torch.nn.Conv2d) for m in flat.modules())
     assert flat(torch.zeros(5, 8), flat.encode(torch.zeros(5, 4, 4, 1))).shape == (5, 4, 3)
-    norms = [m for m in image.body if isinstance(m, torch.nn.BatchNorm1d)]
-    assert len(norms) == 3 and all(n.num_features == 16 for n in norms)
 
 
-def test_discriminator_gives_one_logit_per_design():
-    d = Discriminator((50, 20), (6, 4), NetworkConfig(latent=8, hidden=16))
-    assert d(torch.zeros(3, 6, 4), d.encode(torch.zeros(3, 50, 20))).shape == (3,)
+@pytest.mark.parametrize("norm", ["layer", "none", "batch"])
+@pytest.mark.parametrize("network", [Generator, Discriminator])
+def test_in_training_a_row_depends_on_its_own_task_only_unless_batch_norm(network, norm):
+    """Batch norm shifts one task's rows by the others' (a batch holds several tasks): the default must not."""
+    torch.manual_seed(0)
+    net = network((50, 20), (6, 4), NetworkConfig(latent=8, hidden=16, norm=norm)).train()
+    tasks = torch.rand(4, 50, 20)
+    inputs = torch.randn(4, 8) if network is Generator else torch.rand(4, 6, 4)
+    together = net(inputs, net.encode(tasks))  # one batch of four tasks
+    others = torch.cat([tasks[:1], torch.zeros(3, 50, 20)])  # the same first row among other tasks
+    independent = torch.allclose(together[0], net(inputs, net.encode(others))[0], atol=1e-6)
+    assert independent == (norm != "batch")
+    assert not torch.allclose(together[0], together[1])  # a row does depend on its own task and input
+
+
+def test_the_task_reaches_both_outputs():
+    torch.manual_seed(0)
+    config = NetworkConfig(latent=8, hidden=16)
+    g, d = Generator((50, 20), (6, 4), config), Discriminator((50, 20), (6, 4), config)
+    z, design = torch.randn(1, 8), torch.rand(1, 6, 4)
+    flat, rough = torch.zeros(1, 50, 20), torch.rand(1, 50, 20)
+    assert (g(z, g.encode(flat)) - g(z, g.encode(rough))).abs().max() > 1e-3
+    assert (d(design, d.encode(flat)) - d(design, d.encode(rough))).abs().max() > 1e-4
 
 
 def test_bad_sizes():
     with pytest.raises(ValueError, match="network.hidden"):
         NetworkConfig(hidden=0)
+    with pytest.raises(ValueError, match="network.norm"):
+        NetworkConfig(norm="group")
     with pytest.raises(ValueError, match="at least 5 x 5"):
         Generator((4, 4), (6, 4), NetworkConfig())

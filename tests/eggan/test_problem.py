@@ -19,17 +19,38 @@ def test_sample_rows_log_prob_is_the_sum_of_the_chosen_entries_and_keeps_its_gra
     assert torch.equal(one_hot_rows(picks, 4).argmax(-1), picks)
 
 
+class TwoTargets(MatchSearch):
+    """Two optima six ports apart, all 0s and all 3s: fitness is the matches with the nearer one."""
+
+    def evaluate(self, designs):
+        self.owner.evaluations += len(designs)
+        return np.array([float(max((np.array(d) == t).sum() for t in (0, 3))) for d in designs])
+
+
 @pytest.mark.parametrize("method", ["crowding", "ga"])
-def test_evolution_keeps_the_batch_size_and_crowding_never_loses_fitness(match_problem, method):
+def test_evolution_raises_the_mean_fitness_with_one_batch_per_step(match_problem, method):
     search = MatchSearch((0, 1, 2, 3, 0, 1), match_problem)
     rng = np.random.default_rng(0)
     designs = search.sample(rng, 16)
-    fitness = search.evaluate(designs)
-    evolved, evolved_fitness = evolve_single_objective(search, designs, fitness, method, 4, rng)
+    fitness = search.evaluate(designs)  # random: 1.5 matches expected
+    evolved, evolved_fitness = evolve_single_objective(search, designs, fitness, method, 5, rng)
+    assert match_problem.evaluations == 16 * (1 + 5)
     assert len(evolved) == 16 and np.array_equal(evolved_fitness, search.evaluate(evolved))
-    if method == "crowding":  # a child replaces its parent only if strictly fitter
-        assert np.all(evolved_fitness >= fitness)
-    assert evolved_fitness.max() >= fitness.max()
+    assert evolved_fitness.mean() > fitness.mean() + 1
+
+
+def test_crowding_keeps_both_optima_where_the_ga_keeps_one(match_problem):
+    search = TwoTargets((0,) * 6, match_problem)
+    optima = {(0,) * 6, (3,) * 6}
+
+    def optima_kept(method, seed):
+        rng = np.random.default_rng(seed)
+        designs = search.sample(rng, 32)
+        evolved, _ = evolve_single_objective(search, designs, search.evaluate(designs), method, 30, rng)
+        return len(optima & set(evolved))
+
+    crowding, ga = [optima_kept("crowding", s) for s in range(4)], [optima_kept("ga", s) for s in range(4)]
+    assert sum(k == 2 for k in crowding) >= 3 and max(ga) == 1
 
 
 def test_unknown_evolution(match_problem):

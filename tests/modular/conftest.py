@@ -1,6 +1,8 @@
 import pandas as pd
 import pytest
 
+from robocompose.modular import eggan_problem
+from robocompose.modular.evaluate import Result
 from robocompose.modular.robot import all_designs, valid_in_original
 
 
@@ -19,3 +21,18 @@ def _synthetic_truth(distance_of, terrain_seed: int = 1007) -> pd.DataFrame:
 @pytest.fixture
 def synthetic_truth():
     return _synthetic_truth
+
+
+@pytest.fixture
+def fake_rollouts(monkeypatch):
+    """The EG-GAN problem's rollouts faked (distance = wheels minus the terrain seed mod 3); the calls made, as
+    (terrain seed, designs)."""
+    calls = []
+
+    def fake(designs, terrain_seed, settings, rule, cache=None, executor=None, save_every=0):
+        calls.append((terrain_seed, list(designs)))
+        return [Result(None, "invalid", 0, 0.0) if rule.skips(d) else Result(float(d.count("w")) - terrain_seed % 3,
+                                                                                "ok", 10, 0.01) for d in designs]
+
+    monkeypatch.setattr(eggan_problem, "evaluate_designs", fake)
+    return calls

@@ -1,8 +1,10 @@
 import json
 
 import pytest
+from PIL import Image
 
 from robocompose.cli import main
+from robocompose.io import read_mcap
 
 TINY = """
 modular:
@@ -20,7 +22,8 @@ def test_evaluate_prints_one_json_object_and_writes_logs(tmp_path, capsys):
     out = json.loads(capsys.readouterr().out)
     assert code == 0 and out["design"] == "wwwwww" and out["status"] == "ok" and out["distance"] > 0
     assert set(out) >= {"distance", "status", "seconds"}
-    assert (tmp_path / "r.mcap").stat().st_size > 0 and (tmp_path / "r.gif").stat().st_size > 0
+    tf = [m for m in read_mcap(tmp_path / "r.mcap") if m.topic == "/tf"]  # the params' rollout: 3 control steps
+    assert len(tf) == 3 + 1 and Image.open(tmp_path / "r.gif").n_frames == 1  # a GIF frame every 5 steps
 
 
 def test_invalid_design_scores_the_penalty_and_a_bad_string_exits_2(tmp_path, capsys):

@@ -15,8 +15,9 @@ from robocompose.io import InputError
 from robocompose.io.torch_file import save_torch
 from robocompose.modular.compose import SHIPPED_MODEL, parse_caps
 from robocompose.modular.eggan_problem import FitnessConfig, ModularEgganProblem
-from robocompose.modular.evaluate import EvalSettings, FitnessRule
+from robocompose.modular.evaluate import EvalSettings, FitnessRule, rollout
 from robocompose.modular.params import ExperimentsConfig, ModularParams
+from robocompose.modular.terrain import generate_terrain
 
 PARAMS = ModularParams(EvalSettings(), FitnessRule(), ExperimentsConfig())
 TINY = """
@@ -48,13 +49,15 @@ def test_compose_prints_k_distinct_valid_designs_within_the_caps(tmp_path, model
         assert design.count("l") <= 1 and design.count("w") <= 2 and not PARAMS.fitness.skips(design)
 
 
-def test_compose_simulate_adds_distances(tmp_path, model, capsys):
+def test_compose_simulate_adds_each_designs_rollout_on_the_terrain(tmp_path, model, capsys):
     params = tmp_path / "params.yaml"
     params.write_text(TINY)
     assert main(["compose", "modular", "--terrain-seed", "3", "--k", "2", "--model", str(model), "--simulate",
                  "--params", str(params)]) == 0
-    out = json.loads(capsys.readouterr().out)
-    assert all(d["status"] in ("ok", "flipped", "left_course", "stalled") for d in out["designs"])
+    settings = EvalSettings(control_steps=3, settle_steps=10)
+    for entry in json.loads(capsys.readouterr().out)["designs"]:
+        result = rollout(entry["design"], generate_terrain(3, settings.terrain), settings)
+        assert (entry["distance"], entry["status"]) == (result.distance, result.status)
 
 
 @pytest.mark.parametrize("heights, message", [
@@ -155,3 +158,16 @@ def test_the_shipped_generator_matches_the_current_model_code():
     generator, saved = load_generator(SHIPPED_MODEL, ModularEgganProblem(PARAMS, FitnessConfig()))
     assert saved == info and info["problem"] == "modular" and "metrics" in info
     assert SHIPPED_MODEL.stat().st_size < 2_000_000  # small enough for the repository
+
+
+def test_the_shipped_generator_answers_a_low_and_a_high_block_terrain_differently():
+    """Issue 22's acceptance: terrains never seen (no table), the lowest and highest blocks of 20 seeds."""
+    from robocompose.eggan.learners import generator_answer
+    from robocompose.modular.terrain import generate_terrain
+
+    problem = ModularEgganProblem(PARAMS, FitnessConfig())
+    generator = load_generator(SHIPPED_MODEL, problem)[0]
+    heights = {seed: generate_terrain(seed, PARAMS.eval.terrain).max_height for seed in range(30_000, 30_020)}
+    low, high = min(heights, key=heights.get), max(heights, key=heights.get)
+    answer = generator_answer(generator, 64)
+    assert answer(problem, low, 0, 3) != answer(problem, high, 0, 3)

@@ -1,6 +1,7 @@
 """The learned baselines in the modular experiments: MolGAN and Whitman's DQN train on the shared problem and
 budget, are saved with their metrics (no wall times), and answer the real-time protocol with the protocol's
-number of distinct candidates; the DQN decides one module per mirrored port pair.
+number of distinct candidates; the DQN decides one module per mirrored port pair. The protocol answers every
+candidate from the test terrains' exhaustive tables, with the portfolio and the exhaustive optimum as rows.
 
 Rollouts are faked (distance = the number of wheels minus the terrain seed mod 3), as in test_eggan_problem.py;
 the DQN's learning is tested on a toy problem in tests/eggan/test_dqn.py.
@@ -23,32 +24,21 @@ from robocompose.modular.eggan_experiments import (
     train_baseline,
 )
 from robocompose.modular.eggan_params import EgganModularParams
-from robocompose.modular.evaluate import EvalSettings, FitnessRule, Result
+from robocompose.modular.evaluate import EvalSettings, FitnessRule
 from robocompose.modular.params import ExperimentsConfig, ModularParams
 from robocompose.modular.robot import PORT_XY
 from robocompose.params import build_config
+from tests.modular.test_eggan_problem import fake_pool
 
 MODULAR = ModularParams(EvalSettings(control_steps=10), FitnessRule(), ExperimentsConfig())
-SECTION = {"fitness": {"train_terrains": 6, "warmup": 20, "warmup_terrains": 4, "budget": 40, "real_per_round": 4,
+SECTION = {"fitness": {"source": "surrogate", "train_terrains": 6, "warmup": 20, "warmup_terrains": 4, "budget": 40,
+                       "real_per_round": 4,
                        "surrogate": {"steps": 10, "hidden": 16}},
            "network": {"latent": 8, "hidden": 16, "filters": 4},
            "baselines": {"molgan": {"iterations": 6, "tasks": 2, "samples": 4, "n_critic": 2,
                                     "wgan_only_iterations": 2},
                          "dqn": {"iterations": 6, "tasks": 2, "episodes": 4, "updates": 2, "batch": 8, "start": 8,
                                  "replay": 32, "hidden": 16, "layers": 1}}}
-
-
-@pytest.fixture
-def fake_rollouts(monkeypatch):
-    calls = []
-
-    def fake(designs, terrain_seed, settings, rule, cache=None, executor=None, save_every=0):
-        calls.append(list(designs))
-        return [Result(None, "invalid", 0, 0.0) if rule.skips(d) else Result(float(d.count("w")) - terrain_seed % 3,
-                                                                                "ok", 10, 0.01) for d in designs]
-
-    monkeypatch.setattr(eggan_problem, "evaluate_designs", fake)
-    return calls
 
 
 def test_molgan_baseline_trains_on_the_shared_budget_and_answers_queries(tmp_path, fake_rollouts):
@@ -58,14 +48,15 @@ def test_molgan_baseline_trains_on_the_shared_budget_and_answers_queries(tmp_pat
     assert 20 < metrics["real_evaluations"] <= 40 and metrics["method"] == "MolGAN" and metrics["lam"] == 0.5
     saved = json.loads((tmp_path / "eggan_modular_molgan.json").read_text())
     assert saved["train"]["n_critic"] == 2 and "train_seconds" not in saved["metrics"]  # the file's bytes: params only
-    assert REALTIME_METHODS == ("fit2form", "dqn", "molgan", "random", "ga", "crowding")  # Table 5.1's rows
-    assert [method_title(m) for m in REALTIME_METHODS] == ["Fit2form", "DQN", "MolGAN", "Random sampling", "EG-GAN",
-                                                           "EG-GAN-crowding"]
+    assert REALTIME_METHODS == ("fit2form", "dqn", "molgan", "random", "portfolio", "ga", "crowding", "optimum")
+    assert [method_title(m) for m in REALTIME_METHODS] == [
+        "Fit2form", "DQN", "MolGAN", "Random sampling", "Portfolio (terrain-agnostic)", "EG-GAN", "EG-GAN-crowding",
+        "Exhaustive optimum (oracle)"]  # Table 5.1's rows
     for method in ("fit2form", "ga", "crowding"):  # the other generators' files, stood in by MolGAN's
         (tmp_path / f"eggan_modular_{method}.pt").write_bytes((tmp_path / "eggan_modular_molgan.pt").read_bytes())
     train_baseline("dqn", MODULAR, params, None, None, tmp_path)  # the protocol wants every method's model
     problem = eggan_problem.ModularEgganProblem(MODULAR, params.fitness)
-    proposers = realtime_proposers(problem, params, tmp_path)
+    proposers = realtime_proposers(problem, params, tmp_path, ["lwlwlw"] * 10, {1000: ["wwwwww"] * 10})
     assert list(proposers) == list(REALTIME_METHODS)
     for method in ("molgan", "dqn"):
         candidates = proposers[method](problem, 1000, 7, 10)
@@ -81,7 +72,8 @@ def test_dqn_baseline_spends_the_budget_and_proposes_ten_distinct_symmetric_desi
     params = build_config(EgganModularParams, SECTION, "test")
     metrics = train_baseline("dqn", MODULAR, params, None, None, tmp_path)
     assert metrics["method"] == "DQN" and metrics["episodes"] == 6 * 2 * 4
-    assert metrics["real_evaluations"] == sum(len(c) for c in fake_rollouts) > params.fitness.warmup  # real rounds ran
+    simulated = sum(len(d) for _, d in fake_rollouts)
+    assert metrics["real_evaluations"] == simulated > params.fitness.warmup  # real rounds ran
     saved = json.loads((tmp_path / "eggan_modular_dqn.json").read_text())
     assert saved["decision_groups"] == [[0, 5], [1, 4], [2, 3]] and "train_seconds" not in saved["metrics"]
     problem = make_problem(MODULAR, params, None, None)
@@ -90,3 +82,18 @@ def test_dqn_baseline_spends_the_budget_and_proposes_ten_distinct_symmetric_desi
     assert len(answer) == len(set(answer)) == 10
     assert all(design == design[::-1] for design in answer)  # port order runs around the rim: mirrored = reversed
     assert propose(problem, 1000, 8, 10) == answer  # the greedy search has no randomness
+
+
+@pytest.mark.parametrize("name", ["fit2form", "dqn", "molgan"])
+def test_every_baseline_trains_on_the_pool_tables_and_stops_at_the_shared_look_up_budget(tmp_path, name):
+    pool = fake_pool(tmp_path, [20_000, 20_001, 20_002])
+    section = {**SECTION, "fitness": {"source": "table", "train_terrains": 2, "validation_seed_base": 20_002,
+                                      "validation_terrains": 1, "pool": str(pool), "lookups": 40},
+               "baselines": {**{k: {**v, "iterations": 50} for k, v in SECTION["baselines"].items()},
+                             "fit2form": {"iterations": 50, "tasks": 2, "samples": 4}}}
+    metrics = train_baseline(name, MODULAR, build_config(EgganModularParams, section, "test"), None, None, tmp_path)
+    assert metrics["fitness_source"] == "table" and metrics["evaluation_budget"] == 40
+    assert metrics["real_evaluations"] <= 40 and metrics["surrogate_heldout"] is None
+    if name != "dqn":  # DQN's symmetric space holds 2 x 36 valid designs: it may never reach 40 distinct ones
+        assert metrics["iterations_done"] < 50  # the budget, not the iterations, ended training
+    assert 0.0 <= metrics["final"]["val_regret"] and metrics["final"]["val_max_distance"] <= 6.0

@@ -5,14 +5,18 @@ import yaml
 
 from robocompose.io.errors import InputError
 from robocompose.modular.eggan_params import EgganModularParams
+from robocompose.modular.params import ModularParams
 from robocompose.params import build_config, load_section
 
 
 def test_default_profile_parses():
     params = load_section(EgganModularParams, "eggan_modular", "profiles/default.yaml")
-    assert params.train.batch == params.train.tasks * 8 and params.protocol.candidates == 10
-    assert len(params.protocol.test_terrains) >= 4 and params.protocol.queries >= 20
-    seeds = range(params.fitness.train_seed_base, params.fitness.train_seed_base + params.fitness.train_terrains)
+    assert params.train.batch // params.train.tasks >= 32 and params.protocol.candidates == 10  # EA population 32+
+    assert params.fitness.source == "table" and params.train.iterations >= 5000 and params.network.norm != "batch"
+    assert params.protocol.test_terrains == list(range(1000, 1010)) and params.protocol.queries == 20  # thesis
+    truth = load_section(ModularParams, "modular", "profiles/default.yaml").experiments.truth_terrains
+    assert set(params.protocol.test_terrains) <= set(truth)  # every test terrain has its exhaustive table
+    seeds = params.fitness.train_seeds + params.fitness.validation_seeds
     assert not set(params.protocol.test_terrains) & set(seeds)  # test terrains are never trained on
 
 

@@ -15,7 +15,8 @@ def test_both_profiles_load_and_differ_where_the_thesis_does(tmp_path):
     paper = load_section(ModularParams, "modular", write_profile("paper", tmp_path))
     assert default.eval.control_steps == 50 and paper.eval.control_steps == 250
     assert len(paper.experiments.test_terrains) == 10 and len(paper.experiments.ga_seeds) == 20
-    assert len(default.experiments.test_terrains) >= 4 and len(paper.experiments.truth_terrains) >= 8
+    assert default.experiments.test_terrains == paper.experiments.test_terrains == list(range(1000, 1010))
+    assert len(paper.experiments.truth_terrains) >= 8  # thesis: 10 test terrains x 20 runs
     assert default.eval.terrain.max_height_range == paper.eval.terrain.max_height_range
     assert default.eval.time_step == pytest.approx(1 / 240)
     # Both courses are as long as their episodes: the fastest design stays on the blocks to the end.

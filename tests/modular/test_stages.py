@@ -2,7 +2,12 @@ import json
 import runpy
 from pathlib import Path
 
-from robocompose.io import read_table
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
+import pytest
+
+from robocompose.io import read_table, write_table
 from robocompose.modular.params import ModularParams
 from robocompose.modular.truth import write_committed
 from robocompose.params import load_section
@@ -11,7 +16,7 @@ STAGES = Path(__file__).resolve().parents[2] / "stages"
 TINY = """
 modular:
   eval: {control_steps: 2, settle_steps: 5}
-  experiments: {test_terrains: [1007], truth_terrains: [1007, 1008], ga_seeds: [0], generations: 1,
+  experiments: {test_terrains: [1007], truth_terrains: [1007, 1008], ga_seeds: [0, 1], generations: 1,
                 random_designs: 3, ec_draws: 2}
 compute: {workers: 1, cache: data/cache.parquet}
 """
@@ -34,15 +39,58 @@ def test_exhaustive_then_baselines_write_their_tables_and_metrics(tmp_path, monk
     assert metrics["criterion"]["terrains"] == 2 and len(metrics["criterion"]["per_terrain"]) == 2
     simulated = truth[truth.sim_steps > 0].groupby("terrain_seed").size()
     assert metrics["simulated"] == {str(k): int(v) for k, v in simulated.items()}
-    assert set(metrics["tallest_block_cm"]) == {"1007", "1008"}
-    picture = Path("reports/plots/modular_terrains.png")  # the report's picture of the first terrains
-    assert picture.stat().st_size > 5000
+    simulated_best = truth[truth.terrain_seed == 1008].sort_values(["fitness", "design"], ascending=[False, True])
+    assert metrics["best_design"] == {"1007": "wwwwww", "1008": simulated_best.design.iloc[0]}
+    picture = plt.imread("reports/plots/modular_terrains.png")  # one 400 x 440 px column per gallery terrain
+    assert picture.shape[:2] == (440, 400 * params.experiments.gallery)
     first = Path("data/modular/exhaustive.parquet").read_bytes()
     runpy.run_path(str(STAGES / "modular_exhaustive.py"), run_name="__main__")  # from the cache: same bytes
     assert Path("data/modular/exhaustive.parquet").read_bytes() == first
 
     runpy.run_path(str(STAGES / "modular_baselines.py"), run_name="__main__")
     runs = read_table("data/modular/runs.parquet", "modular_runs")
-    assert sorted(runs.method) == ["crowding", "ga20", "ga50", "random"] and (runs.terrain_seed == 1007).all()
-    assert set(json.loads(Path("reports/metrics/modular_baselines.json").read_text())) == set(runs.method)
+    assert sorted(runs.method) == sorted(["crowding", "ga20", "ga50", "random"] * 2)
+    assert (runs.terrain_seed == 1007).all()
+    table = truth[truth.terrain_seed == 1007].set_index("design").distance
+    np.testing.assert_array_equal(runs.best_distance, table[runs.best_design])  # a real entry (NaN: unstable)
+    assert (runs.optimum == 6.0).all() and (runs.best_distance.dropna() <= 6.0).all()
+    assert (runs.ec_distance <= runs.ec_optimum).all()  # a constrained answer never beats the constrained best
+    assert runs.groupby("method").evaluations.first().to_dict() == {"crowding": 50, "ga20": 20, "ga50": 50,
+                                                                    "random": 3}
+    baselines = pd.DataFrame(json.loads(Path("reports/metrics/modular_baselines.json").read_text())).T
+    means = runs.groupby("method").best_distance.mean().round(4)
+    pd.testing.assert_series_equal(baselines.best_distance.astype(float), means, check_names=False)
+    pd.testing.assert_series_equal(baselines.regret.astype(float), (6.0 - means).round(4), check_names=False)
+    assert baselines.failed_runs.to_dict() == runs.best_distance.isna().groupby(runs.method).sum().to_dict()
     assert "modular_baselines" in json.loads(Path("reports/timings.json").read_text())
+
+
+def test_realtime_stops_with_one_line_naming_missing_pool_tables(tmp_path, monkeypatch, capsys, synthetic_truth):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr("sys.argv", ["stages/modular_realtime.py"])
+    (tmp_path / "params.yaml").write_text(TINY + "eggan_modular: {fitness: {train_seed_base: 20000, train_terrains: 2}"
+                                          ", protocol: {test_terrains: [1007]}}\n")
+    write_table(synthetic_truth(lambda d: float(d.count("w"))), "data/modular/exhaustive.parquet", "modular_exhaustive")
+    with pytest.raises(SystemExit) as exit_:  # no data/modular/pool.parquet: the modular_pool stage has not run
+        runpy.run_path(str(STAGES / "modular_realtime.py"), run_name="__main__")
+    assert exit_.value.code == 2
+    error = capsys.readouterr().err
+    assert error.startswith("stage modular_realtime: error: ") and "data/modular/pool.parquet" in error
+    assert error.count("\n") == 1 and not Path("data/modular/realtime.parquet").exists()
+
+
+def test_pool_stage_gathers_the_committed_pool_and_summarises_each_split(tmp_path, monkeypatch, synthetic_truth):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr("sys.argv", ["stages/modular_pool.py"])
+    (tmp_path / "params.yaml").write_text(TINY + "eggan_modular: {fitness: {train_seed_base: 20000, train_terrains: 2"
+                                          ", validation_seed_base: 20002, validation_terrains: 1}}\n")
+    params = load_section(ModularParams, "modular")
+    for seed, module in ((20000, "w"), (20001, "l"), (20002, "b")):
+        write_committed(synthetic_truth(lambda d, m=module: float(d.count(m)), seed), params.eval, params.fitness,
+                        seconds=1.0, directory=Path("reports/modular/pool"))
+    runpy.run_path(str(STAGES / "modular_pool.py"), run_name="__main__")
+    pool = read_table("data/modular/pool.parquet", "modular_exhaustive")
+    assert sorted(pool.terrain_seed.unique()) == [20000, 20001, 20002] and (pool.sim_steps > 0).sum() > 0
+    metrics = json.loads(Path("reports/metrics/modular_pool.json").read_text())
+    assert metrics["training"]["optimum_designs"] == {"20000": "wwwwww", "20001": "llllll"}
+    assert metrics["validation"]["optimum_designs"] == {"20002": "bbbbbb"} and metrics["sources"] == ["committed"]

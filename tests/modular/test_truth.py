@@ -5,12 +5,13 @@ import pytest
 
 from robocompose.fanout.cache import EvaluationCache
 from robocompose.modular.evaluate import EvalSettings, FitnessRule, rollouts
+from robocompose.modular.robot import mirror
 from robocompose.modular.terrain import generate_terrain
 from robocompose.modular.truth import (
     canonical,
     committed_path,
     exhaustive_terrain,
-    mirror,
+    pool_metrics,
     read_committed,
     terrain_criterion,
     truth_summary,
@@ -115,6 +116,23 @@ def test_terrain_criterion_counts_optima_up_to_mirror_and_the_regret_of_the_best
     mirrored = _table({1: {"lwwwww": 2.0, "wwwwwl": 1.0}, 2: {"lwwwww": 1.0, "wwwwwl": 2.0}})
     assert terrain_criterion(mirrored)[1]["distinct_optima"] == 1  # each other's mirror image
 
+
+
+
+def test_pool_metrics_count_each_splits_optima_and_the_regret_of_its_best_average_design(synthetic_truth):
+    wheels = synthetic_truth(lambda d: d.count("w"), terrain_seed=20000)  # optimum wwwwww (6)
+    legs = synthetic_truth(lambda d: d.count("l") + 1.0, terrain_seed=20001)  # optimum llllll (7)
+    also_wheels = synthetic_truth(lambda d: d.count("w") + 0.5, terrain_seed=20002)
+    table = pd.concat([wheels, legs, also_wheels], ignore_index=True)
+    metrics = pool_metrics(table, {"training": [20000, 20001], "validation": [20002]}, sizes=[1, 2, 8])
+    training = metrics["training"]
+    assert training["distinct_optima"] == 2 and training["terrains"] == 2
+    assert training["optimum_designs"] == {"20000": "wwwwww", "20001": "llllll"}
+    # best on average: every design of legs and wheels only scores 3.5 (ties: the first port string, llllll),
+    # its regret (6 - 0 + 7 - 7) / 2 = 3
+    assert training["average_design"] == "llllll" and training["mean_regret"] == 3.0
+    assert metrics["validation"]["distinct_optima"] == 1 and metrics["validation"]["mean_regret"] == 0.0
+    assert set(metrics["by_size"]) == {"1", "2"} and metrics["by_size"]["1"]["mean_regret"] == 0.0
 
 
 def test_the_physics_digest_follows_what_a_rollout_runs(monkeypatch):

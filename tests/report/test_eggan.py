@@ -1,4 +1,5 @@
-"""The EG-GAN report section: Table 5.1 rows with thesis numbers, failures as counts, the plain verdict."""
+"""The EG-GAN report section: Table 5.1 rows with thesis numbers, failures as counts, the plain verdict; the
+portfolio and oracle rows and DQN's ceiling from the stage's metrics; Table 5.2 with the thesis's numbers."""
 
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ from robocompose.report.eggan import section
 def _table() -> pd.DataFrame:
     rows = []
     for method, best, distinct in (("crowding", 6.0, 4), ("ga", 5.5, 2), ("fit2form", 5.0, 1), ("molgan", 4.5, 2),
-                                   ("dqn", 5.5, 3), ("random", 3.0, 1)):
+                                   ("dqn", 5.5, 3), ("random", 3.0, 1), ("portfolio", 6.5, 2), ("optimum", 7.0, 5)):
         for query in range(3):
             rows.append({"method": method, "terrain_seed": 1000, "query": query, "candidates": 10, "valid": 10,
                          "best_design": "wwwwww", "max_distance": best if query else np.nan, "distinct": distinct,
@@ -33,6 +34,11 @@ def test_section_has_table_5_1_with_thesis_numbers_and_a_verdict(tmp_path):
     assert "| EG-GAN-crowding | 6.00 ± 0.00 | 4.0 ± 0.0 | 5.00 ± 0.00 | 1.00 ± 0.00 | 1 / 0 | 400 | 5.73 ± 0.22" in text
     assert "| Random sampling | 3.00" in text and "0.86 ± 0.81" in text  # the thesis's hand-crafted row
     assert "EG-GAN-crowding beats random sampling" in text and "has more distinct solutions than EG-GAN" in text
+    assert "It does not beat the terrain-agnostic portfolio (6.50 m). It reaches 86% of the exhaustive optimum" in text
+    portfolio = "| Portfolio (terrain-agnostic baseline) | 6.50 ± 0.00 | 2.0 ± 0.0 | 5.50 ± 0.00 | 0.50 ± 0.00 |"
+    assert f"{portfolio} 1 / 0 | - | - | - | - | - |" in text  # a row the thesis does not have
+    assert "| Exhaustive optimum (oracle) | 7.00 ± 0.00 | 5.0 ± 0.0 | 6.00 ± 0.00 | 0.00 ± 0.00 |" in text
+    assert "DQN builds" not in text  # no ceiling without the stage's metrics
     dqn = next(line for line in text.splitlines() if line.startswith("| DQN based |"))
     assert dqn.startswith("| DQN based | 5.50 ± 0.00 | 3.0 ± 0.0 |")
     assert dqn.endswith("| 4.31 ± 0.26 | 2.7 ± 0.9 | 3.10 ± 0.92 | - |")  # the thesis's numbers beside ours
@@ -42,7 +48,24 @@ def test_section_has_table_5_1_with_thesis_numbers_and_a_verdict(tmp_path):
     assert molgan.endswith("| 3.82 ± 0.55 | 1.8 ± 0.3 | 2.93 ± 1.00 | - |")  # the thesis's numbers beside ours
     assert "| EG-GAN-crowding | 6.00 ± 0.00 | 4.0 ± 0.0 | not benchmarked" in text  # Table 5.2 without a bench
     (reports / "benchmarks.json").write_text(json.dumps({"eggan.modular.query_ms": 1.234}))
-    assert "| 1.2 ms per query (thesis 0.003 min) |" in section(reports, data)
+    assert "| 1.2 ms per query | 1000 | 5.73 ± 0.22 | 5.8 ± 1.5 | 0.003 |" in section(reports, data)
+
+
+def test_the_table_rows_and_dqns_ceiling_come_from_the_stage_metrics(tmp_path):
+    data, reports = tmp_path / "data", tmp_path / "reports"
+    write_table(_table(), data / "modular" / "realtime.parquet", "modular_realtime")
+    (reports / "metrics").mkdir(parents=True)
+    (reports / "metrics" / "eggan_modular.json").write_text("{}")
+    (reports / "metrics" / "modular_realtime.json").write_text(json.dumps({
+        "optimum": {"max_distance_mean": 7.0},
+        "portfolio_designs": {"pool_terrains": 40, "designs": ["wnbwnw", "bnbwnw"]},
+        "dqn_symmetric_ceiling": {"terrains": 10, "designs": 64, "ceiling": 2.7876, "best_design": "wnwwnw",
+                                  "best_design_mean": 2.2283}}))
+    text = section(reports, data)
+    assert "| DQN based (symmetric designs only: ceiling 2.79 m) | 5.50 ± 0.00 |" in text
+    assert "the best symmetric design of each terrain averages 2.79 m" in text and "`wnwwnw`, 2.23 m" in text
+    assert "same 2 designs, those of highest mean fitness over the training pool's 40 exhaustive tables" in text
+    assert "`wnbwnw`, `bnbwnw`" in text and "Exhaustive optimum (oracle): each test terrain's" in text
 
 
 def test_section_says_what_is_missing(tmp_path):
@@ -66,3 +89,58 @@ def test_fig_5_1_is_drawn_from_the_stage_records(tmp_path):
     assert "Constraints drawn: terrain 1000: at most 1 wheels; terrain 1001: at most 0 leg-wheels." in text
     assert "![Fig. 5.1](figures/eggan_fig5_1.png)" in text
     assert (reports / "figures" / "eggan_fig5_1.png").stat().st_size > 5000
+
+
+def test_training_lines_flag_a_discriminator_at_chance_and_draw_the_validation_curves(tmp_path):
+    data, reports = tmp_path / "data", tmp_path / "reports"
+    write_table(_table(), data / "modular" / "realtime.parquet", "modular_realtime")
+    (reports / "plots").mkdir(parents=True)
+    (reports / "metrics").mkdir(parents=True)
+    common = {"fitness_source": "table", "iterations": 5000, "evaluation_budget": 20000, "surrogate_heldout": None}
+    (reports / "metrics" / "eggan_modular.json").write_text(json.dumps({
+        "crowding": {**common, "method": "EG-GAN-crowding", "iterations_done": 1200, "real_evaluations": 19990,
+                     "final": {"d_accuracy": 0.81, "val_max_distance": 2.4, "val_regret": 0.3}},
+        "ga": {**common, "method": "EG-GAN", "iterations_done": 5000, "real_evaluations": 9000,
+               "final": {"d_accuracy": 0.52, "val_max_distance": 2.0, "val_regret": 0.7}},
+        "dqn": {**common, "method": "DQN", "iterations_done": 150, "real_evaluations": 2500,
+                "final": {"val_max_distance": 2.1, "val_regret": 0.6}}}))
+    for variant in ("crowding", "ga"):
+        pd.DataFrame({"iteration": [50, 100], "d_accuracy": [0.5, 0.6],
+                      "val_max_distance": [np.nan, 2.0]}).to_csv(reports / "plots" / f"eggan_modular_{variant}.csv")
+    text = section(reports, data)
+    assert "| EG-GAN-crowding | exact (pool tables) | 1200 / 5000 | 19990 / 20000 | 0.81 | 2.40 | 0.30 | - |" in text
+    assert "| DQN | exact (pool tables) | 150 / 5000 | 2500 / 20000 | - | 2.10 |" in text
+    assert "**Discriminator at chance** (accuracy within 0.05 of 0.5 at the end of training): EG-GAN." in text
+    assert (reports / "figures" / "eggan_modular_validation.png").stat().st_size > 0
+    assert "![validation curves](figures/eggan_modular_validation.png)" in text
+
+
+def test_the_pool_table_comes_from_the_pool_stage_metrics(tmp_path):
+    data, reports = tmp_path / "data", tmp_path / "reports"
+    write_table(_table(), data / "modular" / "realtime.parquet", "modular_realtime")
+    (reports / "metrics").mkdir(parents=True)
+    (reports / "metrics" / "eggan_modular.json").write_text("{}")
+    split = {"terrains": 2, "distinct_optima": 2, "average_design": "llllll", "mean_regret": 3.0,
+             "regret_ratio": 0.4615}
+    (reports / "metrics" / "modular_pool.json").write_text(json.dumps({
+        "training": {"seeds": [20000, 20001], **split}, "validation": {"seeds": [20040, 20040], **split, "terrains": 1},
+        "by_size": {"8": {**split, "mean_regret": 1.25}}, "simulated_designs": 3888}))
+    text = section(reports, data)
+    assert "| training | 2 (20000..20001) | 2 | `llllll` | 3.00 | 46% |" in text
+    assert "| validation | 1 (20040..20040) |" in text and "8 terrains: `llllll` 1.25 m" in text
+
+
+def test_the_pool_size_study_is_a_table_and_a_figure(tmp_path):
+    data, reports = tmp_path / "data", tmp_path / "reports"
+    write_table(_table(), data / "modular" / "realtime.parquet", "modular_realtime")
+    (reports / "metrics").mkdir(parents=True)
+    (reports / "metrics" / "eggan_modular.json").write_text("{}")
+    rows = _table()
+    rows = rows[rows.method.isin(["crowding", "portfolio"])]
+    study = pd.concat([rows.assign(pool_terrains=n, iterations_done=900, lookups=5000 * n) for n in (8, 16)])
+    study.loc[(study.pool_terrains == 16) & (study.method == "crowding"), "max_distance"] += 1.0
+    write_table(study, data / "modular" / "pool_size.parquet", "modular_pool_size")
+    text = section(reports, data)
+    assert "| 8 | EG-GAN-crowding | 6.00 ± 0.00 | 1.00 ± 0.00 | 900 / 40000 |" in text
+    assert "| 16 | EG-GAN-crowding | 7.00 ± 0.00 |" in text and "| 16 | Portfolio (terrain-agnostic baseline) |" in text
+    assert (reports / "figures" / "eggan_modular_pool_size.png").stat().st_size > 0

@@ -5,6 +5,7 @@ import pytest
 
 from robocompose.cli import parser
 from robocompose.teams.chips import write_label_png
+from robocompose.teams.nsga2 import team_hypervolume
 
 
 def run(argv: list[str], capsys) -> dict:
@@ -26,8 +27,10 @@ def test_nsga2_prints_hypervolume_seconds_and_a_front(capsys):
     out = run(["teams", "nsga2", "--synthetic-seed", "1", "--regions", "3", "--pop", "6",
                "--generations", "2"], capsys)
     assert set(out) == {"hypervolume", "seconds", "front"}
-    assert out["hypervolume"] > 0 and out["seconds"] > 0
-    assert all(len(point) == 2 for point in out["front"])
+    front = np.array(out["front"])  # (F, 2) [coverage cost, deployment cost] by deployment: non-dominated
+    assert front.shape[1] == 2 and (np.diff(front[:, 1]) > 0).all() and (np.diff(front[:, 0]) < 0).all()
+    assert out["hypervolume"] == pytest.approx(team_hypervolume(front)) and out["hypervolume"] > 0
+    assert out["seconds"] > 0
 
 
 @pytest.mark.parametrize(("allocation", "fragments"), [
@@ -88,8 +91,10 @@ def test_compose_teams_prints_the_measured_front_and_the_best_within_a_budget(tm
     chip = tmp_path / "chip.png"
     write_label_png(np.random.default_rng(0).choice([2, 3, 4], size=(300, 300)).astype(np.uint8), chip)
     out = run(["compose", "teams", "--chip", str(chip), "--model", str(tiny_model)], capsys)
-    assert out["regions"] == 3 and out["hypervolume"] >= 0 and out["generator_ms"] > 0
     front = out["front"]
+    points = np.array([[p["coverage_cost"], p["deployment_cost"]] for p in front])
+    assert out["regions"] == 3 and out["hypervolume"] == pytest.approx(team_hypervolume(points))
+    assert out["generator_ms"] > 0
     assert front and all(np.array(p["counts"]).shape == (3, 3) for p in front)
     assert all(sum(map(sum, p["counts"])) == p["deployment_cost"] for p in front)
     budget = front[-1]["deployment_cost"]

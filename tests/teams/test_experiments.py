@@ -7,7 +7,7 @@ import pytest
 from robocompose.fanout.executor import Executor
 from robocompose.teams.chips import ChipsConfig, prepare_chips
 from robocompose.teams.decompose import DecomposeConfig, regions_table
-from robocompose.teams.ergodic import CoverageConfig
+from robocompose.teams.ergodic import CoverageConfig, allocation_id
 from robocompose.teams.evaluator import teams_cache
 from robocompose.teams.experiments import (
     coverage_baselines,
@@ -43,7 +43,10 @@ def test_nsga2_runs_record_every_population_and_a_front_per_run(test_chips):
     assert runs.population.tolist() == [4, 6, 4, 6] and (runs.evaluations == [8, 12, 8, 12]).all()
     assert runs.seed.tolist() == [0, 0, 1, 1] and "seconds" not in runs  # wall time: not in the table
     assert [(run["population"], run["seed"]) for run in seconds] == [(4, 0), (6, 0), (4, 1), (6, 1)]
-    assert len(cache) > 0 and all(run["seconds"] > 0 for run in seconds)
+    assert all(run["seconds"] > 0 for run in seconds)
+    for row in fronts.itertuples():  # every front point is a cached evaluation of its allocation
+        key = (allocation_id(np.reshape(row.counts, (3, 3))), row.chip_id, TINY.settings_hash(), row.seed)
+        assert cache.get(key)["coverage_cost"] == pytest.approx(row.coverage_cost)
     for _, front in fronts.groupby(["population", "seed"]):
         points = front[["coverage_cost", "deployment_cost"]].to_numpy()
         assert not any((p <= q).all() and (p < q).any() for p in points for q in points)

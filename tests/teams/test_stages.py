@@ -1,7 +1,12 @@
+import json
 import runpy
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
+import pytest
+
+from robocompose.teams.chips import read_chip
 
 STAGES = Path(__file__).resolve().parents[2] / "stages"
 TINY_PARAMS = """
@@ -26,7 +31,9 @@ def test_stages_write_their_tables_deterministically(tmp_path, monkeypatch):
     run_stage("decompose")
     regions_bytes = Path("data/regions.parquet").read_bytes()
     regions = pd.read_parquet("data/regions.parquet")
-    assert len(regions) == 4 * 3 and sorted(Path("data/teams/chips").glob("*.png"))
+    assert len(regions) == 4 * 3 and set(regions.source) == {str(p) for p in Path("data/teams/chips").glob("*.png")}
+    for (chip_id, source), chip_regions in regions.groupby(["chip_id", "source"]):  # the regions partition the chip
+        assert chip_regions.n_pixels.sum() == read_chip(chip_id, source).classes.size
     run_stage("decompose")
     assert Path("data/regions.parquet").read_bytes() == regions_bytes
     run_stage("teams_baselines")
@@ -44,7 +51,16 @@ def test_eggan_stage_trains_queries_and_resumes(tmp_path, monkeypatch):
     run_stage("decompose")
     run_stage("teams_eggan")
     queries = pd.read_parquet("data/teams/eggan_queries.parquet")
-    assert len(queries) == 1 and (queries.hypervolume >= 0).all()
+    front = pd.read_parquet("data/teams/eggan_fronts.parquet")
+    assert len(queries) == 1 and queries.front_size[0] == len(front) <= queries.distinct[0]
+    assert (front.deployment_cost == front.counts.map(sum)).all()  # a robot deployed costs 1
+    cost, deployed = front.coverage_cost.to_numpy(), front.deployment_cost.to_numpy()
+    assert (np.diff(deployed) > 0).all() and (np.diff(cost) < 0).all()  # by deployment: mutually non-dominated
+    inside = (cost < 0.25) & (deployed < 60)  # the box up to the reference point (0.25, 60)
+    widths = np.diff(np.append(deployed[inside], 60.0))
+    assert queries.hypervolume[0] == pytest.approx(float(((0.25 - cost[inside]) * widths).sum()))
+    metrics = json.loads(Path("reports/metrics/teams_eggan.json").read_text())
+    assert metrics["mean_hypervolume"] == round(queries.hypervolume[0], 4)
     examples = pd.read_parquet("data/teams/coverage_examples.parquet")
     assert {"dec_random_allocation", "no_decomposition"} <= set(examples.method)
     model = Path("models/teams_eggan.pt").read_bytes()

@@ -1,0 +1,126 @@
+"""The real-time test protocol of Table 5.1, for every method that answers a query in real time (a `Proposer`:
+terrain -> candidate designs) on every held-out test terrain and query (`realtime_table`):
+- the method outputs `candidates` designs (EG-GAN: the most probable distinct designs among `samples` draws);
+- every candidate is answered from the terrain's exhaustive table (the simulator's measured result of every
+  design: no new rollout; a test terrain without a table is an InputError); max distance = the best valid one;
+- distinct solutions = the niching metric (delta 1 Hamming, epsilon 0.5 m) over the valid candidates (0 if none:
+  penalty scores are not distances);
+- EC: `ec_draws` random caps on one module type; the answer is the best satisfying valid candidate, else a
+  random valid satisfying design (modular `ec_answers`), looked up the same way. Answers are valid designs,
+  so EC is a distance; a query whose candidates are all invalid is counted as a failure, not averaged;
+- regret = the terrain's exhaustive optimum minus max distance.
+
+Beside the thesis's rows, two from tables (`table_proposers`): the terrain-agnostic portfolio (the designs best on
+average over the training pool, `robocompose.modular.table_designs.portfolio`) and the exhaustive optimum (each
+test terrain's fittest designs, `table_designs.top_designs`: an oracle upper bound, not a method).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+import numpy as np
+import pandas as pd
+
+from robocompose.io.errors import InputError
+from robocompose.modular.eggan_params import EgganModularParams
+from robocompose.modular.eggan_problem import ModularEgganProblem
+from robocompose.modular.evaluate import Result
+from robocompose.modular.experiments import DELTA, EPSILON, _seed, ec_answers, emergency_constraints
+from robocompose.modular.params import ModularParams
+from robocompose.modular.problem import hamming
+from robocompose.search.metrics import distinct_solutions
+
+# (problem, terrain seed, query seed, candidates) -> candidate designs, best first
+Proposer = Callable[[ModularEgganProblem, int, int, int], list[str]]
+
+
+def random_proposer(problem: ModularEgganProblem, terrain_seed: int, query_seed: int, candidates: int) -> list[str]:
+    """Random sampling (thesis Table 5.1): `candidates` designs drawn uniformly (every port uniform)."""
+    rng = np.random.default_rng([query_seed, terrain_seed, 6007])
+    return ["".join("nlwb"[int(i)] for i in row) for row in rng.integers(4, size=(candidates, 6))]
+
+
+def table_proposers(portfolio: list[str], optima: dict[int, list[str]]) -> dict[str, Proposer]:
+    """Table 5.1's rows from tables: "portfolio" answers every query with the same `portfolio` designs (best on
+    average over the training pool); "optimum" with `optima[terrain]`, the terrain's fittest designs in its
+    exhaustive table (the oracle upper bound)."""
+
+    def first(designs: list[str], candidates: int, what: str) -> list[str]:
+        if candidates > len(designs):
+            raise InputError(f"eggan_modular.protocol.candidates: expected at most the {len(designs)} designs of "
+                             f"{what}, found {candidates}")
+        return designs[:candidates]
+
+    def portfolio_proposer(problem: ModularEgganProblem, terrain_seed: int, query_seed: int,
+                           candidates: int) -> list[str]:
+        return first(portfolio, candidates, "the portfolio")
+
+    def optimum_proposer(problem: ModularEgganProblem, terrain_seed: int, query_seed: int,
+                         candidates: int) -> list[str]:
+        return first(optima[terrain_seed], candidates, f"terrain {terrain_seed}'s optimum")
+
+    return {"portfolio": portfolio_proposer, "optimum": optimum_proposer}
+
+
+def realtime_table(proposers: dict[str, Proposer], problem: ModularEgganProblem, modular: ModularParams,
+                   params: EgganModularParams, truth: pd.DataFrame) -> tuple[pd.DataFrame, dict[str, float]]:
+    """One row per method x test terrain x query (see the module docstring), every candidate answered from the
+    exhaustive table `truth`, and each method's median query wall time in ms (kept apart from the table, so that
+    the table's bytes depend on the inputs only)."""
+    p = params.protocol
+    rule = modular.fitness
+    missing = sorted(set(p.test_terrains) - set(truth.terrain_seed.unique()))
+    if missing:
+        raise InputError(f"eggan_modular.protocol.test_terrains: expected every test terrain in the exhaustive table "
+                         f"(modular.experiments.truth_terrains, stage modular_exhaustive), missing {missing}")
+    rows, query_ms = [], {}
+    for terrain_seed in p.test_terrains:
+        table = truth[truth.terrain_seed == terrain_seed]
+        optimum = float(table.fitness.max())
+        known = {d: Result(None if pd.isna(x) else float(x), s, 0, 0.0)
+                 for d, x, s in zip(table.design, table.distance, table.status, strict=True)}
+
+        def measured(designs: list[str], known=known) -> list[Result]:
+            """The simulator's measured results, from the terrain's exhaustive table."""
+            return [known[d] for d in designs]
+
+        for method, propose in proposers.items():
+            problem.encode_task(terrain_seed)  # the height map is the query's input: not part of its time
+            for query in range(p.queries):
+                query_seed = _seed(query, terrain_seed, 4999)
+                started = time.perf_counter()
+                candidates = propose(problem, terrain_seed, query_seed, p.candidates)
+                query_ms.setdefault(method, []).append((time.perf_counter() - started) * 1000)
+                results = measured(candidates)
+                fitness = np.array([rule.fitness(r) for r in results])
+                valid = np.array([r.distance is not None for r in results])
+                rng = np.random.default_rng([query_seed, terrain_seed, 7919])  # the same caps for every method
+                constraints = emergency_constraints(rng, p.ec_draws)
+                ok = [c for c, v in zip(candidates, valid, strict=True) if v]
+                answers = ec_answers(ok, fitness[valid], constraints, rng, valid=lambda d: not rule.skips(d))
+                ec = measured(answers)
+                ec_ok = [r.distance for r in ec if r.distance is not None]
+                best = float(fitness[valid].max()) if valid.any() else np.nan
+                rows.append({
+                    "method": method, "terrain_seed": int(terrain_seed), "query": query,
+                    "candidates": len(candidates), "valid": int(valid.sum()),
+                    "best_design": candidates[int(np.argmax(np.where(valid, fitness, -np.inf)))] if valid.any()
+                    else "", "max_distance": best,
+                    "distinct": distinct_solutions(ok, fitness[valid], lambda a, b: float(hamming(a, b)), DELTA,
+                                                   EPSILON),
+                    "ec_distance": float(np.mean(ec_ok)) if ec_ok else np.nan,
+                    "ec_failures": len(ec) - len(ec_ok), "optimum": optimum, "regret": optimum - best})
+    return pd.DataFrame(rows), {method: round(float(np.median(ms)), 3) for method, ms in query_ms.items()}
+
+
+def summarise(table: pd.DataFrame) -> pd.DataFrame:
+    """Per method: mean and std over terrains x queries of max distance, distinct, EC, regret; failure counts."""
+    grouped = table.groupby("method", sort=False)
+    out = grouped[["max_distance", "distinct", "ec_distance", "regret"]].agg(["mean", "std"])
+    out.columns = [f"{a}_{b}" for a, b in out.columns]
+    out["queries"] = grouped.size()
+    out["no_valid_candidate"] = grouped.max_distance.apply(lambda s: int(s.isna().sum()))
+    out["ec_failures"] = grouped.ec_failures.sum()
+    return out.reset_index()

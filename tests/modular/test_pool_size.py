@@ -1,0 +1,48 @@
+"""The pool-size study: one EG-GAN-crowding and one portfolio row per test query and pool size; the portfolio of
+each size is the best-on-average design set of exactly that many training terrains."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pandas as pd
+
+from robocompose.modular.eggan_params import EgganModularParams, PoolSizeConfig
+from robocompose.modular.evaluate import EvalSettings, FitnessRule
+from robocompose.modular.params import ExperimentsConfig, ModularParams
+from robocompose.modular.pool_size import pool_size_study, study_sizes
+from robocompose.params import build_config
+from tests.modular.test_eggan_problem import fake_pool
+
+MODULAR = ModularParams(EvalSettings(control_steps=10), FitnessRule(), ExperimentsConfig())
+
+
+def test_sizes_are_capped_at_the_pool_and_include_it():
+    assert study_sizes(PoolSizeConfig(sizes=[8, 16, 32, 40]), 12) == [8, 12]
+    assert study_sizes(PoolSizeConfig(sizes=[8, 16]), 16) == [8, 16]
+
+
+def test_the_study_trains_per_size_and_answers_from_the_tables(tmp_path):
+    path = fake_pool(tmp_path, [20_000, 20_001, 20_002, 20_003])  # odd seeds reward wheels, even ones legs
+    params = build_config(EgganModularParams, {
+        "fitness": {"train_terrains": 2, "validation_seed_base": 20_003, "validation_terrains": 1, "pool": str(path)},
+        "network": {"latent": 8, "hidden": 16, "filters": 4},
+        "train": {"batch": 16, "tasks": 2, "samples": 4, "log_every": 2, "checkpoint_every": 2, "validate_every": 0},
+        "protocol": {"test_terrains": [20_002], "samples": 8}}, "test")
+    pool = pd.read_parquet(path)
+    truth = pool[pool.terrain_seed == 20_002]  # stands in for a test terrain's table
+    study = pool_size_study(MODULAR, params, PoolSizeConfig(sizes=[1], iterations=4, queries=2), pool, truth,
+                            tmp_path / "checkpoints")
+    assert sorted(study.pool_terrains.unique()) == [1, 2] and set(study.method) == {"crowding", "portfolio"}
+    assert len(study) == 2 * 2 * 2  # sizes x methods x queries
+    portfolio = study[study.method == "portfolio"]
+    # one legs terrain (20000): its portfolio's best design is all legs, which scores 6 on the legs test terrain
+    assert (portfolio[portfolio.pool_terrains == 1].max_distance == 6.0).all()
+    assert (study.regret >= 0).all() and (study.regret == study.optimum - study.max_distance).all()
+    crowding = study[study.method == "crowding"]
+    assert (crowding.iterations_done == 4).all() and (crowding.lookups > 0).all()
+    assert (tmp_path / "checkpoints" / "crowding_2.pt").exists()
+    again = pool_size_study(MODULAR, params, PoolSizeConfig(sizes=[1], iterations=4, queries=2), pool, truth,
+                            tmp_path / "checkpoints")  # resumed from the checkpoints: the same table
+    pd.testing.assert_frame_equal(again, study)
+    assert dataclasses.asdict(params.fitness)["train_terrains"] == 2  # the study does not change the params
