@@ -167,7 +167,8 @@ def _verdict(table: pd.DataFrame) -> str:
     if "optimum" in means.index:
         text += (f" It reaches {means.max_distance['crowding'] / means.max_distance['optimum']:.0%} of the exhaustive "
                  f"optimum ({means.max_distance['optimum']:.2f} m).")
-    return text
+    tests = _significance(table, [m for m in ("random", "portfolio", "ga") if m in means.index])
+    return f"{text} {tests}" if tests else text
 
 
 def _pool_lines(path: Path) -> list[str]:
@@ -225,6 +226,21 @@ def _pool_size_lines(path: Path, figures: Path) -> list[str]:
 
 
 CHANCE = 0.05  # a discriminator whose accuracy stays within this of 1/2 gives the generator no signal
+
+
+def _significance(table: pd.DataFrame, others: list[str]) -> str:
+    """Wilcoxon signed-rank tests of EG-GAN-crowding's max distance against each method, paired by test terrain
+    (each terrain's mean over its queries: the queries of one terrain are not independent)."""
+    from scipy.stats import wilcoxon
+
+    per_terrain = table.groupby(["method", "terrain_seed"]).max_distance.mean().unstack("method")
+    parts = []
+    for other in others:
+        diff = (per_terrain["crowding"] - per_terrain[other]).dropna()
+        if len(diff) >= 5 and (diff != 0).any():
+            parts.append(f"vs {NAMES[other]} p = {wilcoxon(diff).pvalue:.3f}")
+    return (f"Paired by terrain (Wilcoxon signed-rank, {len(per_terrain)} terrains): " + "; ".join(parts) + "."
+            if parts else "")
 
 
 def _training_lines(metrics: dict, reports_dir: Path) -> list[str]:

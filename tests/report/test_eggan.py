@@ -144,3 +144,24 @@ def test_the_pool_size_study_is_a_table_and_a_figure(tmp_path):
     assert "| 8 | EG-GAN-crowding | 6.00 ± 0.00 | 1.00 ± 0.00 | 900 / 40000 |" in text
     assert "| 16 | EG-GAN-crowding | 7.00 ± 0.00 |" in text and "| 16 | Portfolio (terrain-agnostic baseline) |" in text
     assert (reports / "figures" / "eggan_modular_pool_size.png").stat().st_size > 0
+
+
+def test_the_verdict_tests_crowding_against_the_others_paired_by_terrain(tmp_path):
+    data, reports = tmp_path / "data", tmp_path / "reports"
+    rng = np.random.default_rng(0)
+    rows = []
+    for seed in range(1000, 1010):
+        base = rng.uniform(1, 3)
+        for method, lift in (("crowding", 1.0), ("ga", 0.9), ("random", 0.0), ("portfolio", 1.0)):
+            rows.append({"method": method, "terrain_seed": seed, "query": 0, "candidates": 10, "valid": 10,
+                         "best_design": "wwwwww", "max_distance": base + lift + (rng.normal(0, 0.3) if method == "ga"
+                                                                                 else 0.0),
+                         "distinct": 2, "ec_distance": base, "ec_failures": 0, "optimum": 9.0, "regret": 1.0})
+    write_table(pd.DataFrame(rows), data / "modular" / "realtime.parquet", "modular_realtime")
+    (reports / "metrics").mkdir(parents=True)
+    (reports / "metrics" / "eggan_modular.json").write_text("{}")
+    text = section(reports, data)
+    # crowding is 1 m above random on every terrain: the smallest two-sided p of 10 pairs, 2 / 2^10
+    assert "Paired by terrain (Wilcoxon signed-rank, 10 terrains): vs Random sampling p = 0.002" in text
+    assert "vs Portfolio" not in text  # no difference on any terrain: no test
+    assert "vs EG-GAN p = " in text
