@@ -22,7 +22,7 @@ from robocompose.eggan.dqn import DQNConfig, best_designs, load_dqn, save_dqn, t
 from robocompose.eggan.fit2form import Fit2formConfig, train_fit2form
 from robocompose.eggan.molgan import MolganConfig, train_molgan
 from robocompose.eggan.problem import Design, EgganProblem, Task
-from robocompose.eggan.query import generate, load_generator, rank_distinct, save_generator
+from robocompose.eggan.query import generate, load_generator, save_generator, top_distinct
 
 Answer = Callable[[EgganProblem, Task, int, int], list[Design]]  # (problem, task, query seed, k) -> designs
 Draws = Callable[[EgganProblem, Task, int], list[Design]]  # (problem, task, query seed) -> the designs drawn
@@ -32,15 +32,7 @@ def generator_answer(generator: torch.nn.Module, samples: int) -> Answer:
     """A generator's answer: the most probable distinct designs among `samples` draws (more draws if too few)."""
 
     def answer(problem: EgganProblem, task: Task, query_seed: int, k: int) -> list[Design]:
-        tensor = problem.encode_task(task)
-        ranked = []
-        for chunk in range(16):  # a sharp generator may need more than one batch for k distinct designs
-            sampled, output = generate(generator, problem, task, samples * (chunk + 1), seed=query_seed,
-                                       task_tensor=tensor)
-            ranked = rank_distinct(problem, sampled, output, k)
-            if len(ranked) == k:
-                break
-        return [r.design for r in ranked]
+        return [r.design for r in top_distinct(generator, problem, task, k, samples, query_seed)]
 
     return answer
 

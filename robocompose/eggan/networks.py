@@ -61,13 +61,14 @@ class TaskEncoder(nn.Module):
             self.convs = nn.Sequential(nn.Conv2d(1, config.filters, 3), nn.ReLU(),
                                        nn.Conv2d(config.filters, config.filters, 3), nn.ReLU(), nn.Flatten())
             self.fc = nn.Linear(config.filters * (h - 4) * (w - 4), config.latent)
+            self.norm = nn.LayerNorm(config.latent, elementwise_affine=False)
             self.code_size = config.latent
         else:
             self.code_size = math.prod(task_shape)
 
     def forward(self, task: torch.Tensor) -> torch.Tensor:
         if self.image:
-            return self.fc(self.convs(task.unsqueeze(1)))  # (B, 1, H, W) -> (B, P)
+            return self.norm(self.fc(self.convs(task.unsqueeze(1))))  # (B, 1, H, W) -> (B, P)
         return task.flatten(1)  # (B, prod task_shape)
 
 

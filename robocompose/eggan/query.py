@@ -3,11 +3,13 @@
 `generate` runs the generator once on a batch of n noise vectors for one task (the task is encoded once) and
 draws one design per z. `rank_distinct` (discrete problems) ranks the distinct designs drawn by their
 probability under the generator's mixture over the n z, (1/n) sum_z P_theta(x | z, T), highest first: the
-ranking needs no simulation.
+ranking needs no simulation. `top_distinct` answers a query: the k most probable distinct designs, drawing
+twice as many designs while fewer than k are found (a sharp generator repeats its favourites).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -54,6 +56,26 @@ def rank_distinct(problem: EgganProblem, sampled: Sampled, output: torch.Tensor,
     scores = log_p.exp().mean(dim=1)  # (D,)
     order = sorted(range(len(designs)), key=lambda i: (-float(scores[i]), problem.design_id(designs[i])))
     return [Ranked(designs[i], float(scores[i])) for i in order[:k]]
+
+
+MAX_DOUBLINGS = 4  # draws tried: samples, 2x, 4x, 8x, 16x samples, before answering with fewer than k designs
+
+
+@torch.no_grad()
+def top_distinct(generator: Generator, problem: EgganProblem, task: Task, k: int, samples: int, seed: int = 0,
+                 task_tensor: torch.Tensor | None = None,
+                 keep: Callable[[Design], bool] | None = None) -> list[Ranked]:
+    """The k most probable distinct designs for `task` that `keep` accepts, among `samples` draws, or among twice
+    as many draws (up to `MAX_DOUBLINGS` times) while fewer than k are found; fewer than k if even that fails."""
+    tensor = problem.encode_task(task) if task_tensor is None else task_tensor
+    ranked: list[Ranked] = []
+    for doubling in range(MAX_DOUBLINGS + 1):
+        sampled, output = generate(generator, problem, task, samples << doubling, seed, tensor)
+        ranked = [r for r in rank_distinct(problem, sampled, output, len(sampled.designs))
+                  if keep is None or keep(r.design)][:k]
+        if len(ranked) == k:
+            break
+    return ranked
 
 
 # --- the generator as a file: weights, sizes and provenance (the shipped default generator is one) ---

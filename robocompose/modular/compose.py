@@ -25,7 +25,6 @@ if TYPE_CHECKING:
 
 SHIPPED_MODEL = Path(__file__).resolve().parent / "pretrained" / "eggan.pt"
 MODULE_NAMES = {"none": "n", "leg": "l", "wheel": "w", "legwheel": "b", "leg-wheel": "b", "leg_wheel": "b"}
-MAX_DRAWS = 16  # batches of `--samples` draws tried before answering with fewer than k designs
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -40,7 +39,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                          "legwheel)")
     modular.add_argument("--model", type=input_file("an EG-GAN generator file"),
                          help=f"generator file (default: the shipped {SHIPPED_MODEL.name})")
-    modular.add_argument("--samples", type=positive_int, default=64, help="generator draws per batch (default 64)")
+    modular.add_argument("--samples", type=positive_int, default=64,
+                         help="generator draws per query, doubled up to 16x while fewer than --k designs are found "
+                         "(default 64)")
     modular.add_argument("--seed", type=non_negative_int, default=0, help="seed of the noise vectors")
     modular.add_argument("--simulate", action="store_true", help="also simulate each design (distance, status)")
     modular.add_argument("--params", type=Path, default=None, help="params file with a modular: section (default: "
@@ -116,7 +117,7 @@ def _ship(args: argparse.Namespace) -> None:
 def _compose(args: argparse.Namespace) -> None:
     import torch
 
-    from robocompose.eggan.query import generate, load_generator, rank_distinct
+    from robocompose.eggan.query import load_generator, top_distinct
     from robocompose.modular.cli import _params, params_source
     from robocompose.modular.eggan_problem import FitnessConfig, ModularEgganProblem
 
@@ -133,14 +134,8 @@ def _compose(args: argparse.Namespace) -> None:
     else:
         task, tensor = args.terrain_seed, problem.encode_task(args.terrain_seed)
     loaded = time.perf_counter()
-    ranked = []
-    for draw in range(1, MAX_DRAWS + 1):
-        sampled, output = generate(generator, problem, task, args.samples * draw, seed=args.seed, task_tensor=tensor)
-        allowed = [r for r in rank_distinct(problem, sampled, output, len(sampled.designs))
-                   if not params.fitness.skips(r.design) and all(r.design.count(m) <= c for m, c in caps.items())]
-        ranked = allowed[:args.k]
-        if len(ranked) == args.k:
-            break
+    ranked = top_distinct(generator, problem, task, args.k, args.samples, args.seed, tensor,
+                          keep=lambda d: not params.fitness.skips(d) and all(d.count(m) <= c for m, c in caps.items()))
     query_ms = (time.perf_counter() - loaded) * 1000
     designs = [{"design": r.design, "score": round(r.score, 6)} for r in ranked]
     if args.simulate:

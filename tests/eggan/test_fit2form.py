@@ -9,7 +9,7 @@ from robocompose.eggan.query import generate, rank_distinct
 
 def test_fit2form_beats_random_on_held_out_tasks(match_problem):
     generator, rows = train_fit2form(match_problem, NetworkConfig(latent=16),
-                                     Fit2formConfig(iterations=300, tasks=8, samples=8, lr=3e-3))
+                                     Fit2formConfig(iterations=600, tasks=8, samples=8, lr=3e-3))
     rng = np.random.default_rng(999)
     scores = []
     for _ in range(20):

@@ -42,6 +42,26 @@ def test_the_task_reaches_both_outputs():
     assert (d(design, d.encode(flat)) - d(design, d.encode(rough))).abs().max() > 1e-4
 
 
+@pytest.mark.parametrize("network", [Generator, Discriminator])
+def test_a_height_map_code_keeps_its_scale_however_large_the_encoder_grows(network):
+    """The hidden layers normalise their rows, so nothing bounds the encoder's scale: unnormalised, a trained
+    encoder grew to codes of ~800 (z ~ 1) and a design's one-hot moved D's first layer 1/67 as much as the
+    task did. The code is normalised itself, so the task cannot drown out z or the design."""
+    torch.manual_seed(0)
+    net = network((50, 20), (6, 4), NetworkConfig(latent=8, hidden=16)).eval()
+    tasks = torch.rand(3, 50, 20)
+    inputs = torch.randn(3, 8) if network is Generator else torch.rand(3, 6, 4)
+    with torch.no_grad():
+        net.task.fc.weight.mul_(10.0)
+        net.task.fc.bias.mul_(10.0)
+        before = net(inputs, net.encode(tasks))
+        net.task.fc.weight.mul_(100.0)
+        net.task.fc.bias.mul_(100.0)
+        code = net.encode(tasks)
+    assert torch.allclose(code.pow(2).mean(dim=1), torch.ones(3), atol=1e-3)  # unit scale per row, like z
+    assert torch.allclose(net(inputs, code), before, atol=1e-4)  # 100x the encoder's scale changes nothing
+
+
 def test_bad_sizes():
     with pytest.raises(ValueError, match="network.hidden"):
         NetworkConfig(hidden=0)

@@ -4,7 +4,14 @@ import pytest
 import torch
 
 from robocompose.eggan.networks import Generator, NetworkConfig
-from robocompose.eggan.query import generate, generator_info, load_generator, rank_distinct, save_generator
+from robocompose.eggan.query import (
+    generate,
+    generator_info,
+    load_generator,
+    rank_distinct,
+    save_generator,
+    top_distinct,
+)
 from robocompose.io.errors import InputError
 
 
@@ -18,6 +25,23 @@ def test_ranking_is_distinct_sorted_and_probabilities(match_problem):
     assert scores == sorted(scores, reverse=True) and 0 < sum(scores) <= 1
     again, _ = generate(generator, match_problem, (0, 1, 2, 3, 0, 1), 64, seed=0)
     assert again.designs == sampled.designs  # a query is a function of its seed
+
+
+def test_a_sharp_generator_still_answers_k_distinct_designs_by_drawing_more(match_problem):
+    """A generator that almost always draws one design: 8 draws hold fewer than 5 distinct designs, so the
+    query doubles its draws until it finds 5; a filter that nothing passes answers nothing."""
+    torch.manual_seed(0)
+    generator = Generator(match_problem.task_shape, match_problem.design_shape, NetworkConfig(latent=8, hidden=16))
+    with torch.no_grad():
+        generator.body[-1].bias.view(match_problem.design_shape)[:, 0] += 4.0  # every row picks choice 0 ~95%
+    task = (0, 1, 2, 3, 0, 1)
+    assert len({match_problem.design_id(d) for d in generate(generator, match_problem, task, 8)[0].designs}) < 5
+    ranked = top_distinct(generator, match_problem, task, 5, 8)
+    assert len({match_problem.design_id(r.design) for r in ranked}) == 5
+    assert [r.score for r in ranked] == sorted((r.score for r in ranked), reverse=True)
+    assert top_distinct(generator, match_problem, task, 5, 8, keep=lambda design: False) == []
+    kept = top_distinct(generator, match_problem, task, 3, 8, keep=lambda design: design[0] != 0)
+    assert len(kept) == 3 and all(r.design[0] != 0 for r in kept)
 
 
 @pytest.mark.parametrize("half", [False, True])
