@@ -3,7 +3,8 @@
 Training (`train_variant`, `train_baseline`): Algorithm 1 on `ModularEgganProblem` with the variant's evolution
 (crowding: EG-GAN-crowding; ga: EG-GAN), resumable from its checkpoint, or a learned baseline's own trainer, all
 on the same problem and budget; with the table source each learner's score on the pool's validation terrains
-(`validation_scores`) goes into its log and metrics. A model is saved with its params, metrics and provenance.
+(`validation_scores`) goes into its log and metrics, its score on the training terrains (`training_scores`) into
+its metrics. A model is saved with its params, metrics and provenance.
 
 Table 5.1's methods (`REALTIME_METHODS`, `realtime_proposers`): the learned ones from their model files, random
 sampling and the rows from tables (`robocompose.modular.protocol`, which runs the test protocol).
@@ -42,17 +43,30 @@ def make_problem(modular: ModularParams, params: EgganModularParams, cache: Eval
                                modular.experiments.crossover_rate)
 
 
-def validation_scores(problem: ModularEgganProblem, answer: Answer, candidates: int) -> dict[str, float]:
-    """A learner's score on the pool's validation terrains (never trained on), from their tables: per terrain the
-    best table fitness among its `candidates` answers (query seed 0) and the regret to the terrain's optimum,
-    averaged; the validation curve of training and the final check of every learner."""
+def table_scores(problem: ModularEgganProblem, answer: Answer, candidates: int, seeds: list[int],
+                 prefix: str) -> dict[str, float]:
+    """A learner's score on pool terrains, from their tables: per terrain the best table fitness among its
+    `candidates` answers (query seed 0) and the regret to the terrain's optimum, averaged, as PREFIX_max_distance
+    and PREFIX_regret."""
     best, regret = [], []
-    for seed in problem.validation_tasks():
+    for seed in seeds:
         table = problem.table(seed)
         top = max(table[d] for d in answer(problem, seed, 0, candidates))
         best.append(top)
         regret.append(max(table.values()) - top)
-    return {"val_max_distance": float(np.mean(best)), "val_regret": float(np.mean(regret))}
+    return {f"{prefix}_max_distance": float(np.mean(best)), f"{prefix}_regret": float(np.mean(regret))}
+
+
+def validation_scores(problem: ModularEgganProblem, answer: Answer, candidates: int) -> dict[str, float]:
+    """The score on the pool's validation terrains (never trained on): the validation curve of training and the
+    final check of every learner."""
+    return table_scores(problem, answer, candidates, problem.validation_tasks(), "val")
+
+
+def training_scores(problem: ModularEgganProblem, answer: Answer, candidates: int) -> dict[str, float]:
+    """The same score on the training terrains: beside the validation score, how far a learner fits the terrains
+    it was trained on and how much of that carries to terrains it never saw."""
+    return table_scores(problem, answer, candidates, problem.fitness.train_seeds, "train")
 
 
 def train_variant(variant: str, modular: ModularParams, params: EgganModularParams, cache: EvaluationCache | None,
@@ -74,6 +88,7 @@ def train_variant(variant: str, modular: ModularParams, params: EgganModularPara
     trained = train(problem, params.network, config, out / "checkpoints" / f"{name}.pt",
                     Path("reports/plots") / f"{name}.csv", out / f"{name}.mcap", progress=progress, validate=validate)
     metrics = {"method": VARIANTS[variant], **_common_metrics(problem, config.iterations, trained.rows),
+               **_training_fit(problem, generator_answer(trained.generator, params.protocol.samples), params),
                "batch": config.batch, "tasks_per_iteration": config.tasks, "evolution": variant,
                "evolution_steps": config.evolution_steps}
     save_generator(trained.generator, problem, out / f"{name}.pt",
@@ -133,11 +148,19 @@ def train_baseline(name: str, modular: ModularParams, params: EgganModularParams
         rows[-1] = {**rows[-1], **validation_scores(problem, learner.answer(model, params.protocol.samples),
                                                     params.protocol.candidates)}
     metrics = {"method": learner.title, **_common_metrics(problem, config.iterations, rows),
+               **_training_fit(problem, learner.answer(model, params.protocol.samples), params),
                **training.metrics(config, rows)}
     training.save(model, problem, out / f"eggan_modular_{name}.pt",
                   {"settings_hash": modular.eval.settings_hash(), "train": dataclasses.asdict(config),
                    "metrics": metrics})
     return metrics
+
+
+def _training_fit(problem: ModularEgganProblem, answer: Answer, params: EgganModularParams) -> dict:
+    """With the table source, the learner's score on its training terrains (`training_scores`)."""
+    if problem.fitness.source != "table":
+        return {}
+    return {"training_terrains": training_scores(problem, answer, params.protocol.candidates)}
 
 
 def _common_metrics(problem: ModularEgganProblem, iterations: int, rows: list[dict]) -> dict:

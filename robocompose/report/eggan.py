@@ -248,8 +248,9 @@ def _training_lines(metrics: dict, reports_dir: Path) -> list[str]:
     chance), validation-terrain score, surrogate error where a surrogate was used; the validation curves."""
     lines = ["### Training", "",
              "| method | fitness | iterations (done / asked) | evaluations / budget | discriminator accuracy | "
-             "validation max distance (m) | validation regret (m) | surrogate Spearman within a terrain |",
-             "|---|---|---|---|---|---|---|---|"]
+             "training max distance (m) | validation max distance (m) | validation regret (m) | "
+             "surrogate Spearman within a terrain |",
+             "|---|---|---|---|---|---|---|---|---|"]
     flagged = []
     for method, m in metrics.items():
         final, name = m.get("final", {}), m.get("method", method)
@@ -261,12 +262,16 @@ def _training_lines(metrics: dict, reports_dir: Path) -> list[str]:
                                                                                            "surrogate + rollouts")
         lines.append(f"| {name} | {source} | {m.get('iterations_done', m.get('iterations'))} / {m.get('iterations')} | "
                      f"{m.get('real_evaluations')} / {m.get('evaluation_budget', '-')} | "
-                     f"{'-' if accuracy is None else f'{accuracy:.2f}'} | {_number(final.get('val_max_distance'))} | "
+                     f"{'-' if accuracy is None else f'{accuracy:.2f}'} | "
+                     f"{_number((m.get('training_terrains') or {}).get('train_max_distance'))} | "
+                     f"{_number(final.get('val_max_distance'))} | "
                      f"{_number(final.get('val_regret'))} | {_number(surrogate.get('spearman_within_terrain'))} |")
     lines += ["", "Exact fitness: a design's fitness on a training terrain is its entry in that terrain's exhaustive "
               "table (the pybullet rollout); evaluations = distinct (terrain, design) look-ups, the same budget for "
-              "every learner, which stops when it is spent. Validation: the pool's validation terrains (never "
-              "trained on), the best of each learner's 10 candidates, from their tables.", ""]
+              "every learner, which stops when it is spent. Training and validation max distance: the best of each "
+              "learner's 10 candidates on the pool's training terrains and on its validation terrains (never "
+              "trained on), from their tables; the gap between them is what the learner fits but does not "
+              "carry to terrains it never saw.", ""]
     if flagged:
         lines += [f"**Discriminator at chance** (accuracy within {CHANCE} of 0.5 at the end of training): "
                   + ", ".join(flagged) + ". A generator trained against such a discriminator has no signal to learn "

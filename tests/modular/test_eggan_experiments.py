@@ -22,13 +22,16 @@ from robocompose.modular.eggan_experiments import (
     method_title,
     realtime_proposers,
     train_baseline,
+    training_scores,
+    validation_scores,
 )
 from robocompose.modular.eggan_params import EgganModularParams
+from robocompose.modular.eggan_problem import ModularEgganProblem
 from robocompose.modular.evaluate import EvalSettings, FitnessRule
 from robocompose.modular.params import ExperimentsConfig, ModularParams
 from robocompose.modular.robot import PORT_XY
 from robocompose.params import build_config
-from tests.modular.test_eggan_problem import fake_pool
+from tests.modular.test_eggan_problem import fake_pool, table_fitness
 
 MODULAR = ModularParams(EvalSettings(control_steps=10), FitnessRule(), ExperimentsConfig())
 SECTION = {"fitness": {"source": "surrogate", "train_terrains": 6, "warmup": 20, "warmup_terrains": 4, "budget": 40,
@@ -97,3 +100,22 @@ def test_every_baseline_trains_on_the_pool_tables_and_stops_at_the_shared_look_u
     if name != "dqn":  # DQN's symmetric space holds 2 x 36 valid designs: it may never reach 40 distinct ones
         assert metrics["iterations_done"] < 50  # the budget, not the iterations, ended training
     assert 0.0 <= metrics["final"]["val_regret"] and metrics["final"]["val_max_distance"] <= 6.0
+
+
+def test_training_and_validation_scores_are_the_best_answered_table_entry_and_its_regret(tmp_path):
+    """Odd pool seeds reward wheels, even ones legs (fake_pool): an answer of the most-wheeled designs is optimal
+    on the odd terrains and short of the optimum on the even ones; scores are per-terrain bests, averaged."""
+    problem = ModularEgganProblem(MODULAR, table_fitness(fake_pool(tmp_path, range(20_000, 20_004))))
+
+    def wheels(problem, seed, query_seed, k):  # the k designs with the most wheels, whatever the terrain
+        valid = [d for d in problem.table(seed) if not MODULAR.fitness.skips(d)]
+        return sorted(valid, key=lambda d: (-d.count("w"), d))[:k]
+
+    scores = {seed: max(problem.table(seed)[d] for d in wheels(problem, seed, 0, 3)) for seed in range(20_000, 20_004)}
+    optima = {seed: max(problem.table(seed).values()) for seed in range(20_000, 20_004)}
+    train = training_scores(problem, wheels, 3)
+    assert train["train_max_distance"] == pytest.approx(sum(scores[s] for s in range(20_000, 20_003)) / 3)
+    assert train["train_regret"] == pytest.approx(sum(optima[s] - scores[s] for s in range(20_000, 20_003)) / 3)
+    assert validation_scores(problem, wheels, 3) == {"val_max_distance": scores[20_003],
+                                                     "val_regret": optima[20_003] - scores[20_003]}
+    assert optima[20_003] == scores[20_003] and optima[20_000] > scores[20_000]  # odd: wheels win; even: legs
