@@ -19,7 +19,10 @@ not batch norm). `tasks: 1` is the thesis's literal setting.
 
 Logged per row: both losses, the discriminator's mean output on X_pop and X_gen and its accuracy (X_pop above
 1/2, X_gen below; 0.5 is chance: a discriminator that cannot tell evolved designs from generated ones gives the
-generator no signal), the distinct designs of a task's draws, each objective's mean and best. With a
+generator no signal), the share of X_pop that evolution made new (designs not among that task's X_gen: the rest
+stand in both halves of D's batch, so even a perfect discriminator is right on them only half the time, and
+its accuracy is at most (1 + pop_new) / 2), the distinct designs of a task's draws, each objective's mean and
+best. With a
 `validate` callback (e.g. the modular problem's validation terrains) every `validate_every` iterations the row
 also holds its scores: the validation curve that says whether training has flattened. A problem whose budget
 of evaluations runs out (`BudgetSpent`) ends the run after the last completed iteration; `Trained.stopped`
@@ -170,12 +173,14 @@ def train_step(problem: EgganProblem, generator: Generator, discriminator: Discr
 
     with torch.no_grad():
         generated = problem.sample_designs(output.detach(), stream)  # X_gen
-    gen_objectives, population, pop_objectives = [], [], []
+    gen_objectives, population, pop_objectives, new = [], [], [], 0
     for g, task in enumerate(tasks):
         designs = list(generated.designs[g * per:(g + 1) * per])
         values = np.asarray(problem.evaluate(task, designs), dtype=np.float64).reshape(per, -1)
         evolved, evolved_values = problem.evolve(task, designs, values, config.evolution, config.evolution_steps,
                                                  rng)  # X_pop of this task
+        drawn = {problem.design_id(d) for d in designs}
+        new += sum(problem.design_id(d) not in drawn for d in evolved)
         gen_objectives.append(values)
         population += list(evolved)
         pop_objectives.append(np.asarray(evolved_values, dtype=np.float64).reshape(per, -1))
@@ -206,7 +211,8 @@ def train_step(problem: EgganProblem, generator: Generator, discriminator: Discr
         row = {"loss_g": float(loss_g), "loss_d": float(loss_d),
                "d_pop": float(torch.sigmoid(logits[:b]).mean()), "d_gen": float(torch.sigmoid(logits[b:]).mean()),
                "d_accuracy": float(((logits[:b] > 0).sum() + (logits[b:] <= 0).sum()) / (2 * b)),
-               "gen_distinct": len({problem.design_id(d) for d in generated.designs[:per]})}
+               "gen_distinct": len({problem.design_id(d) for d in generated.designs[:per]}),
+               "pop_new": new / b}
     row.update(_objective_stats("gen", problem, gen_objectives))
     row.update(_objective_stats("pop", problem, pop_objectives))
     return row

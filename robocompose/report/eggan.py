@@ -243,11 +243,20 @@ def _significance(table: pd.DataFrame, others: list[str]) -> str:
             if parts else "")
 
 
+def _accuracy(accuracy: float | None, pop_new: float | None) -> str:
+    """The discriminator's accuracy and, where the log has the evolved share of X_pop, the most a perfect
+    discriminator could reach, (1 + share) / 2: X_pop's other designs stand in both halves of its batch."""
+    if accuracy is None:
+        return "-"
+    return f"{accuracy:.2f}" if pop_new is None else f"{accuracy:.2f} ({(1 + pop_new) / 2:.2f})"
+
+
 def _training_lines(metrics: dict, reports_dir: Path) -> list[str]:
     """Each learner's fitness source, iterations, evaluations against the budget, discriminator accuracy (flagged at
     chance), validation-terrain score, surrogate error where a surrogate was used; the validation curves."""
     lines = ["### Training", "",
-             "| method | fitness | iterations (done / asked) | evaluations / budget | discriminator accuracy | "
+             "| method | fitness | iterations (done / asked) | evaluations / budget | discriminator accuracy "
+             "(ceiling) | "
              "training max distance (m) | validation max distance (m) | validation regret (m) | "
              "surrogate Spearman within a terrain |",
              "|---|---|---|---|---|---|---|---|---|"]
@@ -262,7 +271,7 @@ def _training_lines(metrics: dict, reports_dir: Path) -> list[str]:
                                                                                            "surrogate + rollouts")
         lines.append(f"| {name} | {source} | {m.get('iterations_done', m.get('iterations'))} / {m.get('iterations')} | "
                      f"{m.get('real_evaluations')} / {m.get('evaluation_budget', '-')} | "
-                     f"{'-' if accuracy is None else f'{accuracy:.2f}'} | "
+                     f"{_accuracy(accuracy, final.get('pop_new'))} | "
                      f"{_number((m.get('training_terrains') or {}).get('train_max_distance'))} | "
                      f"{_number(final.get('val_max_distance'))} | "
                      f"{_number(final.get('val_regret'))} | {_number(surrogate.get('spearman_within_terrain'))} |")
@@ -271,7 +280,9 @@ def _training_lines(metrics: dict, reports_dir: Path) -> list[str]:
               "every learner, which stops when it is spent. Training and validation max distance: the best of each "
               "learner's 10 candidates on the pool's training terrains and on its validation terrains (never "
               "trained on), from their tables; the gap between them is what the learner fits but does not "
-              "carry to terrains it never saw.", ""]
+              "carry to terrains it never saw. Ceiling: evolution leaves most of X_gen in X_pop, and a design in "
+              "both halves of the discriminator's batch is right only half the time, so a perfect discriminator "
+              "reaches (1 + the evolved share of X_pop) / 2.", ""]
     if flagged:
         lines += [f"**Discriminator at chance** (accuracy within {CHANCE} of 0.5 at the end of training): "
                   + ", ".join(flagged) + ". A generator trained against such a discriminator has no signal to learn "

@@ -73,6 +73,7 @@ def test_evolution_steps_shape_the_real_data_and_are_paid_for(match_problem):
         assert problem.evaluations == rows[steps]["real_evaluations"] == 20 * 32 * (1 + steps)
     assert rows[0]["pop_matches_mean"] == rows[0]["gen_matches_mean"]  # no evolution: X_pop is X_gen
     assert rows[3]["pop_matches_mean"] > rows[3]["gen_matches_mean"] + 0.5  # 3 crowding steps: fitter real data
+    assert rows[0]["pop_new"] == 0 and 0 < rows[3]["pop_new"] < 1  # the share of X_pop not drawn in X_gen
 
 
 def test_bgan_weights_are_the_softmax_of_the_logits_without_gradient():

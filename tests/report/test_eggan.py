@@ -100,7 +100,7 @@ def test_training_lines_flag_a_discriminator_at_chance_and_draw_the_validation_c
     (reports / "metrics" / "eggan_modular.json").write_text(json.dumps({
         "crowding": {**common, "method": "EG-GAN-crowding", "iterations_done": 1200, "real_evaluations": 19990,
                      "training_terrains": {"train_max_distance": 3.1, "train_regret": 0.1},
-                     "final": {"d_accuracy": 0.81, "val_max_distance": 2.4, "val_regret": 0.3}},
+                     "final": {"d_accuracy": 0.81, "pop_new": 0.7, "val_max_distance": 2.4, "val_regret": 0.3}},
         "ga": {**common, "method": "EG-GAN", "iterations_done": 5000, "real_evaluations": 9000,
                "final": {"d_accuracy": 0.52, "val_max_distance": 2.0, "val_regret": 0.7}},
         "dqn": {**common, "method": "DQN", "iterations_done": 150, "real_evaluations": 2500,
@@ -109,8 +109,8 @@ def test_training_lines_flag_a_discriminator_at_chance_and_draw_the_validation_c
         pd.DataFrame({"iteration": [50, 100], "d_accuracy": [0.5, 0.6],
                       "val_max_distance": [np.nan, 2.0]}).to_csv(reports / "plots" / f"eggan_modular_{variant}.csv")
     text = section(reports, data)
-    assert ("| EG-GAN-crowding | exact (pool tables) | 1200 / 5000 | 19990 / 20000 | 0.81 | 3.10 | 2.40 | 0.30 | - |"
-            in text)
+    assert ("| EG-GAN-crowding | exact (pool tables) | 1200 / 5000 | 19990 / 20000 | 0.81 (0.85) | 3.10 | 2.40 | 0.30 "
+            "| - |" in text)
     assert "| DQN | exact (pool tables) | 150 / 5000 | 2500 / 20000 | - | - | 2.10 |" in text
     assert "**Discriminator at chance** (accuracy within 0.05 of 0.5 at the end of training): EG-GAN." in text
     assert (reports / "figures" / "eggan_modular_validation.png").stat().st_size > 0
