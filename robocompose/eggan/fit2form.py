@@ -28,9 +28,10 @@ class Fit2formConfig:
     samples: int = 8  # noise vectors (designs) per task
     lr: float = 1e-3  # Adam (Fit2form: 1e-4 over 500 epochs of 512 designs; raised for the short default)
     seed: int = 0
+    threads: int = 1  # torch threads (results are bit-identical at a fixed thread count)
 
     def __post_init__(self):
-        for name in ("iterations", "tasks", "samples"):
+        for name in ("iterations", "tasks", "samples", "threads"):
             if not isinstance(getattr(self, name), int) or getattr(self, name) < 1:
                 raise ValueError(f"fit2form.{name}: expected a positive integer, found {getattr(self, name)!r}")
         if self.samples < 2:
@@ -46,6 +47,7 @@ def train_fit2form(problem: EgganProblem, network: NetworkConfig, config: Fit2fo
     check_problem(problem)
     if not problem.discrete or len(problem.objectives) != 1:
         raise ValueError(f"fit2form: needs a discrete single-objective problem, {problem.name} is not")
+    torch.set_num_threads(config.threads)
     torch.manual_seed(config.seed)
     generator = Generator(problem.task_shape, problem.design_shape, network)
     optimiser = torch.optim.Adam(generator.parameters(), lr=config.lr)

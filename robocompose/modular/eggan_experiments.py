@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import time
 from pathlib import Path
 
 import numpy as np
@@ -154,6 +155,44 @@ def train_baseline(name: str, modular: ModularParams, params: EgganModularParams
                   {"settings_hash": modular.eval.settings_hash(), "train": dataclasses.asdict(config),
                    "metrics": metrics})
     return metrics
+
+
+# The learners of train_eggan_modular, slowest first (so that two workers finish together): the EG-GAN variants
+# and the learned baselines. Each trains on its own copy of the problem, so they may run side by side.
+TRAINED = ("molgan", "ga", "crowding", "dqn", "fit2form")
+
+
+def train_method(method: str, modular: ModularParams, params: EgganModularParams, cache: EvaluationCache | None,
+                 executor: Executor | None, out: Path, progress: bool = False) -> dict:
+    """Train one learner of `TRAINED` (an EG-GAN variant or a learned baseline); returns its metrics and, under
+    "seconds", its training wall time (which the caller moves to reports/timings.json)."""
+    started = time.perf_counter()
+    trainer = train_variant if method in VARIANTS else train_baseline
+    metrics = trainer(method, modular, params, cache, executor, out, progress)
+    return {**metrics, "seconds": round(time.perf_counter() - started, 1)}
+
+
+def _train_job(job: tuple[str, ModularParams, EgganModularParams, Path]) -> dict:
+    method, modular, params, out = job
+    return train_method(method, modular, params, None, None, out, progress=True)
+
+
+def train_all(modular: ModularParams, params: EgganModularParams, cache: EvaluationCache | None,
+              executor: Executor | None, out: Path) -> tuple[dict, dict]:
+    """Every learner of Table 5.1: (metrics, training seconds), keyed in the table's order (the EG-GAN variants,
+    then the baselines). On exact fitness (tables: no rollouts) the learners train side by side on the executor's
+    workers, each in one thread: a learner's bytes do not depend on where it ran. With the surrogate source they
+    train one after another, their rollouts fanned out on the executor."""
+    order = (*VARIANTS, *baselines("modular"))
+    if sorted(order) != sorted(TRAINED):
+        raise ValueError(f"TRAINED {TRAINED} must name the learners {order}")
+    if params.fitness.source == "table" and executor is not None:
+        results = dict(zip(TRAINED, executor.map(_train_job, [(m, modular, params, out) for m in TRAINED]),
+                           strict=True))
+    else:
+        results = {m: train_method(m, modular, params, cache, executor, out, progress=True) for m in TRAINED}
+    seconds = {m: results[m].pop("seconds") for m in order}
+    return {m: results[m] for m in order}, seconds
 
 
 def _training_fit(problem: ModularEgganProblem, answer: Answer, params: EgganModularParams) -> dict:

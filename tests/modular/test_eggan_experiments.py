@@ -15,12 +15,14 @@ import pytest
 
 from robocompose.eggan.dqn import load_dqn
 from robocompose.eggan.learners import dqn_answer
+from robocompose.fanout.executor import Executor
 from robocompose.modular import eggan_problem
 from robocompose.modular.eggan_experiments import (
     REALTIME_METHODS,
     make_problem,
     method_title,
     realtime_proposers,
+    train_all,
     train_baseline,
     training_scores,
     validation_scores,
@@ -119,3 +121,28 @@ def test_training_and_validation_scores_are_the_best_answered_table_entry_and_it
     assert validation_scores(problem, wheels, 3) == {"val_max_distance": scores[20_003],
                                                      "val_regret": optima[20_003] - scores[20_003]}
     assert optima[20_003] == scores[20_003] and optima[20_000] > scores[20_000]  # odd: wheels win; even: legs
+
+
+def test_learners_trained_side_by_side_write_the_bytes_they_write_one_after_another(tmp_path, monkeypatch):
+    """On the pool's tables every learner trains in its own worker process: the models, logs and metrics must
+    not depend on it (each sets its own threads and seeds)."""
+    pool = fake_pool(tmp_path, [20_000, 20_001, 20_002])
+    section = {**SECTION, "fitness": {"source": "table", "train_terrains": 2, "validation_seed_base": 20_002,
+                                      "validation_terrains": 1, "pool": str(pool), "lookups": 400},
+               "train": {"iterations": 4, "batch": 8, "tasks": 2, "samples": 4, "log_every": 2,
+                         "validate_every": 2, "checkpoint_every": 2},
+               "baselines": {**SECTION["baselines"], "fit2form": {"iterations": 4, "tasks": 2, "samples": 4}},
+               "protocol": {"candidates": 3, "samples": 8}}
+    params = build_config(EgganModularParams, section, "test")
+    monkeypatch.chdir(tmp_path)  # the EG-GAN curves go to reports/plots/
+    runs = {}
+    for workers in (1, 2):
+        out = tmp_path / f"workers{workers}"
+        with Executor(workers=workers) as executor:
+            metrics, seconds = train_all(MODULAR, params, None, executor, out)
+        assert list(metrics) == list(seconds) == ["crowding", "ga", "fit2form", "dqn", "molgan"]
+        assert all("seconds" not in m for m in metrics.values())  # wall times go to timings, not to outputs
+        runs[workers] = (metrics, {p.relative_to(out): p.read_bytes() for p in sorted(out.rglob("*")) if p.is_file()})
+    assert runs[1][0] == runs[2][0]
+    assert runs[1][1].keys() == runs[2][1].keys() and len(runs[1][1]) >= 10
+    assert all(runs[1][1][name] == runs[2][1][name] for name in runs[1][1])
