@@ -146,8 +146,8 @@ SCHEMAS: dict[str, pa.Schema] = {
         pa.field("max_distance", pa.float64(), nullable=True), _required("distinct", pa.int64()),
         pa.field("ec_distance", pa.float64(), nullable=True), _required("ec_failures", pa.int64()),
         pa.field("optimum", pa.float64(), nullable=True), pa.field("regret", pa.float64(), nullable=True),
-        _required("pool_terrains", pa.int64()), _required("iterations_done", pa.int64()),
-        _required("lookups", pa.int64())]),
+        _required("pool_terrains", pa.int64()), _required("seed", pa.int64()), _required("iterations_done", pa.int64()),
+        _required("lookups", pa.int64()), _required("train_max_distance", pa.float64())]),
     # The latent landscape (robocompose.latent.landscape, thesis Fig. 7.1): one row per (VAE variant, dataset
     # design): the first two principal components of its latent mean (and the variance fraction each explains)
     # and, for the scored subset, the evaluator's flat-terrain status and reward ("" / null when not scored).

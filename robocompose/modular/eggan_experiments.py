@@ -17,8 +17,6 @@ import math
 import time
 from pathlib import Path
 
-import numpy as np
-
 from robocompose.eggan.learners import LEARNERS, Answer, Learner, baselines, generator_answer
 from robocompose.eggan.query import save_generator
 from robocompose.eggan.train import train
@@ -27,7 +25,7 @@ from robocompose.fanout.executor import Executor
 from robocompose.modular.eggan_params import VARIANTS, EgganModularParams
 from robocompose.modular.eggan_problem import ModularEgganProblem
 from robocompose.modular.params import ModularParams
-from robocompose.modular.protocol import Proposer, random_proposer, table_proposers
+from robocompose.modular.protocol import Proposer, random_proposer, table_proposers, training_scores, validation_scores
 from robocompose.params import build_config
 
 
@@ -42,32 +40,6 @@ def make_problem(modular: ModularParams, params: EgganModularParams, cache: Eval
         fitness = dataclasses.replace(fitness, real_every=max(1, evaluate_calls // rounds))
     return ModularEgganProblem(modular, fitness, cache, executor, modular.experiments.mutation_rate,
                                modular.experiments.crossover_rate)
-
-
-def table_scores(problem: ModularEgganProblem, answer: Answer, candidates: int, seeds: list[int],
-                 prefix: str) -> dict[str, float]:
-    """A learner's score on pool terrains, from their tables: per terrain the best table fitness among its
-    `candidates` answers (query seed 0) and the regret to the terrain's optimum, averaged, as PREFIX_max_distance
-    and PREFIX_regret."""
-    best, regret = [], []
-    for seed in seeds:
-        table = problem.table(seed)
-        top = max(table[d] for d in answer(problem, seed, 0, candidates))
-        best.append(top)
-        regret.append(max(table.values()) - top)
-    return {f"{prefix}_max_distance": float(np.mean(best)), f"{prefix}_regret": float(np.mean(regret))}
-
-
-def validation_scores(problem: ModularEgganProblem, answer: Answer, candidates: int) -> dict[str, float]:
-    """The score on the pool's validation terrains (never trained on): the validation curve of training and the
-    final check of every learner."""
-    return table_scores(problem, answer, candidates, problem.validation_tasks(), "val")
-
-
-def training_scores(problem: ModularEgganProblem, answer: Answer, candidates: int) -> dict[str, float]:
-    """The same score on the training terrains: beside the validation score, how far a learner fits the terrains
-    it was trained on and how much of that carries to terrains it never saw."""
-    return table_scores(problem, answer, candidates, problem.fitness.train_seeds, "train")
 
 
 def train_variant(variant: str, modular: ModularParams, params: EgganModularParams, cache: EvaluationCache | None,

@@ -37,11 +37,12 @@ class PoolSizeConfig:
     sizes: list[int] = field(default_factory=lambda: [8, 16, 32, 40])  # training terrains (capped at the pool's)
     iterations: int = 1000  # EG-GAN-crowding iterations per size (or until the look-up budget is spent)
     queries: int = 5  # test queries per terrain and method
+    seeds: int = 2  # EG-GAN-crowding training seeds per size (train.seed, train.seed + 1, ...)
 
     def __post_init__(self):
         check_field(bool(self.sizes) and all(isinstance(n, int) and n >= 1 for n in self.sizes),
                     "eggan_modular.pool_size.sizes", "a list of positive integers", self.sizes)
-        for name in ("iterations", "queries"):
+        for name in ("iterations", "queries", "seeds"):
             value = getattr(self, name)
             check_field(value >= 1, f"eggan_modular.pool_size.{name}", "a positive integer", value)
 

@@ -124,3 +124,29 @@ def summarise(table: pd.DataFrame) -> pd.DataFrame:
     out["no_valid_candidate"] = grouped.max_distance.apply(lambda s: int(s.isna().sum()))
     out["ec_failures"] = grouped.ec_failures.sum()
     return out.reset_index()
+
+
+def table_scores(problem: ModularEgganProblem, answer: Proposer, candidates: int, seeds: list[int],
+                 prefix: str) -> dict[str, float]:
+    """A learner's score on pool terrains, from their tables: per terrain the best table fitness among its
+    `candidates` answers (query seed 0) and the regret to the terrain's optimum, averaged, as PREFIX_max_distance
+    and PREFIX_regret."""
+    best, regret = [], []
+    for seed in seeds:
+        table = problem.table(seed)
+        top = max(table[d] for d in answer(problem, seed, 0, candidates))
+        best.append(top)
+        regret.append(max(table.values()) - top)
+    return {f"{prefix}_max_distance": float(np.mean(best)), f"{prefix}_regret": float(np.mean(regret))}
+
+
+def validation_scores(problem: ModularEgganProblem, answer: Proposer, candidates: int) -> dict[str, float]:
+    """The score on the pool's validation terrains (never trained on): the validation curve of training and the
+    final check of every learner."""
+    return table_scores(problem, answer, candidates, problem.validation_tasks(), "val")
+
+
+def training_scores(problem: ModularEgganProblem, answer: Proposer, candidates: int) -> dict[str, float]:
+    """The same score on the training terrains: beside the validation score, how far a learner fits the terrains
+    it was trained on and how much of that carries to terrains it never saw."""
+    return table_scores(problem, answer, candidates, problem.fitness.train_seeds, "train")

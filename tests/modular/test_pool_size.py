@@ -7,6 +7,7 @@ import dataclasses
 
 import pandas as pd
 
+from robocompose.fanout.executor import Executor
 from robocompose.modular.eggan_params import EgganModularParams, PoolSizeConfig
 from robocompose.modular.evaluate import EvalSettings, FitnessRule
 from robocompose.modular.params import ExperimentsConfig, ModularParams
@@ -31,18 +32,22 @@ def test_the_study_trains_per_size_and_answers_from_the_tables(tmp_path):
         "protocol": {"test_terrains": [20_002], "samples": 8}}, "test")
     pool = pd.read_parquet(path)
     truth = pool[pool.terrain_seed == 20_002]  # stands in for a test terrain's table
-    study = pool_size_study(MODULAR, params, PoolSizeConfig(sizes=[1], iterations=4, queries=2), pool, truth,
-                            tmp_path / "checkpoints")
+    config = PoolSizeConfig(sizes=[1], iterations=4, queries=2, seeds=2)
+    study = pool_size_study(MODULAR, params, config, pool, truth, tmp_path / "checkpoints")
     assert sorted(study.pool_terrains.unique()) == [1, 2] and set(study.method) == {"crowding", "portfolio"}
-    assert len(study) == 2 * 2 * 2  # sizes x methods x queries
+    assert len(study) == 2 * (2 + 1) * 2  # sizes x (crowding's seeds + the portfolio, which has none) x queries
+    assert sorted(study[study.method == "crowding"].seed.unique()) == [0, 1]
     portfolio = study[study.method == "portfolio"]
     # one legs terrain (20000): its portfolio's best design is all legs, which scores 6 on the legs test terrain
     assert (portfolio[portfolio.pool_terrains == 1].max_distance == 6.0).all()
+    # ... and on its own training terrain too (6 legs); on 2 terrains (legs, wheels) its 10 designs hold both
+    assert (portfolio[portfolio.pool_terrains == 1].train_max_distance == 6.0).all()
+    assert (study.train_max_distance <= 6.0).all() and (study.train_max_distance > 0).all()
     assert (study.regret >= 0).all() and (study.regret == study.optimum - study.max_distance).all()
     crowding = study[study.method == "crowding"]
     assert (crowding.iterations_done == 4).all() and (crowding.lookups > 0).all()
-    assert (tmp_path / "checkpoints" / "crowding_2.pt").exists()
-    again = pool_size_study(MODULAR, params, PoolSizeConfig(sizes=[1], iterations=4, queries=2), pool, truth,
-                            tmp_path / "checkpoints")  # resumed from the checkpoints: the same table
+    assert (tmp_path / "checkpoints" / "crowding_2_seed1.pt").exists()
+    with Executor(workers=2) as executor:  # resumed from the checkpoints, side by side: the same table
+        again = pool_size_study(MODULAR, params, config, pool, truth, tmp_path / "checkpoints", executor)
     pd.testing.assert_frame_equal(again, study)
     assert dataclasses.asdict(params.fitness)["train_terrains"] == 2  # the study does not change the params

@@ -139,12 +139,14 @@ def test_the_pool_size_study_is_a_table_and_a_figure(tmp_path):
     (reports / "metrics" / "eggan_modular.json").write_text("{}")
     rows = _table()
     rows = rows[rows.method.isin(["crowding", "portfolio"])]
-    study = pd.concat([rows.assign(pool_terrains=n, iterations_done=900, lookups=5000 * n) for n in (8, 16)])
+    study = pd.concat([rows.assign(pool_terrains=n, seed=0, iterations_done=900, lookups=5000 * n,
+                                   train_max_distance=6.5) for n in (8, 16)])
     study.loc[(study.pool_terrains == 16) & (study.method == "crowding"), "max_distance"] += 1.0
     write_table(study, data / "modular" / "pool_size.parquet", "modular_pool_size")
     text = section(reports, data)
-    assert "| 8 | EG-GAN-crowding | 6.00 ± 0.00 | 1.00 ± 0.00 | 900 / 40000 |" in text
-    assert "| 16 | EG-GAN-crowding | 7.00 ± 0.00 |" in text and "| 16 | Portfolio (terrain-agnostic baseline) |" in text
+    assert "| 8 | EG-GAN-crowding | 1 | 6.00 ± 0.00 | 1.00 ± 0.00 | 6.50 ± 0.00 | 900 / 40000 |" in text
+    assert "| 16 | EG-GAN-crowding | 1 | 7.00 ± 0.00 |" in text
+    assert "| 16 | Portfolio (terrain-agnostic baseline) |" in text
     assert (reports / "figures" / "eggan_modular_pool_size.png").stat().st_size > 0
 
 
