@@ -160,8 +160,6 @@ def test_the_shipped_generator_matches_the_current_model_code():
     assert SHIPPED_MODEL.stat().st_size < 2_000_000  # small enough for the repository
 
 
-@pytest.mark.xfail(strict=True, reason="issue 22, not met yet: the generator trained on 9 pool terrains gives the "
-                   "same top designs on every terrain (its discriminator stays at chance; report, Training)")
 def test_the_shipped_generator_answers_a_low_and_a_high_block_terrain_differently():
     """Issue 22's acceptance: terrains never seen (no table), the lowest and highest blocks of 20 seeds."""
     from robocompose.eggan.learners import generator_answer
