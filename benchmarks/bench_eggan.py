@@ -20,7 +20,7 @@ import numpy as np
 import torch
 
 from robocompose.eggan.networks import Discriminator, Generator, NetworkConfig
-from robocompose.eggan.query import generate, load_generator, rank_distinct
+from robocompose.eggan.query import load_generator, top_distinct
 from robocompose.eggan.train import TrainConfig, train_step
 from robocompose.modular.compose import SHIPPED_MODEL
 from robocompose.modular.eggan_problem import FitnessConfig, ModularEgganProblem
@@ -35,11 +35,11 @@ PARAMS = ModularParams(EvalSettings(control_steps=100), FitnessRule(), Experimen
 
 def _query_ms(generator: Generator, problem: ModularEgganProblem, tensor: torch.Tensor) -> float:
     for seed in range(5):
-        rank_distinct(problem, *generate(generator, problem, TERRAIN, 64, seed, tensor), 10)
+        top_distinct(generator, problem, TERRAIN, 10, 64, seed, tensor)
     times = []
     for seed in range(50):
         started = time.perf_counter()
-        rank_distinct(problem, *generate(generator, problem, TERRAIN, 64, seed, tensor), 10)
+        top_distinct(generator, problem, TERRAIN, 10, 64, seed, tensor)
         times.append(time.perf_counter() - started)
     return statistics.median(times) * 1000
 
