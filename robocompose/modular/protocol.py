@@ -13,9 +13,6 @@ terrain -> candidate designs) on every held-out test terrain and query (`realtim
 Beside the thesis's rows, two from tables (`table_proposers`): the terrain-agnostic portfolio (the designs best on
 average over the training pool, `robocompose.modular.table_designs.portfolio`) and the exhaustive optimum (each
 test terrain's fittest designs, `table_designs.top_designs`: an oracle upper bound, not a method).
-
-The same score on pool terrains (`validation_scores`, `training_scores`: one query each, from the pool's tables)
-draws the validation curves of training and each learner's gap between the terrains it fitted and unseen ones.
 """
 
 from __future__ import annotations
