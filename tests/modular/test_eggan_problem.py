@@ -15,7 +15,7 @@ import torch
 
 from robocompose.eggan.networks import NetworkConfig
 from robocompose.eggan.problem import BudgetSpent
-from robocompose.eggan.surrogate import SurrogateConfig
+from robocompose.eggan.surrogate import SurrogateConfig, spearman
 from robocompose.eggan.train import TrainConfig, train
 from robocompose.io import write_table
 from robocompose.io.errors import InputError
@@ -52,9 +52,20 @@ def test_budget_real_values_and_penalties(fake_rollouts):
     for (seed, design), value in problem.real.items():  # a simulated pair is answered with its real value
         assert problem.evaluate(seed, [design])[0, 0] == value == design.count("w") - seed % 3
     assert problem.evaluate(20_000, ["nnnnnn"])[0, 0] == PARAMS.fitness.penalty  # rejected designs: the penalty
-    error = problem.surrogate_error()
-    # the fake distance (wheels minus terrain_seed % 3) is learnable: the surrogate ranks held-out rollouts
-    assert error["heldout"] == len(problem.real) // 5 and error["spearman"] > 0.8
+    assert problem.surrogate_error()["heldout"] == len(problem.real) // 5
+    # the fake distance (wheels minus terrain_seed % 3) is learnable: on 200 designs it never saw the surrogate
+    # ranks better than a model that knows each terrain's offset and nothing of the design (the 6 held-out
+    # rollouts alone are too small a sample: their Spearman swings with the designs drawn)
+    rng = np.random.default_rng(0)
+    seeds, predicted, truth = FITNESS.train_seeds[:4], [], []
+    for seed in seeds:
+        designs = problem.random_designs(rng, 50)
+        predicted += problem.surrogate.predict(problem.encode_task(seed).unsqueeze(0),
+                                               torch.zeros(len(designs), dtype=torch.int64),
+                                               problem.design_tensor(designs)).tolist()
+        truth += [design.count("w") - seed % 3 for design in designs]
+    terrain_only = [-(seed % 3) for seed in seeds for _ in range(50)]
+    assert spearman(np.array(predicted), np.array(truth)) > spearman(np.array(terrain_only), np.array(truth)) + 0.05
 
 
 def test_state_round_trip_and_key(fake_rollouts):
