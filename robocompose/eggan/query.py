@@ -85,10 +85,11 @@ KIND = "an EG-GAN generator"  # what a generator file is, for the errors of a fi
 
 
 def model_code_digest() -> str:
-    """Digest of the network code a generator file must match to be loaded."""
-    from robocompose.io.provenance import code_digest
+    """Digest of the network code a generator file must match to be loaded (storage and errors excluded: a
+    change to how results are kept must not orphan a trained generator)."""
+    from robocompose.io.provenance import INFRASTRUCTURE, code_digest
 
-    return code_digest(*MODEL_CODE)
+    return code_digest(*MODEL_CODE, exclude=INFRASTRUCTURE)
 
 
 def save_generator(generator: Generator, problem: EgganProblem, path: str | Path, meta: dict,

@@ -8,6 +8,7 @@ from robocompose.eggan.query import (
     generate,
     generator_info,
     load_generator,
+    model_code_digest,
     rank_distinct,
     save_generator,
     top_distinct,
@@ -68,3 +69,26 @@ def test_generator_info_reads_the_files_info_and_names_a_file_of_another_kind(tm
     save_torch({"weights": 1}, tmp_path / "other.pt")
     with pytest.raises(InputError, match="other.pt: not an EG-GAN generator file"):
         generator_info(tmp_path / "other.pt")
+
+
+def test_the_model_code_follows_the_networks_not_the_storage(monkeypatch):
+    """A change to how results are stored (robocompose/io) keeps every trained generator loadable; a change
+    to the networks does not."""
+    from robocompose.io import provenance
+
+    before = model_code_digest()
+    real = provenance.definitions
+
+    def edited(module: str):
+        def definitions(path):
+            table, aliases = real(path)
+            if module in path.parts:
+                table = {**table, "ADDED_CONSTANT": (provenance._Definition("edited", frozenset()),)}
+            return table, aliases
+        return definitions
+
+    for module, moves in (("io", False), ("eggan", True)):
+        monkeypatch.setattr(provenance, "definitions", edited(module))
+        provenance.code_digest.cache_clear()
+        assert (model_code_digest() != before) is moves, module
+    provenance.code_digest.cache_clear()
