@@ -1,7 +1,7 @@
 """DVC stage `teams_baselines`: NSGA-II (Table 5.4) and coverage baselines (Table 5.5) on test chips.
 
 The runs' wall times go to reports/timings.json (not tracked by DVC), so the parquet outputs are
-byte-reproducible.
+byte-reproducible. data/teams/team_costs.parquet records the team costs the NSGA-II runs optimised.
 """
 
 import torch
@@ -26,13 +26,13 @@ def main() -> None:
     params = load_section(TeamsParams, "teams")
     torch.set_num_threads(params.threads)
     test_chips = decomposed_chips(read_table("data/regions.parquet", "regions"), "test")
-    cache = teams_cache("data/teams/eval_cache.parquet")
+    cache = teams_cache()  # the NSGA-II runs' team costs, each run's memo merged (a record: no stage reads it)
     experiments = params.experiments
     compute = load_section(ComputeConfig, "compute")
     with timed("teams_baselines") as timing, compute.executor("teams_baselines") as executor:
         runs, fronts, timing["nsga2_runs"] = nsga2_runs(test_chips, params.coverage, experiments, cache, executor)
         coverage = coverage_baselines(test_chips, params.coverage, experiments, executor)
-        cache.save()
+        write_table(cache.frame(), "data/teams/team_costs.parquet", "teams_team_costs")
         write_table(runs, "data/teams/nsga2.parquet", "teams_nsga2")
         write_table(fronts, "data/teams/fronts.parquet", "teams_fronts")
         write_table(coverage, "data/teams/coverage.parquet", "teams_coverage")

@@ -46,7 +46,7 @@ def main() -> None:
                                       experiments.seeds[0]),
                     "data/teams/coverage_examples.parquet", "teams_coverage_examples")
         metrics = {"train_chips": len(train_chips), "test_chips": len(queried), "iterations": params.eggan.iterations,
-                   "team_optimisations": problem.team_optimisations,
+                   "distinct_teams": problem.real_evaluations, "team_lookups": problem.team_lookups,
                    "mean_hypervolume": round(float(queries.hypervolume.mean()), 4),
                    "final_pop_coverage_best": round(trained.rows[-1]["pop_coverage_cost_best"], 5)}
         settings = {name: dataclasses.asdict(getattr(params, name))

@@ -78,14 +78,15 @@ SCHEMAS: dict[str, pa.Schema] = {
     # the plain Voronoi of the same initial seeds.
     "regions_purity": pa.schema([_required(n, t) for n, t in [
         ("chip_id", pa.string()), ("method", pa.string()), ("purity", pa.float64())]]),
-    # Coverage cost of one integer allocation (allocation_id = hash of its K x O counts) on one chip.
-    "teams_eval_cache": pa.schema([_required(n, t) for n, t in [
-        ("allocation_id", pa.string()), ("chip_id", pa.string()), ("settings_hash", pa.string()),
-        ("seed", pa.int64()), ("coverage_cost", pa.float64()), ("deployment_cost", pa.int64())]]),
+    # One team's coverage cost a_i E_i / G_i in its region (teams/evaluator.py): team = "region:n_1-..-n_O".
+    "teams_team_costs": pa.schema([_required(n, t) for n, t in [
+        ("team", pa.string()), ("chip_id", pa.string()), ("settings_hash", pa.string()),
+        ("seed", pa.int64()), ("team_cost", pa.float64())]]),
     # One NSGA-II run (Table 5.4) and the points of its final front (its wall time: reports/timings.json).
     "teams_nsga2": pa.schema([_required(n, t) for n, t in [
         ("chip_id", pa.string()), ("population", pa.int64()), ("seed", pa.int64()),
-        ("generations", pa.int64()), ("hypervolume", pa.float64()), ("evaluations", pa.int64())]]),
+        ("generations", pa.int64()), ("hypervolume", pa.float64()), ("evaluations", pa.int64()),
+        ("team_lookups", pa.int64()), ("distinct_teams", pa.int64())]]),
     "teams_fronts": pa.schema([_required(n, t) for n, t in [
         ("chip_id", pa.string()), ("population", pa.int64()), ("seed", pa.int64()),
         ("coverage_cost", pa.float64()), ("deployment_cost", pa.int64()), ("counts", pa.list_(pa.int16()))]]),

@@ -3,7 +3,8 @@
     robocompose compose teams --chip LABELS.png [--regions K] [--budget 30] [--model PATH]
 
 Prints the front (allocations with both objectives, measured by the ergodic optimiser, and its hypervolume) or,
-with `--budget`, the best allocation within it, as JSON. With no `--model`, the generator shipped in the
+with `--budget`, the best allocation within it whose coverage cost lies inside the hypervolume box (or
+`"allocation": null` and the reason), as JSON. With no `--model`, the generator shipped in the
 repository (trained by the default profile) is used.
 """
 
@@ -91,10 +92,22 @@ def _compose(args: argparse.Namespace) -> None:
     if args.budget is None:
         out["front"] = front
     else:
-        within = [point for point in front if point["deployment_cost"] <= args.budget]
-        if not within:
-            raise InputError(f"--budget {args.budget}: no allocation of the front deploys that few robots "
-                             f"(fewest: {front[0]['deployment_cost']})")
         out["budget"] = args.budget
-        out["allocation"] = min(within, key=lambda point: point["coverage_cost"])
+        out.update(best_within(front, args.budget))
     print(json.dumps(out))
+
+
+def best_within(front: list[dict], budget: int) -> dict:
+    """{"allocation": the front's lowest-coverage-cost allocation deploying <= `budget` robots whose cost lies
+    inside the hypervolume box (an allocation outside it covers worse than the box's worst), or None and the
+    reason}."""
+    from robocompose.teams.nsga2 import REFERENCE_POINT
+
+    worst = REFERENCE_POINT[0]
+    inside = [point for point in front if point["coverage_cost"] < worst]
+    within = [point for point in inside if point["deployment_cost"] <= budget]
+    if within:
+        return {"allocation": min(within, key=lambda point: point["coverage_cost"])}
+    fewest = f"the fewest robots inside it: {inside[0]['deployment_cost']}" if inside else "no front point is inside it"
+    return {"allocation": None, "reason": f"no allocation of the front deploys <= {budget} robots at a coverage "
+                                          f"cost inside the box (< {worst}); {fewest}"}

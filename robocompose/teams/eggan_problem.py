@@ -18,10 +18,11 @@ Evolution-guided data creation: `steps` NSGA-II generations (nsga2.nsga2_generat
 roulette-wheel selection, the thesis's crossover and mutation, elitist survival) on the generated
 batch, genomes = the K x O fractions.
 
-Fitness: the ergodic trajectory optimiser itself. A team's plan depends only on its region and its
-counts (ergodic.ChipCoverage.deploy), and the coverage cost is a sum over teams, so every team cost is
-cached per (chip, region, team counts) and an allocation costs the sum of its teams' entries; the
-cache is part of the problem's state, so a resumed training sees the same values.
+Fitness: the ergodic trajectory optimiser itself, through the exact team-cost memo of evaluator.py (one
+`AllocationEvaluator` per chip on one shared cache: a file shared with the other teams stages, or memory).
+A method's spend (`real_evaluations`) is the number of distinct teams it asked for, whatever the cache already
+held, so logs and metrics do not depend on a warm cache; those teams' costs are part of the problem's state,
+so a resumed training sees the same values without optimising them again.
 """
 
 from __future__ import annotations
@@ -35,14 +36,15 @@ import numpy as np
 import torch
 
 from robocompose.eggan.problem import Objective, Sampled
+from robocompose.fanout.cache import EvaluationCache
 from robocompose.io.provenance import code_digest
 from robocompose.search.nsga2 import nsga2_generation
 from robocompose.teams.chips import Chip
 from robocompose.teams.decompose import Decomposition, terrain_features
-from robocompose.teams.ergodic import ChipCoverage, CoverageConfig, allocation_id
-from robocompose.teams.evaluator import chip_coverage
+from robocompose.teams.ergodic import CoverageConfig, allocation_id
+from robocompose.teams.evaluator import AllocationEvaluator, chip_coverage, teams_cache
 from robocompose.teams.nsga2 import AllocationProblem
-from robocompose.teams.species import SPECIES, allocation_to_counts, deployment_cost
+from robocompose.teams.species import SPECIES, allocation_to_counts
 
 
 @dataclass(frozen=True)
@@ -80,7 +82,8 @@ class TeamsProblem:
     evolution_methods = ("nsga2",)
 
     def __init__(self, chips: Sequence[tuple[Chip, Decomposition]], coverage: CoverageConfig,
-                 evolution: EvolutionConfig = EvolutionConfig(), seed: int = 0):
+                 evolution: EvolutionConfig = EvolutionConfig(), seed: int = 0,
+                 cache: EvaluationCache | None = None):
         if not chips:
             raise ValueError("teams EG-GAN: no training chips")
         self.chips = list(chips)
@@ -90,9 +93,9 @@ class TeamsProblem:
         self.task_shape = (self.n_regions * 4,)
         self.design_shape = (self.n_regions + 1, self.n_species)
         self.features = [task_features(chip, decomposition) for chip, decomposition in self.chips]
-        self._coverage: dict[int, ChipCoverage] = {}  # built on first use (phi of every region)
-        self.team_cost: dict[tuple[int, int, tuple[int, ...]], float] = {}  # (chip, region, counts) -> cost
-        self.team_optimisations = 0
+        self.cache = teams_cache() if cache is None else cache
+        self._evaluators: dict[int, AllocationEvaluator] = {}  # built on first use (phi of every region)
+        self._resumed_lookups = 0  # team look-ups before a resume
 
     # ---- the EG-GAN interface ----------------------------------------------------------------------
     def sample_task(self, rng: np.random.Generator) -> int:
@@ -135,8 +138,13 @@ class TeamsProblem:
 
     @property
     def real_evaluations(self) -> int:
-        """Team trajectory optimisations run so far (cache misses)."""
-        return self.team_optimisations
+        """Distinct teams asked for so far (each one trajectory optimisation without a cache)."""
+        return sum(len(evaluator.asked) for evaluator in self._evaluators.values())
+
+    @property
+    def team_lookups(self) -> int:
+        """Non-empty teams asked for so far, repeats included: against `real_evaluations`, what the memo saved."""
+        return self._resumed_lookups + sum(evaluator.lookups for evaluator in self._evaluators.values())
 
     def key(self) -> str:
         chips = [(chip.chip_id, hashlib.sha1(chip.classes.tobytes()).hexdigest()[:12],
@@ -147,37 +155,26 @@ class TeamsProblem:
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
     def state_dict(self) -> dict:
-        return {"team_cost": sorted(self.team_cost.items()), "team_optimisations": self.team_optimisations}
+        rows = [[*key, self.cache.get(key)["team_cost"]] for evaluator in self._evaluators.values()
+                for key in sorted(evaluator.asked)]
+        return {"team_costs": sorted(rows), "team_lookups": self.team_lookups}
 
     def load_state_dict(self, state: dict) -> None:
-        self.team_cost = {(chip, region, tuple(counts)): cost for (chip, region, counts), cost in state["team_cost"]}
-        self.team_optimisations = state["team_optimisations"]
+        task_of = {chip.chip_id: task for task, (chip, _) in enumerate(self.chips)}
+        for *key, cost in state["team_costs"]:
+            self.cache.put(tuple(key), team_cost=cost)
+            self.evaluator(task_of[key[1]]).asked.add(tuple(key))
+        self._resumed_lookups = state["team_lookups"] - sum(e.lookups for e in self._evaluators.values())
 
-    # ---- fitness from the optimiser, cached per team -------------------------------------------------
-    def chip_coverage(self, task: int) -> ChipCoverage:
-        if task not in self._coverage:
+    # ---- fitness from the optimiser, through the team-cost memo ----------------------------------------
+    def evaluator(self, task: int) -> AllocationEvaluator:
+        """The objectives of training chip `task` (built on first use)."""
+        if task not in self._evaluators:
             chip, decomposition = self.chips[task]
-            self._coverage[task] = chip_coverage(chip, decomposition, self.coverage)
-        return self._coverage[task]
+            self._evaluators[task] = AllocationEvaluator(chip_coverage(chip, decomposition, self.coverage),
+                                                         chip.chip_id, self.seed, self.cache)
+        return self._evaluators[task]
 
     def objectives_of_counts(self, task: int, counts: np.ndarray) -> np.ndarray:
         """(B, 2) [coverage cost, deployment cost] of (B, K, O) counts on training chip `task`."""
-        counts = np.asarray(counts, dtype=np.int64)
-        keys = [[(task, region, tuple(int(n) for n in team)) for region, team in enumerate(allocation)]
-                for allocation in counts]
-        missing = sorted({key for row in keys for key in row if key not in self.team_cost and sum(key[2])})
-        if missing:
-            single = np.zeros((len(missing), self.n_regions, self.n_species), dtype=np.int64)
-            for b, (_, region, team) in enumerate(missing):
-                single[b, region] = team
-            costs, _, _ = self.chip_coverage(task).evaluate_teams(single, self.seed)  # (U, K)
-            for b, key in enumerate(missing):
-                self.team_cost[key] = float(costs[b, key[1]])
-            self.team_optimisations += len(missing)
-        coverage = [sum(self._team_cost(key) for key in row) for row in keys]
-        return np.stack([np.array(coverage), deployment_cost(counts).astype(np.float64)], axis=-1)
-
-    def _team_cost(self, key: tuple[int, int, tuple[int, ...]]) -> float:
-        if sum(key[2]):
-            return self.team_cost[key]
-        return self.chip_coverage(key[0]).empty_team_costs()[key[1]]
+        return self.evaluator(task)(counts)

@@ -42,7 +42,7 @@ descent; the thesis says MPC). Teams do not interact, so batching does not chang
 from __future__ import annotations
 
 import hashlib
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
 import numpy as np
 import torch
@@ -50,6 +50,9 @@ import torch
 from robocompose.io.errors import check_field
 from robocompose.teams.decompose import pixel_centres
 from robocompose.teams.species import coverage_weights, step_lengths
+
+# Where a coverage cost's code starts: a chip's targets, the deployment draws, the trajectory optimiser, the cost.
+RESULT_CODE = ("robocompose.teams.ergodic:ChipCoverage",)
 
 
 @dataclass(frozen=True)
@@ -72,8 +75,10 @@ class CoverageConfig:
         check_field(self.initial_control_std >= 0, "initial_control_std", "a number >= 0", self.initial_control_std)
 
     def settings_hash(self) -> str:
-        """Short hash of every setting that changes a coverage cost (the cache key part)."""
-        return hashlib.sha1(repr(self).encode()).hexdigest()[:16]
+        """16 hex digits of every setting and of the code that shape a coverage cost (the cache key part)."""
+        from robocompose.io.provenance import result_digest, settings_digest
+
+        return settings_digest({"settings": asdict(self), "code": result_digest(*RESULT_CODE)})
 
 
 def frequencies(n: int) -> tuple[torch.Tensor, torch.Tensor]:
@@ -264,7 +269,7 @@ class ChipCoverage:
     def empty_team_costs(self) -> np.ndarray:
         """(K,) the team cost of each region without robots: a_i sum_k Lambda_k phi_k^2 / G_i."""
         _, sobolev = frequencies(self.config.n_coefficients)
-        return (self.area * (sobolev * self.phi**2).sum((-2, -1)) / self.glance).numpy()
+        return self.team_costs((sobolev * self.phi**2).sum((-2, -1)))[0]  # as an optimised team's, to the bit
 
     def coverage_cost(self, metrics: torch.Tensor) -> np.ndarray:
         """(B,) coverage costs sum_i a_i E_i / G_i of (B*K,) raw team metrics."""

@@ -43,19 +43,20 @@ def decomposed_chips(regions: pd.DataFrame, split: str) -> list[tuple[Chip, Deco
 
 
 def _nsga2_run(task: tuple[Chip, Decomposition, CoverageConfig, NSGA2Config, int]
-               ) -> tuple[NSGA2Result, EvaluationCache]:
-    """One NSGA-II run on one chip (an executor task): its result and the cache of its evaluations."""
+               ) -> tuple[NSGA2Result, AllocationEvaluator]:
+    """One NSGA-II run on one chip (an executor task), from an empty team-cost memo: its result and evaluator."""
     chip, decomposition, coverage, nsga2, threads = task
     torch.set_num_threads(threads)
     evaluate = AllocationEvaluator(chip_coverage(chip, decomposition, coverage), chip.chip_id, nsga2.seed)
     result = allocation_nsga2(evaluate, decomposition.n_regions, len(SPECIES), coverage.robots_per_species, nsga2)
-    return result, evaluate.cache
+    return result, evaluate
 
 
 def nsga2_runs(chips: list[tuple[Chip, Decomposition]], coverage: CoverageConfig, config: ExperimentsConfig,
                cache: EvaluationCache, executor: Executor | None = None
                ) -> tuple[pd.DataFrame, pd.DataFrame, list[dict]]:
-    """Run NSGA-II per chip x seed x population.
+    """Run NSGA-II per chip x seed x population, each run from an empty team-cost memo (its evaluations: the
+    allocations it scored; its team look-ups against the distinct teams it optimised: what the memo saved).
 
     Returns the "teams_nsga2" and "teams_fronts" tables and the runs' wall times (one dict per run:
     chip_id, population, seed, seconds) for the untracked timings file.
@@ -70,16 +71,16 @@ def nsga2_runs(chips: list[tuple[Chip, Decomposition]], coverage: CoverageConfig
              for population in config.populations]
     results = (executor or Executor(workers=1)).map(_nsga2_run, tasks)
     runs, fronts, seconds = [], [], []
-    for (chip, _, _, nsga2, _), (result, evaluations) in zip(tasks, results, strict=True):
-        cache.merge(evaluations)  # in task order: a key evaluated by two runs keeps the later run's value
+    for (chip, _, _, nsga2, _), (result, evaluator) in zip(tasks, results, strict=True):
+        cache.merge(evaluator.cache)  # in task order: a key evaluated by two runs keeps the later run's value
         runs.append((chip.chip_id, nsga2.population, nsga2.seed, nsga2.generations, result.hypervolume,
-                     result.evaluations))
+                     result.evaluations, evaluator.lookups, len(evaluator.asked)))
         seconds.append({"chip_id": chip.chip_id, "population": nsga2.population, "seed": nsga2.seed,
                         "seconds": round(result.seconds, 2)})
         fronts += [(chip.chip_id, nsga2.population, nsga2.seed, cost, int(deploy), counts.ravel().tolist())
                    for (cost, deploy), counts in zip(result.front, result.counts, strict=True)]
     return (pd.DataFrame(runs, columns=["chip_id", "population", "seed", "generations", "hypervolume",
-                                        "evaluations"]),
+                                        "evaluations", "team_lookups", "distinct_teams"]),
             pd.DataFrame(fronts, columns=["chip_id", "population", "seed", "coverage_cost",
                                           "deployment_cost", "counts"]),
             seconds)
@@ -108,8 +109,8 @@ def _chip_baselines(task: tuple[Chip, Decomposition, CoverageConfig, Experiments
     for seed in config.seeds:
         allocations, teams, split = baseline_draws(chip.chip_id, seed, config.budgets, n_regions,
                                                    coverage.robots_per_species)
-        uniform_costs, _, _ = problem.evaluate(allocations, seed)
-        split_costs, _, _ = problem.evaluate(split, seed)
+        memo = AllocationEvaluator(problem, chip.chip_id, seed)
+        uniform_costs, split_costs = memo(allocations)[:, 0], memo(split)[:, 0]
         joint_costs, joint_unvisited = no_decomposition_costs(problem, teams, seed)
         for budget, uniform_cost, split_cost, joint_cost, unvisited, allocation, split_teams, team in zip(
                 config.budgets, uniform_costs, split_costs, joint_costs, joint_unvisited, allocations, split, teams,

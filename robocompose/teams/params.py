@@ -46,7 +46,7 @@ class EgganConfig:
     evolution_steps: int = 1  # NSGA-II generations per iteration (the group's code: 1)
     lr: float = 1e-3  # Adam step of both networks (group's code 1e-3; thesis 1e-5 for 20 h)
     latent: int = 16  # P, the size of z (the group's code: 16)
-    samples: int = 64  # noise vectors per query (the front of a task)
+    samples: int = 512  # noise vectors per query: the front of a task is their non-dominated set
     seed: int = 0  # seeds training
     checkpoint_every: int = 25  # iterations between checkpoints
 

@@ -103,6 +103,18 @@ def test_compose_teams_prints_the_measured_front_and_the_best_within_a_budget(tm
     assert best["coverage_cost"] == min(p["coverage_cost"] for p in front if p["deployment_cost"] <= budget)
 
 
+def test_a_budget_answer_lies_inside_the_box_or_says_none_does():
+    from robocompose.teams.compose import best_within
+
+    front = [{"deployment_cost": 3, "coverage_cost": 0.9}, {"deployment_cost": 12, "coverage_cost": 0.2},
+             {"deployment_cost": 20, "coverage_cost": 0.1}]
+    assert best_within(front, 15)["allocation"] == front[1]
+    assert best_within(front, 60)["allocation"] == front[2]
+    nothing = best_within(front, 5)  # the 3-robot allocation covers worse than the box's worst (0.25)
+    assert nothing["allocation"] is None and "the fewest robots inside it: 12" in nothing["reason"]
+    assert "no front point is inside it" in best_within(front[:1], 60)["reason"]
+
+
 @pytest.mark.parametrize("extra, message", [
     (["--budget", "0"], "--budget 0: expected a number of robots in 1..60"),
     (["--budget", "61"], "--budget 61: expected a number of robots in 1..60"),

@@ -40,12 +40,13 @@ def test_objectives_are_the_optimisers_costs_cached_per_team(chips):
     problem = TeamsProblem(chips, TINY, seed=2)
     counts = np.array([[[1, 0, 0], [0, 2, 0], [0, 0, 0]], [[1, 0, 0], [3, 0, 1], [0, 1, 0]]])
     objectives = problem.objectives_of_counts(1, counts)
-    assert problem.team_optimisations == 4  # (r0: 1 ground) is shared, empty teams cost no optimisation
-    direct, _, _ = chip_coverage(*chips[1], TINY).evaluate(counts, seed=2)
-    np.testing.assert_allclose(objectives[:, 0], direct, rtol=1e-5)
+    assert problem.real_evaluations == 4  # (r0: 1 ground) is shared, empty teams cost no optimisation
+    assert problem.evaluator(1).optimised == 4 and problem.team_lookups == 5
+    direct, _, _ = chip_coverage(*chips[1], TINY).evaluate(counts, seed=2)  # the teams optimised together
+    np.testing.assert_array_equal(objectives[:, 0], direct)  # a team's cost does not depend on its company
     assert objectives[:, 1].tolist() == [3, 6]
     problem.objectives_of_counts(1, counts[::-1])
-    assert problem.team_optimisations == 4
+    assert problem.real_evaluations == 4 and problem.evaluator(1).optimised == 4
 
 
 def test_evolution_raises_the_hypervolume_and_dominates_every_start_design(chips):
@@ -70,7 +71,7 @@ def test_a_killed_training_resumes_to_the_same_checkpoint(chips, tmp_path):
     train(TeamsProblem(chips, TINY), NETWORK, TrainConfig(**{**config.__dict__, "iterations": 2}), path)
     resumed_problem = TeamsProblem(chips, TINY)
     resumed = train(resumed_problem, NETWORK, config, path)  # picks up at iteration 2
-    assert resumed_problem.team_optimisations == whole.rows[-1]["real_evaluations"]
+    assert resumed_problem.real_evaluations == whole.rows[-1]["real_evaluations"]
     for name, tensor in whole.generator.state_dict().items():
         assert torch.equal(tensor, resumed.generator.state_dict()[name]), name
     assert whole.rows == resumed.rows

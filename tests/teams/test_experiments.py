@@ -7,8 +7,8 @@ import pytest
 from robocompose.fanout.executor import Executor
 from robocompose.teams.chips import ChipsConfig, prepare_chips
 from robocompose.teams.decompose import DecomposeConfig, regions_table
-from robocompose.teams.ergodic import CoverageConfig, allocation_id
-from robocompose.teams.evaluator import teams_cache
+from robocompose.teams.ergodic import CoverageConfig
+from robocompose.teams.evaluator import AllocationEvaluator, chip_coverage, teams_cache
 from robocompose.teams.experiments import (
     coverage_baselines,
     decomposed_chips,
@@ -44,9 +44,12 @@ def test_nsga2_runs_record_every_population_and_a_front_per_run(test_chips):
     assert runs.seed.tolist() == [0, 0, 1, 1] and "seconds" not in runs  # wall time: not in the table
     assert [(run["population"], run["seed"]) for run in seconds] == [(4, 0), (6, 0), (4, 1), (6, 1)]
     assert all(run["seconds"] > 0 for run in seconds)
-    for row in fronts.itertuples():  # every front point is a cached evaluation of its allocation
-        key = (allocation_id(np.reshape(row.counts, (3, 3))), row.chip_id, TINY.settings_hash(), row.seed)
-        assert cache.get(key)["coverage_cost"] == pytest.approx(row.coverage_cost)
+    assert (runs.distinct_teams < runs.team_lookups).all()  # the memo saved optimisations in every run
+    chips = {chip.chip_id: (chip, decomposition) for chip, decomposition in test_chips}
+    for row in fronts.itertuples():  # every front point is the sum of its teams' cached costs
+        memo = AllocationEvaluator(chip_coverage(*chips[row.chip_id], TINY), row.chip_id, row.seed, cache)
+        assert memo(np.reshape(row.counts, (1, 3, 3)))[0, 0] == pytest.approx(row.coverage_cost, rel=1e-6)
+        assert memo.optimised == 0
     for _, front in fronts.groupby(["population", "seed"]):
         points = front[["coverage_cost", "deployment_cost"]].to_numpy()
         assert not any((p <= q).all() and (p < q).any() for p in points for q in points)
