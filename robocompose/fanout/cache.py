@@ -11,8 +11,8 @@ table's key columns and its value is a dict of the remaining columns.
     key in cache; len(cache); cache.merge(other)
     cache.save()            # under a file lock: re-read the file, add this cache's entries, write atomically
 
-Another table: `EvaluationCache(path, table="teams_eval_cache", key_columns=("allocation_id", "chip_id",
-"settings_hash", "seed"))` stores (coverage_cost, deployment_cost) the same way.
+Another table: `EvaluationCache(path, table="teams_team_costs", key_columns=("team", "chip_id", "settings_hash",
+"seed"))` stores one team's ergodic cost in its region the same way (robocompose/teams/evaluator.py).
 
 Several processes (stages, BO runs, the modular-robot and team worlds) may share one file: `save`
 merges under an exclusive lock, so no process loses another's entries (on a key written by both, the

@@ -26,6 +26,8 @@ pin is not applied, and a line on stderr says that results will differ from the 
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import os
 import platform
 import sys
@@ -65,6 +67,22 @@ def pinned_environment(environment: Mapping[str, str] = os.environ) -> dict[str,
 
 def is_pinned(environment: Mapping[str, str] = os.environ) -> bool:
     return all(environment.get(name) == value for name, value in PINNED.items())
+
+
+def dispatch_tag(environment: Mapping[str, str] = os.environ) -> str:
+    """"" under the pinned dispatch; else what the libraries chose from (processor, flags, the switches set).
+
+    A result computed outside the pin rounds differently, so keys that store results (settings digests) carry it.
+    """
+    if is_pinned(environment):
+        return ""
+    switches = ",".join(f"{name}={environment[name]}" for name in PINNED if name in environment)
+    return f"native {platform.machine()} flags {_flags_digest()} {switches}".rstrip()
+
+
+@functools.cache
+def _flags_digest() -> str:
+    return hashlib.sha256(" ".join(sorted(cpu_flags())).encode()).hexdigest()[:12]
 
 
 def _pin_applies() -> bool:

@@ -19,6 +19,8 @@ import json
 from pathlib import Path
 from typing import Any
 
+from robocompose.io.dispatch import dispatch_tag
+
 PACKAGE = "robocompose"
 PACKAGE_DIR = Path(__file__).resolve().parents[1]  # .../robocompose
 ROOT = PACKAGE_DIR.parent
@@ -245,6 +247,12 @@ def _jsonable(value: Any) -> Any:
 
 
 def settings_digest(settings: Any) -> str:
-    """SHA-256 (16 hex digits) of a JSON-able structure of settings (dataclasses and tuples allowed)."""
-    text = json.dumps(settings, sort_keys=True, default=_jsonable)
+    """SHA-256 (16 hex digits) of a JSON-able structure of settings (dataclasses and tuples allowed).
+
+    Outside the pinned dispatch the digest covers the dispatch too (`dispatch_tag`): results computed natively
+    round differently and must not be served from, or into, a cache of pinned results. Pinned digests are the
+    settings' alone, so every committed key stays as it was.
+    """
+    tag = dispatch_tag()
+    text = json.dumps({"settings": settings, "dispatch": tag} if tag else settings, sort_keys=True, default=_jsonable)
     return hashlib.sha256(text.encode()).hexdigest()[:16]

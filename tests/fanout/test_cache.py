@@ -49,12 +49,12 @@ def test_bad_keys_and_values_are_refused():
         EvaluationCache(key_columns=("design_id", "terrain"))
 
 
-def test_serves_another_table_such_as_the_team_cache(tmp_path):
-    key = ("allocation_id", "chip_id", "settings_hash", "seed")
-    cache = EvaluationCache(tmp_path / "teams.parquet", table="teams_eval_cache", key_columns=key)
-    cache.put(("alloc", "chip", "h", 0), coverage_cost=0.25, deployment_cost=7)
+def test_serves_another_table_such_as_the_team_costs(tmp_path):
+    key = ("team", "chip_id", "settings_hash", "seed")
+    cache = EvaluationCache(tmp_path / "teams.parquet", table="teams_team_costs", key_columns=key)
+    cache.put(("3:1-0-2", "chip", "h", 0), team_cost=0.25)
     cache.save()
-    again = EvaluationCache(tmp_path / "teams.parquet", table="teams_eval_cache", key_columns=key)
-    assert again.get(("alloc", "chip", "h", 0)) == {"coverage_cost": 0.25, "deployment_cost": 7}
+    again = EvaluationCache(tmp_path / "teams.parquet", table="teams_team_costs", key_columns=key)
+    assert again.get(("3:1-0-2", "chip", "h", 0)) == {"team_cost": 0.25}
     with pytest.raises(ValueError, match="cannot merge"):
         again.merge(EvaluationCache())

@@ -3,6 +3,7 @@ dispatch the process was started with; and the re-execution that applies it."""
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import subprocess
@@ -11,7 +12,16 @@ import sys
 import pytest
 
 from robocompose.io import dispatch
-from robocompose.io.dispatch import OPT_OUT, PINNED, cpu_flags, has_baseline, is_pinned, pinned_environment
+from robocompose.io.dispatch import (
+    OPT_OUT,
+    PINNED,
+    cpu_flags,
+    dispatch_tag,
+    has_baseline,
+    is_pinned,
+    pinned_environment,
+)
+from robocompose.io.provenance import settings_digest
 
 # Digests of three dispatch-sensitive results, printed as JSON: one Adam step of the modular EG-GAN generator
 # (oneDNN convolutions, MKL linear layers, batch norm, log-softmax), a short MPPI episode of a grammar robot (numpy,
@@ -154,3 +164,20 @@ def test_the_baseline_needs_an_x86_64_with_every_v3_flag(monkeypatch, machine, f
     monkeypatch.setattr(dispatch.platform, "machine", lambda: machine)
     monkeypatch.setattr(dispatch, "cpu_flags", lambda: frozenset(flags))
     assert has_baseline() is expected
+
+
+def test_the_dispatch_tag_is_empty_under_the_pin_and_names_what_else_a_process_ran_with():
+    assert dispatch_tag(PINNED) == ""
+    native = dispatch_tag({})
+    assert native.startswith("native ") and native != dispatch_tag({"OPENBLAS_CORETYPE": "SkylakeX"})
+    assert dispatch_tag({**PINNED, "ATEN_CPU_CAPABILITY": "default"}) not in ("", native)
+
+
+def test_settings_digests_keep_pinned_results_apart_from_native_ones(monkeypatch):
+    settings = {"solver_iterations": 50, "dt": 1 / 240}
+    for name, value in PINNED.items():
+        monkeypatch.setenv(name, value)
+    pinned = settings_digest(settings)
+    assert pinned == hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:16]  # keys as before
+    monkeypatch.delenv("MKL_CBWR")
+    assert settings_digest(settings) != pinned
