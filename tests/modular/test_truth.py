@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from robocompose.fanout.cache import EvaluationCache
-from robocompose.io.dispatch import has_baseline
+from robocompose.io.dispatch import has_baseline, pinned_environment
 from robocompose.modular.evaluate import EvalSettings, FitnessRule
 from robocompose.modular.robot import mirror
 from robocompose.modular.truth import (
@@ -151,7 +151,6 @@ def test_the_physics_digest_follows_what_a_rollout_runs(monkeypatch):
 
 REPRODUCE = """
 import json, sys
-import pandas as pd
 from robocompose.modular.evaluate import EvalSettings, rollouts
 from robocompose.modular.terrain import generate_terrain
 from robocompose.modular.truth import committed_path
@@ -168,9 +167,9 @@ print(json.dumps([[r.distance, r.status, r.sim_steps]
 def test_rollouts_reproduce_the_committed_tables_to_the_byte(terrain_seed, designs):
     # The tables were measured under the dispatch pin (docs/dispatch.md), the test process is not pinned:
     # the rollouts run in a pinned child process.
-    out = subprocess.run([sys.executable, "-m", "robocompose.io.dispatch", sys.executable, "-c", REPRODUCE,
-                          str(terrain_seed), *designs], capture_output=True, text=True, check=True,
-                         env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}).stdout
+    out = subprocess.run([sys.executable, "-c", REPRODUCE, str(terrain_seed), *designs], capture_output=True,
+                         text=True, check=True,
+                         env=pinned_environment({**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})).stdout
     table = pd.read_parquet(committed_path(terrain_seed)).set_index("design")
     for design, (distance, status, sim_steps) in zip(designs, json.loads(out.splitlines()[-1]), strict=True):
         row = table.loc[design]
