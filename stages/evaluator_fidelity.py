@@ -21,7 +21,8 @@ def main() -> None:
         summary = fidelity.summarise(fidelity.read_scores(config.directory), designs, config.top)
         fidelity.write_summary(summary, config.directory)
         atomic_write_json("reports/metrics/evaluator_fidelity.json",
-                          fidelity.choose_default(summary, config.tasks, config.min_spearman))
+                          fidelity.choose_default(summary, config.tasks, config.min_spearman,
+                                                  config.search_spearman, config.ceiling_share))
 
 
 if __name__ == "__main__":

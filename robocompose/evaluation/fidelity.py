@@ -9,6 +9,7 @@ Spearman rank correlation with the thesis rung's scores, and whether the thesis 
 the rung's top 3. `choose_default` picks the cheapest rung that ranks like the thesis on every task.
 
     robocompose evaluator-fidelity build-set    # once, after `dvc repro enumerate`: the design set (committed)
+    robocompose evaluator-fidelity search       # hours: searches at cheap rungs; their best designs join the set
     robocompose evaluator-fidelity measure      # hours: resumable, skips rows already in the pieces
     robocompose evaluator-fidelity summarise    # the table
 
@@ -17,6 +18,11 @@ the dataset table (data/designs.parquet: the enumeration's valid candidates in c
 `n_screened` of the next `n_screen` dataset designs scored at the cheap `SCREEN` setting (a quick random search). Scores
 use the optimisers' objective (`objective`: an invalid result gets its penalty score) with controller
 seed 0, the settings of the default profile.
+
+What a search finds is what the evaluator must rank: the designs of kind `search` are the best designs of
+searches run at cheap rungs (`robocompose.evaluation.search_designs`). The thesis rung repeated with
+controller seed 1 (`thesis_seed1`) gives the noise ceiling: the seed-to-seed Spearman of the thesis setting.
+The selection rule (`choose_default`) ranks rungs on the search-found designs alone.
 """
 
 from __future__ import annotations
@@ -52,20 +58,34 @@ LADDER: dict[str, tuple[int, int, int, int]] = {
     "s32_h16_e64": (32, 128, 16, 64),  # the issue's intermediate measurement
     "s32_h16_e128": (32, 256, 16, 128),  # half the thesis's samples
 }
+# Rungs that repeat another rung with a further controller seed (rung name -> (rung, seed offset)).
+REPEATS: dict[str, tuple[str, int]] = {"thesis_seed1": (THESIS, 1)}
+NOISE_RUNG = "thesis_seed1"  # its Spearman against the thesis rung is the noise ceiling
 SCREEN = MPPIConfig(samples=8, first_samples=32, horizon=8, episode=24)  # the quick search's cheap setting
 DESIGN_COLUMNS = ("name", "kind", "design_id", "rules", "screen_reward")
 SCORE_COLUMNS = ("task", "rung", "name", "design_id", "reward", "status", "objective", "sim_steps", "seconds",
                  "evaluator")  # evaluator: `simulation_digest(task)` of the code that measured the row
-MEASURE_ORDER = ("reference", "screened", "random")  # kinds of design, in `measure_order`
+MEASURE_ORDER = ("reference", "search", "screened", "random")  # kinds of design, in `measure_order`
 DESIGNS_FILE, SUMMARY_FILE = "designs.csv", "summary.csv"
 SCORES_DIR = "scores"
+SEARCH = "search"  # the kind of a design found by a search
+
+
+def base_rung(name: str) -> str:
+    """The ladder rung whose MPPI settings rung `name` runs (itself, or the rung a repeat repeats)."""
+    return REPEATS[name][0] if name in REPEATS else name
+
+
+def rung_seed(name: str, seed: int) -> int:
+    """The controller seed of rung `name` when the ladder's seed is `seed`."""
+    return seed + (REPEATS[name][1] if name in REPEATS else 0)
 
 
 def rung_config(name: str) -> MPPIConfig:
     """The MPPI config of ladder rung `name`."""
-    if name not in LADDER:
-        raise InputError(f"unknown fidelity rung {name!r}; known rungs: {list(LADDER)}")
-    samples, first_samples, horizon, episode = LADDER[name]
+    if base_rung(name) not in LADDER:
+        raise InputError(f"unknown fidelity rung {name!r}; known rungs: {list(LADDER) + list(REPEATS)}")
+    samples, first_samples, horizon, episode = LADDER[base_rung(name)]
     return MPPIConfig(samples=samples, first_samples=first_samples, horizon=horizon, episode=episode)
 
 
@@ -81,15 +101,22 @@ class FidelityConfig:
     n_random: int = 16  # dataset designs in the set
     n_screen: int = 100  # further dataset designs scored at SCREEN ...
     n_screened: int = 8  # ... of which the best join the set
-    min_spearman: float = 0.8  # what a rung must reach on every task to be chosen as the default
-    top: int = 3  # the thesis-best design must be among this many of the rung's best
+    min_spearman: float = 0.8  # the provisional rule (before the search-found designs are measured) ...
+    top: int = 3  # ... and the thesis-best design among this many of the rung's best
+    search_methods: list[str] = field(default_factory=lambda: ["glso", "random", "mcts", "ghs"])
+    search_rungs: list[str] = field(default_factory=lambda: ["s8_h8_e48", "s16_h8_e48"])
+    search_budget: int = 40  # objective calls per search
+    search_init: int = 16  # GLSO's random initial points in these searches (glso.bo.init)
+    search_top: int = 2  # best distinct simulated designs of each search that join the set
+    search_spearman: float = 0.7  # the rule: Spearman over the search-found designs at least this ...
+    ceiling_share: float = 0.8  # ... or at least this share of the noise ceiling, on every task
 
     def __post_init__(self) -> None:
         for task in self.tasks:
             get_task(task)
-        for rung in self.rungs:
+        for rung in self.rungs + self.search_rungs:
             rung_config(rung)
-        for name in ("n_screen", "n_screened", "top"):
+        for name in ("n_screen", "n_screened", "top", "search_budget", "search_top"):
             if getattr(self, name) < 1:
                 raise InputError(f"evaluator_fidelity.{name} must be >= 1, got {getattr(self, name)}")
 
@@ -216,8 +243,8 @@ def measure(config: FidelityConfig, designs: pd.DataFrame) -> int:
     for task, rung, name, design_id in tqdm(jobs, desc="fidelity", unit="eval"):
         if design_id in done(task, rung):
             continue
-        evaluation = EvaluationConfig(mppi=rung_config(rung), seed=config.seed)
-        row = evaluate(trees[design_id], task, evaluation, config.seed)
+        seed = rung_seed(rung, config.seed)
+        row = evaluate(trees[design_id], task, EvaluationConfig(mppi=rung_config(rung), seed=seed), seed)
         _append(piece_path(config.directory, task, rung),
                 {"task": task, "rung": rung, "name": name, "design_id": design_id, **row,
                  "objective": objective(row), "evaluator": simulation_digest(task)})
@@ -244,34 +271,52 @@ def spearman(a: pd.Series, b: pd.Series) -> float:
 
 
 def summarise(scores: pd.DataFrame, designs: pd.DataFrame, top: int = 3) -> pd.DataFrame:
-    """One row per (task, rung) measured: cost, Spearman and top-k agreement with the thesis rung.
+    """One row per (task, rung) measured: cost, and rank agreement with the thesis rung (controller seed 0).
 
-    Rank statistics use the designs measured both at the rung and at the thesis rung (`n_common`);
-    `complete` says whether that is the whole design set.
+    Over the base set (every design but the search-found ones): `n_common` designs measured at both,
+    `complete`, `spearman`, `thesis_best_in_top`. Over the search-found designs: `n_search_common` of
+    `n_search`, `spearman_search`, and the task's `noise_ceiling` (the thesis rung against its repeat with
+    controller seed 1, over the search-found designs measured at both).
     """
     kinds = dict(zip(designs["design_id"], designs["kind"], strict=True))
+    names = dict(zip(designs["design_id"], designs["name"], strict=True))
+    search_ids = set(designs.loc[designs["kind"] == SEARCH, "design_id"])
+    n_base = len(designs) - len(search_ids)
+
+    def by_rung(task: str, rung: str) -> pd.Series:
+        rows = scores[(scores["task"] == task) & (scores["rung"] == rung)]
+        return rows.set_index("design_id")["objective"]
+
+    def search_common(a: pd.Series, b: pd.Series) -> pd.Index:
+        return a.index.intersection(b.index).intersection(pd.Index(sorted(search_ids)))
+
     rows = []
     for (task, rung), group in scores.groupby(["task", "rung"], sort=False):
-        thesis = scores[(scores["task"] == task) & (scores["rung"] == THESIS)].set_index("design_id")["objective"]
-        mine = group.set_index("design_id")["objective"]
-        common = mine.index.intersection(thesis.index)
+        thesis, noise, mine = by_rung(task, THESIS), by_rung(task, NOISE_RUNG), by_rung(task, rung)
+        common = mine.index.intersection(thesis.index).difference(pd.Index(sorted(search_ids)))
+        found = search_common(mine, thesis)
+        ceiling = search_common(thesis, noise)
         thesis_best = thesis[common].idxmax() if len(common) else None
         ranked = mine[common].sort_values(ascending=False, kind="stable")
         random = group[group["design_id"].map(kinds) == "random"]["objective"]
-        samples, first_samples, horizon, episode = LADDER[rung]
+        samples, first_samples, horizon, episode = LADDER[base_rung(rung)]
         rows.append({
             "task": task, "rung": rung, "samples": samples, "first_samples": first_samples, "horizon": horizon,
-            "episode": episode, "n_designs": len(designs), "n_scored": len(group), "n_common": len(common),
-            "complete": len(common) == len(designs),
+            "episode": episode, "n_designs": n_base, "n_scored": len(group), "n_common": len(common),
+            "complete": len(common) == n_base,
             "sim_steps_per_eval": float(group["sim_steps"].mean()),
             "seconds_per_eval": float(group["seconds"].mean()),
             "spearman": spearman(mine[common], thesis[common]),
-            "thesis_best": (designs.set_index("design_id").loc[thesis_best, "name"] if thesis_best else ""),
+            "thesis_best": names[thesis_best] if thesis_best else "",
             "thesis_best_in_top": bool(thesis_best is not None and thesis_best in set(ranked.index[:top])),
-            "best": designs.set_index("design_id").loc[ranked.index[0], "name"] if len(ranked) else "",
+            "best": names[ranked.index[0]] if len(ranked) else "",
             "best_score": float(ranked.iloc[0]) if len(ranked) else float("nan"),
             "random_min": float(random.min()) if len(random) else float("nan"),
             "random_max": float(random.max()) if len(random) else float("nan"),
+            "n_search": len(search_ids), "n_search_common": len(found),
+            "spearman_search": spearman(mine[found], thesis[found]),
+            "noise_ceiling": spearman(thesis[ceiling], noise[ceiling]),
+            "n_noise_common": len(ceiling),
         })
     table = pd.DataFrame(rows)
     if len(table):
@@ -279,30 +324,58 @@ def summarise(scores: pd.DataFrame, designs: pd.DataFrame, top: int = 3) -> pd.D
     return table
 
 
-def choose_default(summary: pd.DataFrame, tasks: list[str], min_spearman: float = 0.8) -> dict:
-    """The cheapest rung (by physics steps on the first task) that, on every task in `tasks`, was measured on
-    the whole design set, reaches `min_spearman` and has the thesis-best design in its top k.
+def choose_default(summary: pd.DataFrame, tasks: list[str], min_spearman: float = 0.8,
+                   search_spearman: float = 0.7, ceiling_share: float = 0.8) -> dict:
+    """The cheapest rung (by physics steps on the first task) that ranks what a search finds like the thesis.
 
-    Returns {"rung": name or "", "passing": [rungs that qualify], "reason": text}."""
-    passing = []
-    for rung, group in summary.groupby("rung", sort=False):
-        by_task = group.set_index("task")
-        if rung == THESIS or not all(t in by_task.index for t in tasks):
-            continue
-        ok = all(bool(by_task.loc[t, "complete"]) and by_task.loc[t, "spearman"] >= min_spearman
-                 and bool(by_task.loc[t, "thesis_best_in_top"]) for t in tasks)
-        if ok:
-            passing.append((float(by_task.loc[tasks[0], "sim_steps_per_eval"]), rung))
-    passing.sort()
+    The rule, once the search-found designs have scores at the thesis rung, at its seed-1 repeat and at the
+    rung, on every task in `tasks`: Spearman over them >= `search_spearman`, or >= `ceiling_share` x the
+    task's noise ceiling. Until then the choice is provisional, by the earlier rule over the base set (whole
+    set measured, Spearman >= `min_spearman`, the thesis-best design in the rung's top k), and says so.
+
+    Returns {"rung": name or "", "rule": "search" | "provisional", "passing": [rungs], "reason": text}."""
+    cheap = summary[(summary["rung"] != THESIS) & ~summary["rung"].isin(list(REPEATS))]
+    per_task = {rung: group.set_index("task") for rung, group in cheap.groupby("rung", sort=False)}
+    per_task = {rung: t for rung, t in per_task.items() if all(task in t.index for task in tasks)}
+
+    def cost(rung: str) -> float:
+        return float(per_task[rung].loc[tasks[0], "sim_steps_per_eval"])
+
+    noise = summary[summary["rung"] == NOISE_RUNG].set_index("task")
+    n_search = int(summary["n_search"].max()) if "n_search" in summary and len(summary) else 0
+    search_done = n_search > 0 and all(t in noise.index and int(noise.loc[t, "n_search_common"]) == n_search
+                                       for t in tasks)
+    if search_done:
+        def passes(t: pd.DataFrame, task: str) -> bool:
+            value, ceiling = t.loc[task, "spearman_search"], noise.loc[task, "spearman_search"]
+            return (int(t.loc[task, "n_search_common"]) == n_search
+                    and (value >= search_spearman or value >= ceiling_share * ceiling))
+
+        passing = sorted((r for r, t in per_task.items() if all(passes(t, task) for task in tasks)), key=cost)
+        ceilings = ", ".join(f"{t} {noise.loc[t, 'spearman_search']:.2f}" for t in tasks)
+        rule = (f"cheapest rung whose Spearman over the {n_search} search-found designs is >= {search_spearman} "
+                f"or >= {ceiling_share} x the noise ceiling (thesis seed 0 vs seed 1: {ceilings}) on "
+                f"{', '.join(tasks)}")
+        if passing:
+            return {"rung": passing[0], "rule": "search", "passing": passing, "reason": rule}
+        return {"rung": "", "rule": "search", "passing": [], "reason": f"no rung passes the rule ({rule})"}
+
+    measured = ", ".join(f"{t}: {int(noise.loc[t, 'n_search_common']) if t in noise.index else 0} of {n_search}"
+                         for t in tasks)
+    waiting = (f"provisional: the search-found designs are not all measured at the thesis setting's two seeds "
+               f"({measured}), so the earlier rule over the base set decides")
     thesis = summary[summary["rung"] == THESIS].set_index("task")
-    measured = [f"{t}: {int(thesis.loc[t, 'n_scored']) if t in thesis.index else 0} of "
-                f"{int(summary['n_designs'].iloc[0]) if len(summary) else 0}" for t in tasks]
-    if not passing and not all(t in thesis.index and bool(thesis.loc[t, "complete"]) for t in tasks):
-        return {"rung": "", "passing": [], "reason": "the table is not complete (designs with a thesis-setting score, "
-                                                     + ", ".join(measured) + ")"}
+    if not all(t in thesis.index and bool(thesis.loc[t, "complete"]) for t in tasks):
+        counts = ", ".join(f"{t}: {int(thesis.loc[t, 'n_common']) if t in thesis.index else 0} of "
+                           f"{int(summary['n_designs'].iloc[0]) if len(summary) else 0}" for t in tasks)
+        return {"rung": "", "rule": "provisional", "passing": [],
+                "reason": f"{waiting}; the base table is not complete (designs with a thesis-setting score, "
+                          f"{counts})"}
+    passing = sorted((r for r, t in per_task.items()
+                      if all(bool(t.loc[task, "complete"]) and t.loc[task, "spearman"] >= min_spearman
+                             and bool(t.loc[task, "thesis_best_in_top"]) for task in tasks)), key=cost)
+    rule = (f"cheapest rung with Spearman >= {min_spearman} over the base set and the thesis-best design in its "
+            f"top k on {', '.join(tasks)}")
     if passing:
-        return {"rung": passing[0][1], "passing": [r for _, r in passing],
-                "reason": f"cheapest rung with Spearman >= {min_spearman} and the thesis-best design in its top "
-                          f"k on {', '.join(tasks)}"}
-    return {"rung": "", "passing": [], "reason": f"no rung cheaper than the thesis's reaches Spearman >= "
-                                                 f"{min_spearman} with the thesis-best in its top k on every task"}
+        return {"rung": passing[0], "rule": "provisional", "passing": passing, "reason": f"{waiting}: {rule}"}
+    return {"rung": "", "rule": "provisional", "passing": [], "reason": f"{waiting}: no rung passes ({rule})"}
