@@ -13,8 +13,9 @@ Status of a result (`reward` is null unless noted):
 - "self_collision": the design self-penetrates when placed at rest (RoboGrammar rejects it); not simulated.
 - "unstable": the simulation blew up: a non-finite state, or a mean reward >= 10 (`BLOWUP_REWARD`, the
   reference treats any such result as a blow-up); `reward` holds the measured value when finite.
-Optimisers score a result with `objective(row)`: the reward when ok, else `INVALID_SCORE[status]` (GLSO's
-3.8 for a self-collision, 4.0 for a blow-up: about what a robot standing still scores).
+Optimisers score a result with `objective(row, invalid)`: the reward when ok, else the method's invalid score,
+by default `INVALID_SCORE[status]` (GLSO's 3.8 for a self-collision, 4.0 for a blow-up: about what a robot
+standing still scores); RoboGrammar's searches score any invalid result `ROBOGRAMMAR_INVALID_SCORE` (-2.0).
 
 The settings hash of a task covers everything that shapes a result besides design and seed: the MPPI
 config, the physics settings, the task (floor, friction, horizon scale, obstacle seed), and the code and
@@ -46,6 +47,7 @@ OK, SELF_COLLISION, UNSTABLE = "ok", "self_collision", "unstable"
 STATUSES = (OK, SELF_COLLISION, UNSTABLE)
 BLOWUP_REWARD = 10.0  # any mean reward at or above this is a simulation blow-up
 INVALID_SCORE = {SELF_COLLISION: 3.8, UNSTABLE: 4.0}  # what optimisers use instead of an invalid result (GLSO)
+ROBOGRAMMAR_INVALID_SCORE = {SELF_COLLISION: -2.0, UNSTABLE: -2.0}  # heuristic_search_algo_mpc.py: None or > 10
 
 
 @dataclass(frozen=True)
@@ -66,9 +68,9 @@ def simulation_digest(task: str) -> str:
     return settings_digest({"task": get_task(task), "physics": PhysicsSettings(), "code": result_digest(*RESULT_CODE)})
 
 
-def objective(row: dict) -> float:
-    """The number an optimiser maximises for an evaluation row: its reward if ok, else the penalty score."""
-    return float(row["reward"]) if row["status"] == OK else INVALID_SCORE[row["status"]]
+def objective(row: dict, invalid: dict[str, float] = INVALID_SCORE) -> float:
+    """The number an optimiser maximises for an evaluation row: its reward if ok, else `invalid[status]`."""
+    return float(row["reward"]) if row["status"] == OK else invalid[row["status"]]
 
 
 def evaluate(tree: DesignTree, task: str, config: EvaluationConfig, seed: int,

@@ -8,7 +8,9 @@ call on it and tells the method its score. Which designs a method may propose fo
   links, valid rest contacts);
 - the graph GA rejects a child that self-penetrates before evaluating it;
 - GLSO evaluates whatever the decoder gives; a design that cannot be simulated costs a call and scores
-  `INVALID_SCORE` (the evaluator's status says why).
+  GLSO's `INVALID_SCORE` (the evaluator's status says why).
+Every design a method discards before evaluation is counted in its proposal's `rejected` (the step table's
+`rejected` column): a pre-filter costs no call, but what it saved is on the record.
 """
 
 from __future__ import annotations
@@ -47,11 +49,13 @@ def run_stream(seed: int, method: str) -> int:
 
 def random_grammar_design(seed: int, k: int, max_depth: int = MAX_DEPTH) -> tuple[Proposal, int]:
     """The first candidate from k on of the dataset's enumeration stream `seed` that passes its filters
-    (depth limit, >= 11 links, no self-penetration, valid rest contacts), and the next k to draw from."""
+    (depth limit, >= 11 links, no self-penetration, valid rest contacts; the candidates before it are its
+    `rejected`), and the next k to draw from."""
     from robocompose.dataset.enumerate import MIN_LINKS, candidate
 
     for j in range(k, k + MAX_TRIES):
         reason, row, _ = candidate(seed, j, MIN_LINKS, max_depth)
         if not reason:
-            return Proposal(DesignTree(tuple(row["parents"]), tuple(row["tokens"])), tuple(row["rules"])), j + 1
+            return Proposal(DesignTree(tuple(row["parents"]), tuple(row["tokens"])), tuple(row["rules"]),
+                            rejected=j - k), j + 1
     raise RuntimeError(f"no valid random derivation in {MAX_TRIES} candidates")

@@ -178,18 +178,19 @@ class GraphHeuristicSearch:
         eps = exp_decay(c.eps_start, c.eps_end, c.eps_decay, e, self.budget)
         eps_sample = exp_decay(c.eps_sample_start, c.eps_sample_end, c.eps_sample_decay, e, self.budget)
         n = 1 if self.rng.random() < eps_sample else c.num_samples
-        samples, memo = [], {}
+        samples, memo, rejected = [], {}, 0
         for _ in range(n):
             for _ in range(MAX_TRIES):
                 sample = self._rollout(eps, memo)
                 if sample is not None:
                     samples.append(sample)
                     break
+                rejected += 1
             else:
                 raise RuntimeError(f"GHS: no valid rollout in {MAX_TRIES} tries")
         best = int(np.argmax(self.predict([states[-1] for states, _ in samples], memo)))
         states, rules = samples[best]
-        return Proposal(graph_to_tree(states[-1]), tuple(rules), info=states)
+        return Proposal(graph_to_tree(states[-1]), tuple(rules), info=states, rejected=rejected)
 
     def tell(self, proposal: Proposal, score: float) -> None:
         for state in proposal.info:

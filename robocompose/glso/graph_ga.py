@@ -9,8 +9,9 @@ by mutating uniformly chosen survivors (no crossover, as NGE). One mutation per 
 - relabel (p 0.6): every non-root node is picked with p 0.1 (at least one); each gets a new uniformly
   random non-root token (link type x joint type: NGE's attribute perturbation on our discrete nodes).
 At `max_nodes` links "add" becomes "relabel"; at 2 links "remove" does. A child that self-penetrates at
-rest cannot be built and is rejected before evaluation (a new child is drawn). Children are evaluated
-one objective call each, in the order they were made.
+rest cannot be built and is rejected before evaluation (a new child is drawn; a generation's rejections are
+counted on its first child's proposal). Children are evaluated one objective call each, in the order they
+were made.
 """
 
 from __future__ import annotations
@@ -105,6 +106,7 @@ class GraphGA:
         ranked = sorted(range(len(self.population)), key=lambda i: -self.population[i][1])  # stable
         keep = c.population - max(1, int(c.cull_fraction * c.population))  # NGE's floor, at least one
         self.population = [self.population[i] for i in ranked[:keep]]
+        rejected = 0
         for _ in range(c.population - keep):
             for _ in range(MAX_TRIES):
                 parent = self.population[int(self.rng.integers(len(self.population)))][0]
@@ -112,8 +114,10 @@ class GraphGA:
                 if not self_colliding(child):
                     self.queue.append(Proposal(child, None))
                     break
+                rejected += 1
             else:
                 raise RuntimeError(f"GA: no buildable child in {MAX_TRIES} mutations")
+        self.queue[0].rejected = rejected
         self.generation += 1
 
     def propose(self, env: SearchEnv) -> Proposal:

@@ -94,6 +94,7 @@ class TreeSearch:
         return action, children[action]
 
     def propose(self, env: SearchEnv) -> Proposal:
+        rejected = 0  # simulations that ended incomplete or self-penetrating
         while True:
             states, rules = [START_GRAPH], []
             self.nodes.setdefault(START_GRAPH, Node())
@@ -111,7 +112,8 @@ class TreeSearch:
                 if path[-1].complete:
                     tree = graph_to_tree(path[-1])
                     if not self_colliding(tree):
-                        return Proposal(tree, tuple(path_rules), info=path[:-1])
+                        return Proposal(tree, tuple(path_rules), info=path[:-1], rejected=rejected)
+                rejected += 1
             expanded.blocked = True  # no valid simulation below it: the next iteration avoids it
 
     def tell(self, proposal: Proposal, score: float) -> None:

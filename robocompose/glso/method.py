@@ -25,12 +25,15 @@ from robocompose.grammar.tree import DesignTree
 @dataclass
 class Proposal:
     """One design a method wants evaluated. `rules` is its grammar derivation (None if the grammar cannot
-    make it), `z` its latent point (latent methods), `info` what the method needs back when told."""
+    make it), `z` its latent point (latent methods), `info` what the method needs back when told,
+    `rejected` the designs it drew and discarded before this one without evaluating them (its pre-filters:
+    incomplete at the depth limit, self-penetrating, failing the dataset's filters), counted, not paid."""
 
     tree: DesignTree
     rules: tuple[int, ...] | None
     z: np.ndarray | None = None
     info: Any = field(default=None, repr=False)
+    rejected: int = 0
 
 
 @dataclass

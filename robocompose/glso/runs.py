@@ -5,11 +5,17 @@ fanned out.
     steps = run_search(RunSpec("flat", "glso", seed=0), config, evaluation)     # one run -> step table
     steps, seconds = run_all(config, evaluation, Path("data/glso"), executor, cache_file)   # every run
 
-The budget rule: a run is `budget` calls of the objective. A call is one MPPI episode of a complete
-design, or the invalid score a design that cannot be simulated gets (only GLSO proposes such designs:
-the grammar methods and the GA reject them before evaluation, as their originals do). Every method gets
-the same budget, the same evaluator settings and the same controller seed (`evaluation.seed`); a design
-seen again in a run costs a call and returns its cached score (evaluations are deterministic).
+The accounting rule, one for every method: a run is `budget` calls of the objective, and a call is every
+design sent to the evaluator: one MPPI episode of a complete design, or the evaluator's verdict that it
+cannot be simulated (self-penetrating at rest, or an episode that blew up), which costs the call and is
+told to the method as its original's invalid score (`registry.Method.invalid_score`: GLSO's 3.8 / 4.0,
+RoboGrammar's -2.0 for the others). A design a method discards before sending it (its own pre-filters: the
+grammar methods' depth limit and self-penetration check, random search's dataset filters, the GA's
+self-penetration check; GLSO has none) costs no call and is counted in the step's `rejected`. Every method
+gets the same budget, the same evaluator settings and the same controller seed (`evaluation.seed`); a
+design seen again in a run costs a call and returns its cached score (evaluations are deterministic).
+`best_so_far` is the best reward of a simulated design so far (NaN before the first): an invalid score
+never counts as a result.
 
 Methods: `registry.METHODS` names them; each is a `method.SearchMethod` with its settings in `glso.<section>`.
 
@@ -36,7 +42,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from robocompose.evaluation.evaluate import EvalJob, EvaluationConfig, cached_evaluations, objective
+from robocompose.evaluation.evaluate import OK, EvalJob, EvaluationConfig, cached_evaluations, objective
 from robocompose.fanout.cache import EvaluationCache
 from robocompose.fanout.executor import Executor
 from robocompose.glso import best_designs
@@ -131,6 +137,7 @@ def run_key(spec: RunSpec, config: GLSOConfig, evaluation: EvaluationConfig, mod
 
 def step_row(spec: RunSpec, step: int, proposal: Proposal, result: dict, score: float, repeat: bool,
              best: float) -> dict:
+    """One row of a `glso_steps` table."""
     from robocompose.latent.constraints import grammar_rules, is_derivable
 
     tree = proposal.tree
@@ -139,7 +146,7 @@ def step_row(spec: RunSpec, step: int, proposal: Proposal, result: dict, score: 
             "design_id": tree.design_id, "rules": list(rules), "parents": list(tree.parents),
             "tokens": list(tree.tokens), "latent": [] if proposal.z is None else proposal.z.tolist(),
             "score": score, "reward": result["reward"], "status": result["status"], "repeat": repeat,
-            "best_so_far": best}
+            "rejected": int(proposal.rejected), "best_so_far": best}
 
 
 def run_search(spec: RunSpec, config: GLSOConfig, evaluation: EvaluationConfig,
@@ -174,13 +181,15 @@ def run_search(spec: RunSpec, config: GLSOConfig, evaluation: EvaluationConfig,
     if objective_fn is None:
         objective_fn = Objective(env.task, evaluation, cache)
     seen = {row["design_id"] for row in rows}
-    best = rows[-1]["best_so_far"] if rows else -np.inf
+    best = rows[-1]["best_so_far"] if rows else np.nan
+    invalid = METHODS[spec.method].invalid_score
     for step in range(len(rows), config.budget):
         proposal = method.propose(env)
         result = objective_fn(proposal.tree)
-        score = objective(result)
+        score = objective(result, invalid)
         method.tell(proposal, score)
-        best = max(best, score)
+        if result["status"] == OK:
+            best = float(np.fmax(best, result["reward"]))
         repeat = proposal.tree.design_id in seen
         seen.add(proposal.tree.design_id)
         rows.append(step_row(spec, step, proposal, result, score, repeat, best))

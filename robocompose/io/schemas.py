@@ -63,7 +63,8 @@ SCHEMAS: dict[str, pa.Schema] = {
         _required("tokens", pa.list_(pa.int16())), _required("latent", pa.list_(pa.float64())),
         _required("score", pa.float64()), pa.field("reward", pa.float64(), nullable=True),
         _required("status", pa.string()), _required("repeat", pa.bool_()),
-        _required("best_so_far", pa.float64())]),
+        _required("rejected", pa.int64()),  # designs the method discarded before this one (no call spent)
+        pa.field("best_so_far", pa.float64(), nullable=True)]),  # best simulated reward; null before the first
     # Team formation (robocompose.teams). One row per region of a terrain chip: its centre in the joint
     # position + terrain space (seed_x, seed_y, seed_<terrain> shares) and the terrain weight (the region
     # raster is recomputed from them, teams.decompose), its size and its terrain shares (sum to 1).

@@ -20,7 +20,8 @@ def _search_table(path: Path, rows: list[tuple[str, str, float, list[int]]]) -> 
     frame = pd.DataFrame([{"step": i, "method": "random", "task": "flat", "seed": 0, "design_id": design_id,
                            "rules": rules, "parents": [-1], "tokens": [0], "latent": [], "score": reward,
                            "reward": reward if status == "ok" else None, "status": status, "repeat": False,
-                           "best_so_far": reward} for i, (design_id, status, reward, rules) in enumerate(rows)])
+                           "rejected": 0, "best_so_far": reward}
+                          for i, (design_id, status, reward, rules) in enumerate(rows)])
     path.parent.mkdir(parents=True, exist_ok=True)
     write_table(frame, path, "glso_steps")
 

@@ -5,7 +5,7 @@ import pandas as pd
 import pytest
 
 from robocompose.control.mppi import MPPIConfig
-from robocompose.evaluation.evaluate import INVALID_SCORE, EvaluationConfig, objective
+from robocompose.evaluation.evaluate import INVALID_SCORE, ROBOGRAMMAR_INVALID_SCORE, EvaluationConfig, objective
 from robocompose.fanout.cache import EvaluationCache
 from robocompose.glso.designs import self_colliding
 from robocompose.glso.ghs import GHSConfig
@@ -25,9 +25,13 @@ def test_every_method_spends_exactly_the_budget_with_a_non_decreasing_best(metho
     steps = run_search(RunSpec("flat", method, 0), small_config, EVALUATION, objective_fn=fake_objective,
                        table=tmp_path / "steps.parquet")
     assert list(steps["step"]) == list(range(small_config.budget))
-    assert (np.diff(steps["best_so_far"]) >= 0).all()
-    assert steps["best_so_far"].iloc[-1] == steps["score"].max()
-    assert list(steps["score"]) == [objective(fake_objective_row(r)) for r in steps.itertuples()]
+    ok = steps["status"] == "ok"
+    best = steps["best_so_far"]
+    assert best[~ok.cummax()].isna().all() and best[ok.cummax()].notna().all()  # NaN until the first simulated
+    assert (np.diff(best.dropna()) >= 0).all() and best.iloc[-1] == steps.loc[ok, "reward"].max()
+    invalid = METHODS[method].invalid_score
+    assert list(steps["score"]) == [objective(fake_objective_row(r), invalid) for r in steps.itertuples()]
+    assert (steps["rejected"] >= 0).all()
     first_seen = ~steps["design_id"].duplicated()
     assert list(steps["repeat"]) == list(~first_seen)
     on_disk = read_table(tmp_path / "steps.parquet", "glso_steps")
@@ -47,12 +51,30 @@ def test_latent_methods_record_their_latent_points_and_grammar_methods_their_rul
         assert not self_colliding(DesignTree(tuple(row.parents), tuple(row.tokens)))
 
 
-def test_a_design_that_cannot_be_simulated_costs_a_call_and_scores_the_invalid_score(small_config):
-    steps = run_search(RunSpec("flat", "random", 0), dataclasses.replace(small_config, budget=12), EVALUATION,
+@pytest.mark.parametrize("method, score", [("random", ROBOGRAMMAR_INVALID_SCORE["self_collision"]),
+                                           ("glso", INVALID_SCORE["self_collision"])])
+def test_a_design_that_cannot_be_simulated_costs_a_call_and_scores_its_originals_invalid_score(
+        method, score, small_config):
+    steps = run_search(RunSpec("flat", method, 0), dataclasses.replace(small_config, budget=12), EVALUATION,
                        objective_fn=fake_objective)  # a quarter of the designs "self-collide"
     invalid = steps[steps["status"] == "self_collision"]
     assert len(steps) == 12 and len(invalid) > 0
-    assert (invalid["score"] == INVALID_SCORE["self_collision"]).all() and invalid["reward"].isna().all()
+    assert (invalid["score"] == score).all() and invalid["reward"].isna().all()
+    assert steps["best_so_far"].max() == steps["reward"].max()  # an invalid score is never a best
+
+
+def test_random_search_counts_the_candidates_its_filters_discard():
+    """Random search draws the dataset's enumeration stream: the candidates between two proposals failed its
+    filters (depth, links, self-penetration, rest contacts) and are the proposal's `rejected`."""
+    from robocompose.dataset.enumerate import MIN_LINKS, candidate
+    from robocompose.glso.designs import random_grammar_design
+
+    proposal, k = random_grammar_design(7, 0)
+    assert proposal.rejected == k - 1
+    assert all(candidate(7, j, MIN_LINKS, 40)[0] for j in range(k - 1))  # each discarded one has a reason
+    assert not candidate(7, k - 1, MIN_LINKS, 40)[0]
+    after, k2 = random_grammar_design(7, k)
+    assert after.rejected == k2 - 1 - k
 
 
 def test_runs_are_reproducible_and_seeds_differ(small_config):

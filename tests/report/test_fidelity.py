@@ -20,7 +20,8 @@ def test_section_shows_every_measured_setting_and_the_choice(tmp_path):
     (tmp_path / "metrics").mkdir()
     (tmp_path / "metrics" / "evaluator_fidelity.json").write_text(json.dumps({"rung": "s16_h8_e48", "reason": "r"}))
     text = section(tmp_path, MPPIConfig())
-    assert "| flat | s16_h8_e48 | 16/64 | 8 | 48 | 107k | 1.0 | 3 of 3 | 1.00 | yes | 4.00-4.05 | 0 of 0 | - | - |" in text
+    row = "| flat | s16_h8_e48 | 16/64 | 8 | 48 | 107k | 1.0 | 3 of 3 | 1.00 | yes | 4.00-4.05 | 0 of 0 | - | - |"
+    assert row in text
     assert "| flat | thesis | 64/512 | 16 | 128 | 2229k |" in text
     assert "Selected: **s16_h8_e48**" in text and "smoke run" not in text
     (tmp_path / "metrics" / "evaluator_fidelity.json").write_text(json.dumps(

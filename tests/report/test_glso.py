@@ -52,3 +52,6 @@ def test_section_draws_both_figures_the_table_and_the_best_design(tmp_path):
     picture = tmp_path / "reports" / "figures" / "glso_best_flat.png"
     assert picture.read_bytes() == (rollouts / "flat.png").read_bytes()  # the stage's picture, copied
     assert "budget of **4 objective calls**" in text and "| MCTS |" in text and "(n=2)" in text
+    discarded = steps.groupby("method")["rejected"].mean()
+    assert f"| Random | 0% | {(steps[steps.method == 'random'].status != 'ok').mean():.0%} | " \
+           f"{discarded['random']:.1f} |" in text and "The accounting rule, one for every method" in text
