@@ -6,7 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
-from robocompose.arguments import dask_address
+from robocompose.arguments import add_compute_arguments, dask_address
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -25,6 +25,41 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                       help="run the search on a worker of this Dask scheduler (tcp://host:8786; default: params' "
                            "compute.address; \"\" = here); its lines print when it finishes")
     glso.set_defaults(handler=_glso)
+    campaign = subparsers.add_parser("glso-campaign", help="the seeded GLSO campaign: run what is missing (hours, "
+                                     "resumable) or summarise the committed runs")
+    campaign.add_argument("action", choices=("run", "summarise"),
+                          help="run: every missing run, then the re-scores; summarise: the statistics as JSON")
+    campaign.add_argument("--params", default="params.yaml",
+                          help="params file (sections glso_campaign, glso, evaluation, compute)")
+    campaign.add_argument("--rung", default=None, help="the fidelity rung of the runs (default: glso_campaign.rung, "
+                                                       "else the one the evaluator fidelity rule chose)")
+    add_compute_arguments(campaign)
+    campaign.set_defaults(handler=_campaign)
+
+
+def _campaign(args: argparse.Namespace) -> int:
+    import dataclasses
+
+    from robocompose.arguments import command_compute
+    from robocompose.evaluation.evaluate import EvaluationConfig
+    from robocompose.glso import campaign
+    from robocompose.glso.runs import GLSOConfig
+    from robocompose.params import load_section
+
+    config = load_section(campaign.CampaignConfig, "glso_campaign", args.params)
+    if args.rung is not None:
+        config = dataclasses.replace(config, rung=args.rung)  # re-checked by __post_init__
+    if args.action == "run":
+        rung = campaign.campaign_rung(config)
+        glso = load_section(GLSOConfig, "glso", args.params)
+        evaluation = load_section(EvaluationConfig, "evaluation", args.params)
+        with command_compute(args, args.params).executor() as executor:
+            tables = campaign.run_campaign(config, glso, evaluation, rung, executor)
+        print(json.dumps({"rung": rung, "finished": len(tables), "planned": len(campaign.run_specs(config))}))
+        return 0
+    summary = campaign.summarise(config)
+    print(json.dumps({k: summary[k] for k in ("runs", "planned")} | {"tests": summary["tests"]}, default=float))
+    return 0
 
 
 def _remote_search(job: tuple) -> object:
