@@ -37,6 +37,7 @@ import pandas as pd
 
 from robocompose.evaluation.evaluate import OK, EvaluationConfig, evaluate, objective
 from robocompose.evaluation.fidelity import THESIS, rung_config
+from robocompose.glso import FIG_8_1, FIG_8_2, LABELS
 from robocompose.glso.registry import METHODS
 from robocompose.glso.runs import GLSOConfig, RunSpec, run_search
 from robocompose.grammar.tree import DesignTree
@@ -44,8 +45,8 @@ from robocompose.io import read_table, write_table
 from robocompose.io.atomic import read_json
 from robocompose.io.errors import InputError, check_field
 
-BASELINES = ("random", "ga", "mcts", "ghs")  # Fig. 8.1's family
-ABLATIONS = ("glso_nopred", "glso_nogram")  # Fig. 8.2's family
+BASELINES = tuple(m for m in FIG_8_1 if m != "glso")  # Fig. 8.1's family of comparisons
+ABLATIONS = tuple(m for m in FIG_8_2 if m != "glso")  # Fig. 8.2's
 RESCORE_COLUMNS = ("task", "method", "seed", "design_id", "rescore_seed", "reward", "status", "objective")
 RESCORES_FILE = "rescores.csv"
 
@@ -301,9 +302,6 @@ def summarise(config: CampaignConfig) -> dict:
 def plot(summary: dict, path: str | Path) -> Path:
     """Figs. 8.1 and 8.2 of the campaign: median best so far over seeds, band = interquartile range."""
     import matplotlib.pyplot as plt
-
-    from robocompose.glso import FIG_8_1, FIG_8_2
-    from robocompose.report.glso import LABELS
 
     stats = pd.DataFrame(summary["curves"])
     tasks = list(dict.fromkeys(stats["task"])) if len(stats) else ["flat"]

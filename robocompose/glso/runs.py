@@ -71,7 +71,7 @@ class RunSettings:
     def __post_init__(self) -> None:
         for section, cls in settings_sections().items():
             if isinstance(getattr(self, section), dict):
-                object.__setattr__(self, section, build_config(cls, getattr(self, section), f"glso.{section}"))
+                object.__setattr__(self, section, build_config(cls, getattr(self, section), "glso." + section))
         unknown = [m for m in self.methods if m not in METHODS]
         check_field(not unknown, "methods", f"some of {list(METHODS)}", unknown[:1])
         for task in self.tasks:

@@ -14,11 +14,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from robocompose.glso import FIG_8_1, FIG_8_2, best_designs
+from robocompose.glso import FIG_8_1, FIG_8_2, LABELS, best_designs
 from robocompose.io import read_table
-
-LABELS = {"glso": "GLSO", "glso_nopred": "GLSO_nopred", "glso_nogram": "GLSO_nogram", "random": "Random",
-          "ga": "GA", "mcts": "MCTS", "ghs": "GHS"}
 
 
 def curves(steps: pd.DataFrame) -> pd.DataFrame:
@@ -152,13 +149,11 @@ def _median_iqr(values: pd.Series) -> str:
 def campaign_verdicts(tests: pd.DataFrame, alpha: float) -> list[str]:
     """The thesis's claims, from the campaign's re-scored finals only: a claim holds when GLSO beats every
     method of its family after Holm correction."""
-    from robocompose.glso.campaign import ABLATIONS, BASELINES
-
     out = []
     for (task, family), group in tests[tests["on"] == "rescored"].groupby(["task", "family"], sort=False):
         claim = "GLSO best of Fig. 8.1" if family == "baselines" else "both ablations worse than GLSO (Fig. 8.2)"
-        missing = [LABELS[m] for m in (BASELINES if family == "baselines" else ABLATIONS)
-                   if m not in set(group["method"])]
+        missing = [LABELS[m] for m in (FIG_8_1 if family == "baselines" else FIG_8_2)
+                   if m != "glso" and m not in set(group["method"])]
         held = not missing and bool(group["glso_better"].all())
         floor = float(group["p_floor"].max() * len(group))
         caveat = (f" (with these seed counts the smallest Holm-adjusted p is {floor:.3f}, above {alpha}: this "
