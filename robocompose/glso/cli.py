@@ -35,6 +35,27 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                                        "else the one the evaluator fidelity rule chose)")
     add_compute_arguments(campaign)
     campaign.set_defaults(handler=_campaign)
+    search = subparsers.add_parser("fidelity-search", help="searches at cheap fidelity rungs whose best designs join "
+                                   "the evaluator fidelity set (hours, resumable)")
+    search.add_argument("--params", default="params.yaml", help="params file (sections evaluator_fidelity, glso)")
+    search.add_argument("--checkpoints", default="data/fidelity_searches",
+                        help="where each search's checkpoint is kept (default: data/fidelity_searches)")
+    search.set_defaults(handler=_fidelity_search)
+
+
+def _fidelity_search(args: argparse.Namespace) -> int:
+    from robocompose.evaluation import fidelity
+    from robocompose.glso import fidelity_search
+    from robocompose.glso.runs import GLSOConfig
+    from robocompose.params import load_section
+
+    config = load_section(fidelity.FidelityConfig, "evaluator_fidelity", args.params)
+    designs = fidelity.read_design_set(config.directory)
+    fidelity_search.run_searches(config, load_section(GLSOConfig, "glso", args.params), args.checkpoints)
+    designs = fidelity_search.add_search_designs(config, designs)
+    print(json.dumps({"designs": str(fidelity.write_design_set(designs, config.directory)),
+                      "search_designs": int((designs["kind"] == fidelity.SEARCH).sum())}))
+    return 0
 
 
 def _campaign(args: argparse.Namespace) -> int:
