@@ -11,10 +11,18 @@ iteration e of E (E = the run's budget, so the epsilon schedules span the run):
 4. every state on its derivation gets V_hat[s] = max(V_hat[s], reward) and joins the state pool; then
    25 Adam steps (lr 1e-4) of MSE between V and V_hat on minibatches of min(32, pool) pooled states.
 
-The network here is smaller than the original's DiffPool stack (3 DenseSAGE layers, two pooling levels,
-192 features): three mean-aggregation (GraphSAGE) layers of 64 on the whole graph, their outputs
-concatenated (192), a masked mean over nodes, then 192 -> 64 -> 1. Node features describe the node
-(its non-terminal label or link shape) and the joints into it (label, type, position, rotation, axis).
+The heuristic V is RoboGrammar's (Net.py, Preprocessor.py, after PyG's DiffPool example). A state is the
+robot its graph unfolds into (`grammar.derivation.unfold`: one node per link, the symmetric adjacency of
+the link tree). Each link's features: one-hot joint type (none, free, hinge, fixed), joint position,
+rotation (w, x, y, z) and axis, one-hot shape (none, capsule, cylinder), length, radius, density,
+friction, kp, kd, torque, one-hot control mode (position, velocity), world position, rotation and joint
+axis (accumulated from the root: offset parent length x joint position along the parent's x, rotation by
+the conjugate of the joint's), and a one-hot label ("" for a terminal link, else its non-terminal label):
+34 + labels. The network: a GNN block is 3 DenseSAGE layers (in -> 64 -> 64 -> out, ReLU after each, their
+outputs concatenated); pooling blocks add Linear + ReLU. Level 1 pools the links into ceil(0.25 x 40) = 10
+clusters (self-loops added at this level), level 2 into ceil(0.25 x 10) = 3, level 3 embeds; a mean over
+clusters, Linear 192 -> 64, ReLU, Linear 64 -> 1. DiffPool's link and entropy losses are not trained on
+(the original computes and drops them); float32 instead of the original's float64.
 """
 
 from __future__ import annotations
@@ -30,20 +38,17 @@ from torch import nn
 from robocompose.glso.designs import MAX_TRIES, self_colliding
 from robocompose.glso.mcts import successors
 from robocompose.glso.method import Proposal, SearchEnv
-from robocompose.grammar.derivation import MAX_DEPTH, graph_to_tree
-from robocompose.grammar.rules import (
-    NONTERMINAL_EDGE_LABELS,
-    NONTERMINAL_NODE_LABELS,
-    START_GRAPH,
-    EdgeAttrs,
-    Graph,
-    NodeAttrs,
-)
+from robocompose.grammar.derivation import MAX_DEPTH, graph_to_tree, unfold
+from robocompose.grammar.rules import IDENTITY, NONTERMINAL_NODE_LABELS, START_GRAPH, Graph
 
-NODE_LABELS = ("", *sorted(NONTERMINAL_NODE_LABELS))  # "" = a terminal link
-EDGE_LABELS = ("", *sorted(NONTERMINAL_EDGE_LABELS))
-JOINT_KINDS = ("none", "fixed", "hinge")
-N_FEATURES = len(NODE_LABELS) + 3 + len(EDGE_LABELS) + len(JOINT_KINDS) + 1 + 4 + 3 + 1  # 26
+LABELS = ("", *sorted(NONTERMINAL_NODE_LABELS))  # "" = a terminal link
+JOINT_KINDS = ("none", "free", "hinge", "fixed")  # RoboGrammar's JointType; the root's joint is free
+SHAPES = ("none", "capsule", "cylinder")
+N_FEATURES = 34 + len(LABELS)
+MAX_NODES = 40  # heuristic_search_algo_mpc.py: Net(max_nodes=40) sets the cluster counts
+# The original redraws a sample until it is valid, without limit; late in a run greedy rollouts often reach
+# the depth limit (hundreds of redraws), so the cap is 10x the other methods'.
+REDRAWS = 10 * MAX_TRIES
 
 
 @dataclass(frozen=True)
@@ -59,77 +64,127 @@ class GHSConfig:
     opt_iter: int = 25  # Adam steps after each evaluation
     batch_size: int = 32  # pooled states per Adam step
     lr: float = 1e-4
-    hidden: int = 64  # width of each graph layer
+    hidden: int = 64  # width of each graph layer (the original's 64)
 
 
-@functools.cache
-def _node_features(node: NodeAttrs) -> np.ndarray:
-    x = np.zeros(N_FEATURES, dtype=np.float32)
-    x[NODE_LABELS.index(node.label)] = 1.0
-    x[len(NODE_LABELS): len(NODE_LABELS) + 3] = (node.length, node.radius, node.density)
-    return x
+def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    aw, ax, ay, az = a
+    bw, bx, by, bz = b
+    return np.array([aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
+                     aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw])
 
 
-@functools.cache
-def _joint_features(edge: EdgeAttrs) -> np.ndarray:
-    x = np.zeros(N_FEATURES, dtype=np.float32)
-    k = len(NODE_LABELS) + 3
-    x[k + EDGE_LABELS.index(edge.label)] = 1.0
-    k += len(EDGE_LABELS)
-    x[k + JOINT_KINDS.index(edge.joint_type)] = 1.0
-    k += len(JOINT_KINDS)
-    x[k] = edge.joint_pos
-    x[k + 1: k + 5] = edge.joint_rot
-    x[k + 5: k + 8] = edge.joint_axis
-    x[k + 8] = float(edge.mirror)
-    return x
+def _rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    conj = q * np.array([1.0, -1.0, -1.0, -1.0])
+    return _quat_mul(_quat_mul(q, np.array([0.0, *v])), conj)[1:]
 
 
-def features(graph: Graph) -> np.ndarray:
-    """(N, N_FEATURES) node features of a design graph: the node, plus the sum over the joints into it.
-
-    The grammar has few distinct node and joint attributes, so their feature rows are computed once."""
-    x = np.stack([_node_features(node) for node in graph.nodes])
-    if graph.edges:
-        heads = [h for _, h, _ in graph.edges]
-        np.add.at(x, heads, np.stack([_joint_features(edge) for _, _, edge in graph.edges]))
-    return x
+@functools.lru_cache(maxsize=20_000)
+def features(graph: Graph) -> tuple[np.ndarray, np.ndarray]:
+    """(N, N_FEATURES) link features of the robot a design graph unfolds into, and (N, N) its symmetric
+    adjacency. States recur across rollouts and training batches, so they are computed once per graph."""
+    links = unfold(graph)
+    x = np.zeros((len(links), N_FEATURES), dtype=np.float32)
+    adj = np.zeros((len(links), len(links)), dtype=np.float32)
+    pos, rot = np.zeros((len(links), 3)), np.zeros((len(links), 4))
+    for i, link in enumerate(links):
+        joint = link.joint
+        kind = "free" if joint is None else joint.joint_type
+        joint_rot = np.array(IDENTITY if joint is None else joint.joint_rot)
+        axis = np.array((0.0, 0.0, 1.0) if joint is None else joint.joint_axis)
+        if link.parent < 0:
+            pos[i], rot[i] = 0.0, IDENTITY
+        else:
+            parent = links[link.parent]
+            offset = np.array([parent.node.length * joint.joint_pos, 0.0, 0.0])
+            pos[i] = pos[link.parent] + _rotate(rot[link.parent], offset)
+            rot[i] = _quat_mul(rot[link.parent], joint_rot * np.array([1.0, -1.0, -1.0, -1.0]))
+            adj[i, link.parent] = adj[link.parent, i] = 1.0
+        node = link.node
+        row = [*(float(kind == k) for k in JOINT_KINDS), 0.0 if joint is None else joint.joint_pos, *joint_rot,
+               *axis, *(float(node.shape == s) for s in SHAPES), node.length, node.radius, node.density,
+               node.friction, *((0.0, 0.0, 0.0) if joint is None else (joint.kp, joint.kd, joint.torque)),
+               1.0, 0.0,  # control mode: every joint of the grammar is position-controlled
+               *pos[i], *rot[i], *_rotate(rot[i], axis), *(float(node.label == label) for label in LABELS)]
+        x[i] = row
+    return x, adj
 
 
 def collate(graphs: list[Graph]) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-    """Padded node features (B, N, F), mean-aggregation matrices (B, N, N), node masks (B, N)."""
-    n = max(len(g.nodes) for g in graphs)
+    """Zero-padded link features (B, N, F), adjacency (B, N, N) and link masks (B, N)."""
+    parts = [features(g) for g in graphs]
+    n = max(len(x) for x, _ in parts)
     x = np.zeros((len(graphs), n, N_FEATURES), dtype=np.float32)
     adj = np.zeros((len(graphs), n, n), dtype=np.float32)
     mask = np.zeros((len(graphs), n), dtype=np.float32)
-    for b, g in enumerate(graphs):
-        x[b, : len(g.nodes)] = features(g)
-        mask[b, : len(g.nodes)] = 1.0
-        for t, h, _ in g.edges:  # symmetric, as the original's preprocessor
-            adj[b, t, h] = adj[b, h, t] = 1.0
-    adj /= np.maximum(adj.sum(2, keepdims=True), 1.0)
+    for b, (xb, ab) in enumerate(parts):
+        x[b, : len(xb)], adj[b, : len(xb), : len(xb)], mask[b, : len(xb)] = xb, ab, 1.0
     return torch.from_numpy(x), torch.from_numpy(adj), torch.from_numpy(mask)
 
 
-class Heuristic(nn.Module):
-    """V(graph): three GraphSAGE (mean) layers, concatenated, masked mean over nodes, MLP to one number."""
+class DenseSAGE(nn.Module):
+    """PyG's DenseSAGEConv: lin_rel(mean of the neighbours) + lin_root(self), zeroed outside the mask."""
 
-    def __init__(self, hidden: int) -> None:
+    def __init__(self, n_in: int, n_out: int) -> None:
         super().__init__()
-        sizes = [N_FEATURES, hidden, hidden, hidden]
-        self.self_lin = nn.ModuleList(nn.Linear(a, b) for a, b in zip(sizes, sizes[1:], strict=False))
-        self.nbr_lin = nn.ModuleList(nn.Linear(a, b, bias=False) for a, b in zip(sizes, sizes[1:], strict=False))
+        self.rel, self.root = nn.Linear(n_in, n_out), nn.Linear(n_in, n_out, bias=False)
+
+    def forward(self, x: torch.Tensor, adj: torch.Tensor, mask: torch.Tensor | None) -> torch.Tensor:
+        out = (adj @ x) / adj.sum(-1, keepdim=True).clamp(min=1.0)  # (B, N, F)
+        out = self.rel(out) + self.root(x)
+        return out if mask is None else out * mask[..., None]
+
+
+class GNNBlock(nn.Module):
+    """3 DenseSAGE layers (in -> hidden -> hidden -> out), ReLU after each, outputs concatenated; with
+    `lin`, a Linear + ReLU back to `out` (the pooling blocks)."""
+
+    def __init__(self, n_in: int, hidden: int, n_out: int, lin: bool) -> None:
+        super().__init__()
+        self.convs = nn.ModuleList([DenseSAGE(n_in, hidden), DenseSAGE(hidden, hidden), DenseSAGE(hidden, n_out)])
+        self.lin = nn.Linear(2 * hidden + n_out, n_out) if lin else None
+
+    def forward(self, x: torch.Tensor, adj: torch.Tensor, mask: torch.Tensor | None) -> torch.Tensor:
+        outs = []
+        for conv in self.convs:
+            x = torch.relu(conv(x, adj, mask))
+            outs.append(x)
+        x = torch.cat(outs, dim=-1)  # (B, N, 2 hidden + out)
+        return x if self.lin is None else torch.relu(self.lin(x))
+
+
+def diff_pool(x: torch.Tensor, adj: torch.Tensor, s: torch.Tensor,
+              mask: torch.Tensor | None) -> tuple[torch.Tensor, torch.Tensor]:
+    """PyG's dense_diff_pool without its auxiliary losses: soft cluster assignment S, S^T X and S^T A S."""
+    s = torch.softmax(s, dim=-1)  # (B, N, C)
+    if mask is not None:
+        x, s = x * mask[..., None], s * mask[..., None]
+    return s.transpose(1, 2) @ x, s.transpose(1, 2) @ adj @ s  # (B, C, F), (B, C, C)
+
+
+class Heuristic(nn.Module):
+    """V(state): RoboGrammar's DiffPool network (module docstring)."""
+
+    def __init__(self, hidden: int, max_nodes: int = MAX_NODES) -> None:
+        super().__init__()
+        clusters1 = math.ceil(0.25 * max_nodes)
+        clusters2 = math.ceil(0.25 * clusters1)
+        self.pool1 = GNNBlock(N_FEATURES, hidden, clusters1, lin=True)
+        self.embed1 = GNNBlock(N_FEATURES, hidden, hidden, lin=False)
+        self.pool2 = GNNBlock(3 * hidden, hidden, clusters2, lin=True)
+        self.embed2 = GNNBlock(3 * hidden, hidden, hidden, lin=False)
+        self.embed3 = GNNBlock(3 * hidden, hidden, hidden, lin=False)
         self.head = nn.Sequential(nn.Linear(3 * hidden, hidden), nn.ReLU(), nn.Linear(hidden, 1))
 
     def forward(self, x: torch.Tensor, adj: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
-        outs = []
-        h = x  # (B, N, F)
-        for lin_self, lin_nbr in zip(self.self_lin, self.nbr_lin, strict=True):
-            h = torch.relu(lin_self(h) + lin_nbr(adj @ h)) * mask[..., None]  # (B, N, H)
-            outs.append(h)
-        h = torch.cat(outs, dim=2)  # (B, N, 3H)
-        pooled = h.sum(1) / mask.sum(1, keepdim=True)  # (B, 3H)
-        return self.head(pooled)[:, 0]  # (B,)
+        looped = adj + torch.diag_embed(mask)  # level 1 adds self-loops (add_loop=True), on real links only
+        s = self.pool1(x, looped, mask)  # (B, N, C1)
+        h = self.embed1(x, looped, mask)  # (B, N, 3H)
+        h, adj = diff_pool(h, adj, s, mask)  # (B, C1, 3H), (B, C1, C1)
+        s = self.pool2(h, adj, None)
+        h, adj = diff_pool(self.embed2(h, adj, None), adj, s, None)  # (B, C2, 3H)
+        h = self.embed3(h, adj, None).mean(dim=1)  # (B, 3H)
+        return self.head(h)[:, 0]  # (B,)
 
 
 def exp_decay(start: float, end: float, decay: float, e: int, total: int) -> float:
@@ -180,14 +235,14 @@ class GraphHeuristicSearch:
         n = 1 if self.rng.random() < eps_sample else c.num_samples
         samples, memo, rejected = [], {}, 0
         for _ in range(n):
-            for _ in range(MAX_TRIES):
+            for _ in range(REDRAWS):
                 sample = self._rollout(eps, memo)
                 if sample is not None:
                     samples.append(sample)
                     break
                 rejected += 1
             else:
-                raise RuntimeError(f"GHS: no valid rollout in {MAX_TRIES} tries")
+                raise RuntimeError(f"GHS: no valid rollout in {REDRAWS} tries")
         best = int(np.argmax(self.predict([states[-1] for states, _ in samples], memo)))
         states, rules = samples[best]
         return Proposal(graph_to_tree(states[-1]), tuple(rules), info=states, rejected=rejected)

@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from robocompose.grammar.rules import RULES, START_GRAPH, Graph, apply_rule, first_match
+from robocompose.grammar.rules import RULES, START_GRAPH, EdgeAttrs, Graph, NodeAttrs, apply_rule, first_match
 from robocompose.grammar.tree import DesignTree, classify_joint, classify_link, mirrored, token_of
 from robocompose.io.errors import InputError
 
@@ -81,32 +81,50 @@ def random_derivation(rng: np.random.Generator, max_depth: int = MAX_DEPTH) -> D
     return Derivation(tuple(rules), graph)
 
 
-def graph_to_tree(graph: Graph) -> DesignTree:
-    """Unfold a complete graph breadth-first into a design tree, as RoboGrammar's buildRobot does."""
-    if not graph.complete:
-        raise DerivationError("only a complete design graph can be built")
+@dataclass(frozen=True)
+class Link:
+    """One link of a design graph unfolded into a robot: the node it comes from, its parent link (-1 for
+    the root) and the joint into it (None for the root), with the mirror flags down the path applied to the
+    joint's rotation and axis."""
+
+    node: NodeAttrs
+    parent: int
+    joint: EdgeAttrs | None
+
+
+def unfold(graph: Graph) -> list[Link]:
+    """The links of a (possibly incomplete) graph breadth-first from its root, as RoboGrammar's buildRobot
+    unfolds a graph: each node reached along a path becomes one link."""
     root = 0
     for _ in range(len(graph.edges)):  # follow edges backwards to a root
         incoming = next((t for t, h, _ in graph.edges if h == root), None)
         if incoming is None:
             break
         root = incoming
-    parents, tokens = [], []
-    # (node, parent link, edge attrs or None, mirrored)
-    queue = deque([(root, -1, None, False)])
+    links: list[Link] = []
+    queue = deque([(root, -1, None, False)])  # (node, parent link, edge attrs or None, mirrored)
     while queue:
         node, parent, edge, mirror = queue.popleft()
-        attrs = graph.nodes[node]
-        link_type = classify_link(attrs.length, attrs.radius)
-        if edge is None:
-            joint_type = 0
-        else:
-            rot, axis = mirrored(edge.joint_rot, edge.joint_axis) if mirror else (edge.joint_rot, edge.joint_axis)
-            joint_type = classify_joint(edge.joint_type, rot, axis, link_type)
-        index = len(tokens)
-        parents.append(parent)
-        tokens.append(token_of(link_type, joint_type))
+        if edge is not None and mirror:
+            rot, axis = mirrored(edge.joint_rot, edge.joint_axis)
+            edge = replace(edge, joint_rot=rot, joint_axis=axis)
+        index = len(links)
+        links.append(Link(graph.nodes[node], parent, edge))
         for t, h, e in graph.edges:
             if t == node:
                 queue.append((h, index, e, mirror != e.mirror))
+    return links
+
+
+def graph_to_tree(graph: Graph) -> DesignTree:
+    """Unfold a complete graph breadth-first into a design tree, as RoboGrammar's buildRobot does."""
+    if not graph.complete:
+        raise DerivationError("only a complete design graph can be built")
+    parents, tokens = [], []
+    for link in unfold(graph):
+        link_type = classify_link(link.node.length, link.node.radius)
+        joint_type = 0 if link.joint is None else classify_joint(
+            link.joint.joint_type, link.joint.joint_rot, link.joint.joint_axis, link_type)
+        parents.append(link.parent)
+        tokens.append(token_of(link_type, joint_type))
     return DesignTree(tuple(parents), tuple(tokens))

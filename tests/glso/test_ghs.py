@@ -4,8 +4,18 @@ import numpy as np
 import pytest
 import torch
 
-from robocompose.glso.ghs import N_FEATURES, GHSConfig, GraphHeuristicSearch, collate, exp_decay, features
-from robocompose.grammar.derivation import derive
+from robocompose.glso.ghs import (
+    JOINT_KINDS,
+    LABELS,
+    N_FEATURES,
+    GHSConfig,
+    GraphHeuristicSearch,
+    Heuristic,
+    collate,
+    exp_decay,
+    features,
+)
+from robocompose.grammar.derivation import derive, unfold
 from tests.conftest import FLAT_REFERENCE
 
 
@@ -15,14 +25,36 @@ def test_epsilon_schedule_runs_from_one_to_about_0_13_over_the_budget():
     assert 0.13 < exp_decay(1.0, 0.1, 0.3, 500, 500) < 0.135
 
 
-def test_features_describe_nodes_and_the_joints_into_them():
+def test_features_are_robogrammars_link_features_with_world_pose():
+    """34 + labels per link of the unfolded robot: the flat reference's mirrored leg pairs sit at mirrored
+    world positions (y -> -y), its root is the free-joint link at the origin, and every link is terminal."""
     graph = derive(tuple(int(r) for r in FLAT_REFERENCE.split(","))).graph
-    x = features(graph)
-    assert x.shape == (len(graph.nodes), N_FEATURES)
-    assert (x[:, 0] == 1).all()  # a complete design: every node is a terminal link
-    x_batch, adj, mask = collate([graph, derive((0,), require_complete=False).graph])
-    assert mask.sum(1).tolist() == [len(graph.nodes), 3.0]  # rule 0: head, body, tail
-    assert torch.allclose(adj.sum(2)[0], torch.ones(len(graph.nodes)))  # mean aggregation
+    x, adj = features(graph)
+    links = unfold(graph)
+    assert x.shape == (len(links), N_FEATURES) == (len(links), 34 + len(LABELS))
+    assert x[0, JOINT_KINDS.index("free")] == 1 and (x[1:, JOINT_KINDS.index("free")] == 0).all()
+    pos = x[:, 24:27]  # world position: after joint (12), shape (3), physical (7) and control mode (2)
+    assert np.allclose(pos[0], 0.0)
+    assert (x[:, 34 + LABELS.index("")] == 1).all()  # a complete design: every link is terminal
+    assert (adj == adj.T).all() and adj.sum() == 2 * (len(links) - 1)  # the link tree, symmetric
+    for i in range(len(links)):  # every link off the sagittal plane has a mirror image
+        if abs(pos[i, 1]) > 1e-6:
+            assert np.isclose(pos[:, 0], pos[i, 0]).__and__(np.isclose(pos[:, 1], -pos[i, 1])).any()
+    partial = derive((0,), require_complete=False).graph  # rule 0: head, body, tail, all non-terminal
+    xp, _ = features(partial)
+    assert xp[:, 34 + LABELS.index("")].sum() == 0 and xp.shape[0] == 3
+
+
+def test_the_heuristic_ignores_padding_and_pools_into_10_then_3_clusters():
+    torch.manual_seed(0)
+    net = Heuristic(64)
+    assert net.pool1.convs[2].rel.out_features == 10 and net.pool2.convs[2].rel.out_features == 3
+    big = derive(tuple(int(r) for r in FLAT_REFERENCE.split(","))).graph
+    small = derive((0,), require_complete=False).graph
+    with torch.no_grad():
+        alone = net(*collate([small]))
+        batched = net(*collate([small, big]))
+    assert torch.allclose(alone[0], batched[0], atol=1e-5)  # zero padding changes nothing
 
 
 def test_v_hat_is_the_best_reward_below_each_state_and_training_fits_it():

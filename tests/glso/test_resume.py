@@ -74,7 +74,8 @@ def slow(tree):
 
 config = build_config(GLSOConfig, {{"tasks": ["flat"], "seeds": [0], "budget": 9, "models": {models!r},
                                     "bo": {{"init": 3}}, "ga": {{"population": 4}},
-                                    "ghs": {{"num_samples": 3, "opt_iter": 2}}}}, "glso")
+                                    "ghs": {{"num_samples": 3, "opt_iter": 2, "eps_end": 0.5,
+                                            "eps_sample_end": 0.5}}}}, "glso")
 run_search(RunSpec("flat", {method!r}, 0), config, EvaluationConfig(), objective_fn=slow,
            checkpoint=Path({checkpoint!r}))
 """

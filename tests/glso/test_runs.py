@@ -143,7 +143,7 @@ def test_runs_on_a_dask_cluster_match_local_processes(tiny_models, tmp_path):
     from robocompose.glso.runs import run_all
 
     config = GLSOConfig(tasks=["flat"], methods=["random", "ghs"], seeds=[0], budget=2, models=tiny_models,
-                        ghs=GHSConfig(num_samples=2, opt_iter=2))
+                        ghs=GHSConfig(num_samples=2, opt_iter=2, eps_end=1.0))  # random rollouts: fast
     with Executor(workers=2) as executor:
         local, _ = run_all(config, TINY, tmp_path / "local", executor)
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
