@@ -156,8 +156,10 @@ def _glso(args: argparse.Namespace) -> int:
     else:
         steps = run_search(spec, config, evaluation, on_step=show, checkpoint=checkpoint, table=out, model_path=model,
                            named_checkpoint=True, cache=compute.open_cache())
-    best = steps.loc[steps["score"].idxmax()]
-    print(json.dumps({"best": {"design_id": best.design_id, "rules": list(best.rules), "score": best.score,
-                               "status": best.status, "step": int(best.step), "parents": list(best.parents),
-                               "tokens": list(best.tokens)}}))
+    from robocompose.glso.campaign import best_design
+
+    best = best_design(steps)  # the best simulated design: an invalid score is never a result
+    print(json.dumps({"best": None if best is None else {
+        "design_id": best.design_id, "rules": list(best.rules), "score": best.score, "status": best.status,
+        "step": int(best.step), "parents": list(best.parents), "tokens": list(best.tokens)}}))
     return 0
