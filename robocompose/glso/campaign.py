@@ -37,7 +37,7 @@ import pandas as pd
 
 from robocompose.evaluation.evaluate import OK, EvaluationConfig, evaluate, objective
 from robocompose.evaluation.fidelity import THESIS, rung_config
-from robocompose.glso import FIG_8_1, FIG_8_2, LABELS
+from robocompose.glso import FIG_8_1, FIG_8_2, LABELS, best_designs
 from robocompose.glso.registry import METHODS
 from robocompose.glso.runs import GLSOConfig, RunSpec, run_search
 from robocompose.grammar.tree import DesignTree
@@ -136,8 +136,8 @@ def run_job(job: CampaignJob) -> str:
 
 def best_design(steps: pd.DataFrame) -> pd.Series | None:
     """A run's best simulated design (the first of equal rewards), or None if nothing was simulated."""
-    ok = steps[steps["status"] == OK]
-    return None if ok.empty else ok.loc[ok["reward"].idxmax()]
+    best = best_designs(steps)
+    return None if best.empty else best.iloc[0]
 
 
 def read_rescores(directory: str | Path) -> pd.DataFrame:

@@ -156,9 +156,10 @@ def _glso(args: argparse.Namespace) -> int:
     else:
         steps = run_search(spec, config, evaluation, on_step=show, checkpoint=checkpoint, table=out, model_path=model,
                            named_checkpoint=True, cache=compute.open_cache())
-    from robocompose.glso.campaign import best_design
+    from robocompose.glso import best_designs
 
-    best = best_design(steps)  # the best simulated design: an invalid score is never a result
+    found = best_designs(steps)  # the best simulated design: an invalid score is never a result
+    best = None if found.empty else found.iloc[0]
     print(json.dumps({"best": None if best is None else {
         "design_id": best.design_id, "rules": list(best.rules), "score": best.score, "status": best.status,
         "step": int(best.step), "parents": list(best.parents), "tokens": list(best.tokens)}}))
