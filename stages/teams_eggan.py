@@ -19,7 +19,14 @@ from robocompose.params import load_section
 from robocompose.stage import run_stage
 from robocompose.teams.eggan_problem import EvolutionConfig
 from robocompose.teams.experiments import decomposed_chips
-from robocompose.teams.generative import coverage_examples, eggan_queries, save_teams_generator, train_generator
+from robocompose.teams.generative import (
+    coverage_examples,
+    eggan_queries,
+    rounded,
+    save_teams_generator,
+    train_generator,
+    training_summary,
+)
 from robocompose.teams.params import TeamsParams
 
 FIGURE_CHIPS, FIGURE_BUDGET = 3, 30  # Fig. 5.4: three test chips at deployment budget 30
@@ -31,7 +38,7 @@ def main() -> None:
     regions = read_table("data/regions.parquet", "regions")
     train_chips, test_chips = decomposed_chips(regions, "train"), decomposed_chips(regions, "test")
     experiments = params.experiments
-    evolution = EvolutionConfig(experiments.crossover_probability, experiments.mutation_rate)
+    evolution = EvolutionConfig(experiments.crossover_probability, experiments.mutation_rate, params.eggan.archive)
     with timed("teams_eggan") as timing:
         trained, problem = train_generator(train_chips, params.coverage, params.eggan, evolution, params.threads,
                                            Path("models/checkpoints/teams_eggan.pt"),
@@ -48,7 +55,8 @@ def main() -> None:
         metrics = {"train_chips": len(train_chips), "test_chips": len(queried), "iterations": params.eggan.iterations,
                    "distinct_teams": problem.real_evaluations, "team_lookups": problem.team_lookups,
                    "mean_hypervolume": round(float(queries.hypervolume.mean()), 4),
-                   "final_pop_coverage_best": round(trained.rows[-1]["pop_coverage_cost_best"], 5)}
+                   "final_pop_coverage_best": round(trained.rows[-1]["pop_coverage_cost_best"], 5),
+                   **training_summary(trained.rows), **rounded(problem.model_error())}
         settings = {name: dataclasses.asdict(getattr(params, name))
                     for name in ("chips", "decompose", "coverage", "eggan")}
         settings["evolution"] = dataclasses.asdict(evolution)

@@ -1,6 +1,6 @@
 """Report section for team formation (thesis 5.2): Tables 5.4 and 5.5 beside ours, and three figures.
 
-Built only from the outputs of the `decompose` and `teams_baselines` stages (and the NSGA-II runs' wall
+Built only from the outputs of the `decompose`, `teams_baselines` and `teams_eggan` stages (and the runs' wall
 times in reports/timings.json, kept out of DVC's outputs).
 """
 
@@ -13,6 +13,7 @@ import numpy as np
 import pandas as pd
 
 from robocompose.io import read_table
+from robocompose.io.atomic import read_json
 from robocompose.io.timings import read_timings
 
 THESIS_TABLE_5_4 = {20: (9.4, 1.0, 43.1), 50: (11.9, 1.5, 107.6)}  # population: (HV, HV std, minutes)
@@ -52,6 +53,8 @@ def section(reports_dir: Path, data_dir: Path) -> str:
                       read_table(eggan_paths["examples"], "teams_coverage_examples"),
                       pd.DataFrame(timings.get("teams_eggan", {}).get("queries", []),
                                    columns=["chip_id", "seed", "milliseconds"]))
+    random = _read_random_fronts(Path(data_dir) / "teams/random_fronts.csv")
+    training = _read_training(Path(reports_dir))
     runs = read_table(paths["nsga2"], "teams_nsga2")
     fronts = read_table(paths["fronts"], "teams_fronts")
     coverage = read_table(paths["coverage"], "teams_coverage")
@@ -62,6 +65,8 @@ def section(reports_dir: Path, data_dir: Path) -> str:
     _plot_fronts(fronts, eggan, regions, figures / "teams_pareto.png")
     if eggan is not None:
         _plot_coverage_examples(regions, eggan.examples, figures / "teams_coverage.png")
+    if training is not None:
+        _plot_training(training[0], figures / "teams_training.png")
     _plot_trajectories(regions, trajectories, figures / "teams_trajectories.png")
 
     n_chips = regions.chip_id.nunique()
@@ -91,8 +96,9 @@ def section(reports_dir: Path, data_dir: Path) -> str:
         "",
         "### Table 5.4: NSGA-II and EG-GAN (hypervolume, runtime)",
         "",
-        _table_5_4(runs, seconds, eggan),
+        _table_5_4(runs, seconds, eggan, random),
         "",
+        *(_training_notes(*training) if training is not None else []),
         "![Fig. 5.3: fronts on one test chip and two EG-GAN allocations](figures/teams_pareto.png)",
         "",
         "### Table 5.5: coverage cost (x 1e-2) at a deployment budget",
@@ -137,7 +143,74 @@ class Eggan:
     milliseconds: pd.DataFrame  # chip x seed: the generator's wall time per query
 
 
-def _table_5_4(runs: pd.DataFrame, seconds: pd.DataFrame, eggan: Eggan | None) -> str:
+def _read_random_fronts(path: Path) -> pd.DataFrame | None:
+    """Table 5.4's random-allocation fronts (teams_baselines), or None before that stage wrote them."""
+    if not path.exists():
+        return None
+    table = pd.read_csv(path)
+    expected = {"chip_id", "seed", "draws", "hypervolume", "front_size", "distinct_teams"}
+    if set(table.columns) != expected:
+        raise ValueError(f"{path}: expected columns {sorted(expected)}, found {sorted(table.columns)}")
+    return table
+
+
+def _read_training(reports_dir: Path) -> tuple[pd.DataFrame, dict] | None:
+    """EG-GAN's training log and metrics (teams_eggan), or None before that stage ran."""
+    log, metrics = reports_dir / "plots/teams_eggan.csv", reports_dir / "metrics/teams_eggan.json"
+    if not (log.exists() and metrics.exists()):
+        return None
+    return pd.read_csv(log), read_json(metrics)
+
+
+def _training_notes(log: pd.DataFrame, metrics: dict) -> list[str]:
+    """What the training log says: the validation curve, the discriminator, the region-cost model's error."""
+    notes = [f"EG-GAN training: {metrics['iterations']} iterations; {metrics['distinct_teams']} teams optimised "
+             f"for training against {metrics['team_lookups']} team look-ups."]
+    if "validation_hypervolume_last" in metrics:
+        notes.append(f"Validation hypervolume (held-out training chips, 64 z, the optimiser): "
+                     f"{metrics['validation_hypervolume_first']:.2f} at the first check, best "
+                     f"{metrics['validation_hypervolume_best']:.2f}, last "
+                     f"{metrics['validation_hypervolume_last']:.2f}.")
+    chance = metrics.get("d_at_chance")
+    if chance is not None:
+        notes.append(f"Discriminator accuracy over the last tenth of training: {metrics['d_accuracy_final']:.2f}"
+                     + (" -- **FLAG: at chance, the generator got no signal**." if chance else "."))
+    if "model_heldout_log_rmse" in metrics:
+        notes.append(f"Training's team costs came from a learned region-cost model (the optimiser for "
+                     f"{metrics['model_teams']} fitted teams); on {metrics['model_heldout_n']} held-out optimised "
+                     f"teams its log-cost RMSE is {metrics['model_heldout_log_rmse']:.2f} (R^2 "
+                     f"{metrics['model_heldout_log_r2']:.2f}, Spearman {metrics['model_heldout_spearman']:.2f}, "
+                     f"median relative error {metrics['model_heldout_median_relative_error']:.0%})"
+                     + (f"; on each round's new teams before it saw them, RMSE "
+                        f"{metrics['model_prospective_log_rmse']:.2f} (median relative error "
+                        f"{metrics['model_prospective_median_relative_error']:.0%})"
+                        if "model_prospective_log_rmse" in metrics else "")
+                     + ". It steers training only: every number in the tables comes from the optimiser.")
+    return [" ".join(notes), "", "![EG-GAN training](figures/teams_training.png)", ""]
+
+
+def _plot_training(log: pd.DataFrame, path: Path) -> None:
+    """EG-GAN's training curves: validation hypervolume, discriminator accuracy, generated deployment."""
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 3, figsize=(13, 3.4))
+    if "validation_hypervolume" in log:
+        checked = log.dropna(subset=["validation_hypervolume"])
+        axes[0].plot(checked.iteration, checked.validation_hypervolume, marker="o")
+    axes[0].set(title="validation hypervolume (64 z, optimiser)", xlabel="iteration")
+    axes[1].plot(log.iteration, log.d_accuracy)
+    axes[1].axhline(0.5, color="grey", linestyle=":")
+    axes[1].set(title="discriminator accuracy (0.5 = chance)", xlabel="iteration")
+    axes[2].plot(log.iteration, log.gen_deployment_cost_mean, label="X_gen")
+    axes[2].plot(log.iteration, log.pop_deployment_cost_mean, label="X_pop")
+    axes[2].set(title="robots deployed (mean)", xlabel="iteration")
+    axes[2].legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _table_5_4(runs: pd.DataFrame, seconds: pd.DataFrame, eggan: Eggan | None, random: pd.DataFrame | None) -> str:
     lines = ["| method | thesis HV | thesis runtime (min) | our HV | our runtime (min) | runs |",
              "|---|---|---|---|---|---|"]
     timed = runs.merge(seconds, on=["chip_id", "population", "seed"], how="left")
@@ -157,6 +230,18 @@ def _table_5_4(runs: pd.DataFrame, seconds: pd.DataFrame, eggan: Eggan | None) -
                      f"{len(queries)} |")
         if len(queries) != len(pairs):
             notes.append("WARNING: EG-GAN was not queried on every chip x seed pair of the NSGA-II runs.")
+    if random is not None:
+        random = pairs.merge(random, on=["chip_id", "seed"])
+        for draws, group in random.groupby("draws"):
+            lines.append(f"| random allocations, front of {draws} draws (ours) | - | - | "
+                         f"{_mean_std(group.hypervolume)} | - | {len(group)} |")
+        if eggan is not None and len(queries):
+            by_pair = queries.set_index(["chip_id", "seed"]).hypervolume
+            for draws, group in random.groupby("draws"):
+                above = (by_pair - group.set_index(["chip_id", "seed"]).hypervolume).dropna()
+                notes.append(f"EG-GAN above the front of {draws} random allocations: "
+                             f"{'holds' if above.mean() > 0 else 'does NOT hold'} (mean difference "
+                             f"{above.mean():+.3f}, higher on {int((above > 0).sum())} of {len(above)} pairs).")
     paired = runs.pivot_table(index=["chip_id", "seed"], columns="population", values="hypervolume")
     if {20, 50} <= set(paired.columns):
         gain = (paired[50] - paired[20]).to_numpy()
@@ -171,6 +256,11 @@ def _table_5_4(runs: pd.DataFrame, seconds: pd.DataFrame, eggan: Eggan | None) -
             notes.append(f"EG-GAN ~ NSGA-II:50 (>= 95% of its hypervolume) {verdict}: EG-GAN reaches "
                          f"{share.mean():.0%} of NSGA-II:50's hypervolume (thesis 99%); EG-GAN > NSGA-II:20 "
                          f"{over_20}.")
+            nsga2_50 = timed[timed.population == 50].seconds
+            if nsga2_50.notna().all() and queries.milliseconds.notna().all():
+                speedup = nsga2_50.mean() * 1000 / queries.milliseconds.mean()
+                notes.append(f"EG-GAN's query is {speedup:,.0f}x faster than an NSGA-II:50 run "
+                             f"({'>=' if speedup >= 1000 else 'below'} the 1000x of the goal; thesis ~5000x).")
     notes.append("Runtimes: NSGA-II, the wall time of each run from an empty evaluation cache, one thread; "
                  "EG-GAN, the generator's part of a query (noise, forward pass, rounding; the decomposition "
                  "and the optimiser that measures the front are not included). Every hypervolume is "

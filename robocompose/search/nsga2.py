@@ -136,6 +136,14 @@ def run_nsga2(problem: GenomeProblem, sampling: Sampling, config: NSGA2Config) -
     return Front(genomes[keep], objectives[keep], seconds, int(result.algorithm.evaluator.n_eval))
 
 
+def survivors(genomes: np.ndarray, objectives: np.ndarray, problem: GenomeProblem, n: int,
+              rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """NSGA-II's elitist survival: the `n` of (B, n_var) genomes with (B, M) objectives kept by rank, then
+    crowding distance."""
+    kept = RankAndCrowding().do(problem, Population.new(X=genomes, F=objectives), n_survive=n, random_state=rng)
+    return kept.get("X"), kept.get("F")
+
+
 def nsga2_generation(genomes: np.ndarray, objectives: np.ndarray, problem: GenomeProblem,
                      crossover_probability: float, mutation_rate: float, rng: np.random.Generator
                      ) -> tuple[np.ndarray, np.ndarray]:

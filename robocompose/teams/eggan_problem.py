@@ -18,8 +18,20 @@ Evolution-guided data creation: `steps` NSGA-II generations (nsga2.nsga2_generat
 roulette-wheel selection, the thesis's crossover and mutation, elitist survival) on the generated
 batch, genomes = the K x O fractions.
 
-Fitness: the ergodic trajectory optimiser itself, through the exact team-cost memo of evaluator.py (one
-`AllocationEvaluator` per chip on one shared cache: a file shared with the other teams stages, or memory).
+Fitness, `source: exact`: the ergodic trajectory optimiser itself, through the exact team-cost memo of
+evaluator.py (one `AllocationEvaluator` per chip on one shared cache: a file shared with the other teams
+stages, or memory). Exact training costs ~4 ms per new team, and NSGA-II in the loop asks for thousands of new
+teams per iteration, so thousands of iterations would take hours.
+`source: model` (the default profile): a learned region-cost model steers training. A team's cost depends only
+on (chip, region, team counts), so the model maps [one-hot of the training region, its terrain shares, its area
+share] x [counts / robots_per_species, log(1 + counts) / log(1 + robots_per_species)] to log(team cost)
+(`robocompose.eggan.surrogate.Surrogate`, sizes `REGION_MODEL`). A team already optimised answers with its exact
+cost, any other with the model's. The optimiser runs on `warmup` random allocations per training chip (NSGA-II's
+initial sampler) before the first fit and, every `real_every` evaluate calls (the generator's designs of one
+task), on that call's unknown teams (their exact costs answer the call), and the model is refitted, until
+`budget` teams are optimised. Teams whose key hash is 0 mod 5 are held out of every fit; `model_error()` reports
+the model's error on them and on each round's new teams before they were fitted (prospective error). Every
+reported number (queries, tables) comes from the optimiser.
 A method's spend (`real_evaluations`) is the number of distinct teams it asked for, whatever the cache already
 held, so logs and metrics do not depend on a warm cache; those teams' costs are part of the problem's state,
 so a resumed training sees the same values without optimising them again.
@@ -36,21 +48,30 @@ import numpy as np
 import torch
 
 from robocompose.eggan.problem import Objective, Sampled
+from robocompose.eggan.surrogate import Surrogate, SurrogateConfig, spearman
 from robocompose.fanout.cache import EvaluationCache
 from robocompose.io.provenance import code_digest
-from robocompose.search.nsga2 import nsga2_generation
+from robocompose.search.nsga2 import nsga2_generation, survivors
 from robocompose.teams.chips import Chip
 from robocompose.teams.decompose import Decomposition, terrain_features
 from robocompose.teams.ergodic import CoverageConfig, allocation_id
 from robocompose.teams.evaluator import AllocationEvaluator, chip_coverage, teams_cache
-from robocompose.teams.nsga2 import AllocationProblem
-from robocompose.teams.species import SPECIES, allocation_to_counts
+from robocompose.teams.nsga2 import AllocationProblem, deployment_share_draws
+from robocompose.teams.params import TeamFitnessConfig
+from robocompose.teams.species import SPECIES, allocation_to_counts, deployment_cost
 
 
 @dataclass(frozen=True)
 class EvolutionConfig:
     crossover_probability: float = 0.5  # NSGA-II single-point arithmetic crossover (thesis 0.5)
     mutation_rate: float = 0.1  # NSGA-II per-gene uniform mutation (thesis 0.1)
+    archive: bool = False  # evolve X_gen together with the task's last X_pop (module docstring), not alone
+
+
+HOLDOUT_EVERY = 5  # a team whose key hash is 0 mod 5 is held out of the model's fits
+
+
+REGION_MODEL = SurrogateConfig(hidden=128, layers=3, steps=1500, batch=256, lr=3e-3, weight_decay=1e-5)
 
 
 def task_features(chip: Chip, decomposition: Decomposition) -> np.ndarray:
@@ -83,11 +104,13 @@ class TeamsProblem:
 
     def __init__(self, chips: Sequence[tuple[Chip, Decomposition]], coverage: CoverageConfig,
                  evolution: EvolutionConfig = EvolutionConfig(), seed: int = 0,
-                 cache: EvaluationCache | None = None):
+                 cache: EvaluationCache | None = None, fitness: TeamFitnessConfig | None = None,
+                 region_model: SurrogateConfig = REGION_MODEL):
         if not chips:
             raise ValueError("teams EG-GAN: no training chips")
         self.chips = list(chips)
         self.coverage, self.evolution, self.seed = coverage, evolution, seed
+        self.fitness = fitness or TeamFitnessConfig()
         self.n_regions = self.chips[0][1].n_regions
         self.n_species = len(SPECIES)
         self.task_shape = (self.n_regions * 4,)
@@ -96,6 +119,13 @@ class TeamsProblem:
         self.cache = teams_cache() if cache is None else cache
         self._evaluators: dict[int, AllocationEvaluator] = {}  # built on first use (phi of every region)
         self._resumed_lookups = 0  # team look-ups before a resume
+        self.region_model = region_model
+        self.model = Surrogate((len(self.chips) * self.n_regions + 5,), (2 * self.n_species,), region_model,
+                               self.fitness.seed)
+        self.calls = 0  # evaluate calls (model source: rounds every `real_every`)
+        self.prospective: list[list[float]] = []  # [log predicted, log exact] of each round's new teams
+        self._archive: dict[int, np.ndarray] = {}  # task -> its last X_pop's (B, K*O) genomes (archive)
+        self._region_vectors: torch.Tensor | None = None  # (R, R + 5) the model's region inputs, built on first use
 
     # ---- the EG-GAN interface ----------------------------------------------------------------------
     def sample_task(self, rng: np.random.Generator) -> int:
@@ -118,6 +148,9 @@ class TeamsProblem:
 
     def evaluate(self, task: int, designs: Sequence[np.ndarray]) -> np.ndarray:
         counts = allocation_to_counts(np.stack(designs), self.coverage.robots_per_species)
+        self.calls += 1
+        if self.fitness.source == "model" and self.calls % self.fitness.real_every == 0:
+            self._real_round(task, counts)
         return self.objectives_of_counts(task, counts)
 
     def evolve(self, task: int, designs: list[np.ndarray], objectives: np.ndarray, method: str, steps: int,
@@ -127,10 +160,16 @@ class TeamsProblem:
         problem = AllocationProblem(self.n_regions, self.n_species, self.coverage.robots_per_species,
                                     lambda counts: self.objectives_of_counts(task, counts))
         genomes = np.stack(designs).reshape(len(designs), -1)  # (B, K*O)
+        if self.evolution.archive and task in self._archive:  # one survival over X_gen and the last X_pop
+            merged = np.concatenate([genomes, self._archive[task]])
+            genomes, objectives = survivors(merged, np.concatenate([objectives, problem.objectives(
+                self._archive[task])]), problem, len(designs), rng)
         for _ in range(steps):
             genomes, objectives = nsga2_generation(genomes, objectives, problem,
                                                    self.evolution.crossover_probability,
                                                    self.evolution.mutation_rate, rng)
+        if self.evolution.archive:
+            self._archive[task] = genomes
         return list(genomes.reshape(-1, self.n_regions, self.n_species)), objectives
 
     def design_id(self, design: np.ndarray) -> str:
@@ -150,14 +189,17 @@ class TeamsProblem:
         chips = [(chip.chip_id, hashlib.sha1(chip.classes.tobytes()).hexdigest()[:12],
                   decomposition.centres.round(12).tolist(), decomposition.terrain_weight)
                  for chip, decomposition in self.chips]
-        text = json.dumps([asdict(self.coverage), asdict(self.evolution), self.seed, chips,
+        text = json.dumps([asdict(self.coverage), asdict(self.evolution), self.seed, chips, asdict(self.fitness),
+                           asdict(self.region_model),
                            code_digest(__name__)])  # this module's import closure: the whole fitness
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
     def state_dict(self) -> dict:
         rows = [[*key, self.cache.get(key)["team_cost"]] for evaluator in self._evaluators.values()
                 for key in sorted(evaluator.asked)]
-        return {"team_costs": sorted(rows), "team_lookups": self.team_lookups}
+        return {"team_costs": sorted(rows), "team_lookups": self.team_lookups, "calls": self.calls,
+                "model": self.model.state_dict(), "prospective": self.prospective,
+                "archive": {task: genomes.tolist() for task, genomes in sorted(self._archive.items())}}
 
     def load_state_dict(self, state: dict) -> None:
         task_of = {chip.chip_id: task for task, (chip, _) in enumerate(self.chips)}
@@ -165,6 +207,9 @@ class TeamsProblem:
             self.cache.put(tuple(key), team_cost=cost)
             self.evaluator(task_of[key[1]]).asked.add(tuple(key))
         self._resumed_lookups = state["team_lookups"] - sum(e.lookups for e in self._evaluators.values())
+        self.calls, self.prospective = state["calls"], state["prospective"]
+        self.model.load_state_dict(state["model"])
+        self._archive = {int(task): np.asarray(genomes) for task, genomes in state["archive"].items()}
 
     # ---- fitness from the optimiser, through the team-cost memo ----------------------------------------
     def evaluator(self, task: int) -> AllocationEvaluator:
@@ -176,5 +221,110 @@ class TeamsProblem:
         return self._evaluators[task]
 
     def objectives_of_counts(self, task: int, counts: np.ndarray) -> np.ndarray:
-        """(B, 2) [coverage cost, deployment cost] of (B, K, O) counts on training chip `task`."""
-        return self.evaluator(task)(counts)
+        """(B, 2) [coverage cost, deployment cost] of (B, K, O) counts on training chip `task`: exact, or (model
+        source) exact where the team was optimised and the model's elsewhere."""
+        if self.fitness.source == "exact":
+            return self.evaluator(task)(counts)
+        self._warm_up()
+        costs = self.evaluator(task).team_costs(counts, lambda teams: self.predict(task, teams))  # (B, K)
+        return np.stack([costs.sum(1), deployment_cost(counts).astype(np.float64)], axis=-1)
+
+    # ---- the region-cost model (model source) --------------------------------------------------------------
+    def _features(self, rows: Sequence[tuple[int, int, tuple[int, ...]]]) -> tuple[torch.Tensor, torch.Tensor,
+                                                                                    torch.Tensor]:
+        """Model inputs of (task, region, counts) rows: ((R, R + 5) region vectors, (N,) region index, (N, 2O)
+        count features), R = training regions."""
+        if self._region_vectors is None:
+            vectors = []
+            for task, (chip, decomposition) in enumerate(self.chips):
+                raster = decomposition.raster(chip.terrain)
+                area = np.bincount(raster.ravel(), minlength=self.n_regions) / raster.size  # (K,)
+                vectors.append(np.concatenate([self.features[task], area[:, None]], axis=1))  # (K, 5)
+            vectors = np.concatenate(vectors)  # (R, 5)
+            self._region_vectors = torch.as_tensor(np.concatenate([np.eye(len(vectors)), vectors], axis=1),
+                                                   dtype=torch.float32)  # (R, R + 5)
+        index = torch.as_tensor([task * self.n_regions + region for task, region, _ in rows], dtype=torch.int64)
+        counts = np.asarray([c for _, _, c in rows], dtype=np.float64).reshape(len(rows), self.n_species)
+        n = self.coverage.robots_per_species
+        design = np.concatenate([counts / n, np.log1p(counts) / np.log1p(n)], axis=1)  # (N, 2O)
+        return self._region_vectors, index, torch.as_tensor(design, dtype=torch.float32)
+
+    def predict(self, task: int, teams: Sequence[tuple[int, tuple[int, ...]]]) -> np.ndarray:
+        """(N,) model costs of teams (region, counts) of training chip `task`."""
+        return np.exp(self.model.predict(*self._features([(task, region, counts) for region, counts in teams])))
+
+    def _exact_rows(self) -> tuple[list[tuple[int, int, tuple[int, ...]]], np.ndarray, np.ndarray]:
+        """Every optimised team as (task, region, counts), its log cost and whether it is held out."""
+        rows, values, held = [], [], []
+        for task in sorted(self._evaluators):
+            for key in sorted(self._evaluators[task].asked):
+                region, counts = key[0].split(":")
+                rows.append((task, int(region), tuple(int(n) for n in counts.split("-"))))
+                values.append(np.log(self.cache.get(key)["team_cost"]))
+                held.append(int(hashlib.sha1(key[0].encode() + key[1].encode()).hexdigest(), 16)
+                            % HOLDOUT_EVERY == 0)
+        return rows, np.asarray(values), np.asarray(held, dtype=bool)
+
+    def _fit(self) -> None:
+        rows, values, held = self._exact_rows()
+        keep = [row for row, h in zip(rows, held, strict=True) if not h]
+        self.model.fit(*self._features(keep), values[~held])
+
+    def _warm_up(self) -> None:
+        if self.model.net is not None:
+            return
+        rng = np.random.default_rng([self.fitness.seed, 5201])
+        for task in range(len(self.chips)):
+            fractions = deployment_share_draws(rng, self.fitness.warmup, self.n_regions, self.n_species)
+            self.evaluator(task).team_costs(allocation_to_counts(fractions, self.coverage.robots_per_species))
+        self._fit()
+
+    def _real_round(self, task: int, counts: np.ndarray) -> None:
+        """Optimise the unknown teams of a batch (within the budget), note the model's error on them, refit."""
+        self._warm_up()
+        evaluator = self.evaluator(task)
+        teams = {(int(i), tuple(int(n) for n in allocation[i])) for allocation in counts
+                 for i in np.flatnonzero(allocation.sum(1))}
+        new = sorted(team for team in teams if evaluator.key(team) not in self.cache)
+        if not new or self.real_evaluations + len(new) > self.fitness.budget:
+            return
+        predicted = np.log(self.predict(task, new))
+        exact = np.log(evaluator.team_costs(np.stack([self._single(team) for team in new]))[
+            np.arange(len(new)), [region for region, _ in new]])
+        self.prospective += [[float(p), float(e)] for p, e in zip(predicted, exact, strict=True)]
+        self._fit()
+
+    def _single(self, team: tuple[int, tuple[int, ...]]) -> np.ndarray:
+        """(K, O) counts of an allocation holding only `team`."""
+        single = np.zeros((self.n_regions, self.n_species), dtype=np.int64)
+        single[team[0]] = team[1]
+        return single
+
+    def model_error(self) -> dict[str, float]:
+        """The model's error on held-out optimised teams (log-cost RMSE, R^2 of log cost against its mean,
+        Spearman, median relative error of the cost) and, prospective_*, on each round's new teams before they
+        were fitted; {} for the exact source."""
+        if self.fitness.source == "exact" or self.model.net is None:
+            return {}
+        rows, values, held = self._exact_rows()
+        test = [row for row, h in zip(rows, held, strict=True) if h]
+        by_task: dict[int, list[int]] = {}
+        for k, (task, _, _) in enumerate(test):
+            by_task.setdefault(task, []).append(k)
+        predicted = np.empty(len(test))
+        for task, ks in by_task.items():
+            predicted[ks] = np.log(self.predict(task, [(test[k][1], test[k][2]) for k in ks]))
+        error = {"model_teams": int((~held).sum()), **_errors("model_heldout", predicted, values[held])}
+        if self.prospective:
+            pairs = np.asarray(self.prospective)
+            error.update(_errors("model_prospective", pairs[:, 0], pairs[:, 1]))
+        return error
+
+
+def _errors(prefix: str, predicted: np.ndarray, exact: np.ndarray) -> dict[str, float]:
+    """Errors of predicted against exact log costs."""
+    residual = predicted - exact
+    return {f"{prefix}_n": int(len(exact)), f"{prefix}_log_rmse": float(np.sqrt(np.mean(residual ** 2))),
+            f"{prefix}_log_r2": float(1 - np.mean(residual ** 2) / np.var(exact)),
+            f"{prefix}_spearman": spearman(predicted, exact),
+            f"{prefix}_median_relative_error": float(np.median(np.abs(np.expm1(residual))))}

@@ -17,6 +17,7 @@ earlier stage left behind, and a killed training resumes with its own memo (Team
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -50,7 +51,7 @@ class AllocationEvaluator:
     """
 
     def __init__(self, coverage: ChipCoverage, chip_id: str, seed: int,
-                 cache: EvaluationCache | None = None, max_batch: int = 64):
+                 cache: EvaluationCache | None = None, max_batch: int = 256):
         self.coverage = coverage
         self.chip_id = chip_id
         self.seed = seed
@@ -75,13 +76,23 @@ class AllocationEvaluator:
         self.optimised += len(chunk)
         return [{"team_cost": float(costs[b, region])} for b, (region, _) in enumerate(chunk)]
 
-    def team_costs(self, counts: np.ndarray) -> np.ndarray:
-        """(B, K) team costs of (B, K, O) integer counts (an empty region: its closed-form cost)."""
+    def team_costs(self, counts: np.ndarray, fallback: Callable[[list[Team]], np.ndarray] | None = None
+                   ) -> np.ndarray:
+        """(B, K) team costs of (B, K, O) integer counts (an empty region: its closed-form cost). With `fallback`,
+        a team not in the memo is answered by `fallback(teams)` (a learned model) instead of the optimiser, and
+        it is not counted in `asked`."""
         counts = np.asarray(counts, dtype=np.int64)
         costs = np.tile(self._empty, (len(counts), 1))  # (B, K)
         where = [(b, i) for b, allocation in enumerate(counts) for i in np.flatnonzero(allocation.sum(1))]
         teams = [(int(i), tuple(int(n) for n in counts[b, i])) for b, i in where]
         self.lookups += len(teams)
+        if fallback is not None:
+            known = [self.key(team) in self.cache for team in teams]
+            unknown = [team for team, hit in zip(teams, known, strict=True) if not hit]
+            predicted = iter(fallback(unknown) if unknown else [])
+            for (b, i), team, hit in zip(where, teams, known, strict=True):
+                costs[b, i] = self.cache.get(self.key(team))["team_cost"] if hit else next(predicted)
+            return costs
         self.asked.update(self.key(team) for team in teams)
         rows = evaluate_many(self._optimise, teams, self.key, self.cache, batch=self.max_batch)
         for (b, i), row in zip(where, rows, strict=True):

@@ -7,7 +7,8 @@ and seed; the runtime is the wall time of the run measured inside it, with an em
 cache (as the thesis times a run from scratch); every evaluation is then merged into the stage's
 cache for later stages. Runtimes are returned apart from the runs table, which DVC hashes (wall
 time is not reproducible). Table 5.5: the baselines of baselines.py at each deployment budget, per
-chip and seed.
+chip and seed. Beside Table 5.4, random-allocation fronts: the non-dominated set of 64 and of 512 draws of
+NSGA-II's initial sampler, the count a query decodes (a learner must beat them to have learned anything).
 
 The runs (chip x seed x population) and the per-chip baselines are independent tasks, fanned out
 through the project's Executor (local processes or a Dask cluster; None = in this process). Each task
@@ -25,15 +26,15 @@ import torch
 
 from robocompose.fanout.cache import EvaluationCache
 from robocompose.fanout.executor import Executor
-from robocompose.search.nsga2 import NSGA2Config
+from robocompose.search.nsga2 import NSGA2Config, non_dominated
 from robocompose.teams.baselines import no_decomposition_costs, random_allocation, random_species_counts, random_teams
 from robocompose.teams.chips import Chip, read_chip
 from robocompose.teams.decompose import Decomposition, chip_decomposition
 from robocompose.teams.ergodic import CoverageConfig
 from robocompose.teams.evaluator import AllocationEvaluator, chip_coverage
-from robocompose.teams.nsga2 import NSGA2Result, allocation_nsga2
+from robocompose.teams.nsga2 import NSGA2Result, allocation_nsga2, deployment_share_draws, team_hypervolume
 from robocompose.teams.params import ExperimentsConfig
-from robocompose.teams.species import SPECIES, deployment_cost
+from robocompose.teams.species import SPECIES, allocation_to_counts, deployment_cost
 
 
 def decomposed_chips(regions: pd.DataFrame, split: str) -> list[tuple[Chip, Decomposition]]:
@@ -84,6 +85,37 @@ def nsga2_runs(chips: list[tuple[Chip, Decomposition]], coverage: CoverageConfig
             pd.DataFrame(fronts, columns=["chip_id", "population", "seed", "coverage_cost",
                                           "deployment_cost", "counts"]),
             seconds)
+
+
+RANDOM_FRONT_DRAWS = (64, 512)  # Table 5.4's random-allocation fronts: the first 64 and all 512 draws
+
+
+def _random_front(task: tuple[Chip, Decomposition, CoverageConfig, int, int]) -> list[tuple]:
+    """The random-allocation fronts of one chip and seed (an executor task): NSGA-II's initial sampler drawn
+    max(RANDOM_FRONT_DRAWS) times from Generator((seed, hash of the chip id, 5401)), every allocation measured by
+    the optimiser; one row per prefix of RANDOM_FRONT_DRAWS draws."""
+    chip, decomposition, coverage, seed, threads = task
+    torch.set_num_threads(threads)
+    rng = np.random.default_rng([seed, int(hashlib.sha1(chip.chip_id.encode()).hexdigest()[:12], 16), 5401])
+    fractions = deployment_share_draws(rng, max(RANDOM_FRONT_DRAWS), decomposition.n_regions, len(SPECIES))
+    counts = allocation_to_counts(fractions, coverage.robots_per_species)  # (S, K, O)
+    evaluate = AllocationEvaluator(chip_coverage(chip, decomposition, coverage), chip.chip_id, seed)
+    objectives = evaluate(counts)
+    rows = []
+    for draws in RANDOM_FRONT_DRAWS:
+        front = objectives[non_dominated(objectives[:draws])]
+        rows.append((chip.chip_id, seed, draws, team_hypervolume(front), len(front), len(evaluate.asked)))
+    return rows
+
+
+def random_fronts(chips: list[tuple[Chip, Decomposition]], coverage: CoverageConfig, config: ExperimentsConfig,
+                  executor: Executor | None = None) -> pd.DataFrame:
+    """Table 5.4's random-allocation baselines on its chips and seeds: chip_id, seed, draws, hypervolume, front
+    size, distinct teams optimised (for all the draws)."""
+    tasks = [(chip, decomposition, coverage, seed, torch.get_num_threads())
+             for chip, decomposition in chips[:config.table_5_4_chips] for seed in config.seeds]
+    rows = [row for task_rows in (executor or Executor(workers=1)).map(_random_front, tasks) for row in task_rows]
+    return pd.DataFrame(rows, columns=["chip_id", "seed", "draws", "hypervolume", "front_size", "distinct_teams"])
 
 
 def baseline_draws(chip_id: str, seed: int, budgets: list[int], n_regions: int, robots_per_species: int

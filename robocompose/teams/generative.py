@@ -15,13 +15,15 @@ wall time is recorded apart (it is not reproducible, so it stays out of the DVC-
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import torch
 
-from robocompose.eggan.learners import Draws
+from robocompose.eggan.learners import Draws, generator_draws
 from robocompose.eggan.networks import NetworkConfig
 from robocompose.eggan.query import generator_info, save_generator
 from robocompose.eggan.train import TrainConfig, Trained, train
@@ -44,7 +46,7 @@ def train_config(config: EgganConfig, threads: int) -> TrainConfig:
     return TrainConfig(iterations=config.iterations, batch=config.batch, tasks=config.tasks, evolution="nsga2",
                        evolution_steps=config.evolution_steps, lr_generator=config.lr, lr_discriminator=config.lr,
                        seed=config.seed, threads=threads, log_every=min(5, config.checkpoint_every),
-                       checkpoint_every=config.checkpoint_every)
+                       validate_every=config.validate_every, checkpoint_every=config.checkpoint_every)
 
 
 def network_config(config: EgganConfig) -> NetworkConfig:
@@ -53,14 +55,66 @@ def network_config(config: EgganConfig) -> NetworkConfig:
     return NetworkConfig(latent=config.latent)
 
 
+def split_validation(chips: list[tuple[Chip, Decomposition]], config: EgganConfig
+                     ) -> tuple[list[tuple[Chip, Decomposition]], list[tuple[Chip, Decomposition]]]:
+    """(training, validation) chips: the last `validation_chips` training chips are held out for the curve."""
+    if config.validation_chips >= len(chips):
+        raise InputError(f"teams.eggan.validation_chips: {config.validation_chips} of {len(chips)} training chips "
+                         "leaves none to train on")
+    cut = len(chips) - config.validation_chips
+    return chips[:cut], chips[cut:]
+
+
+def validation_hypervolume(chips: list[tuple[Chip, Decomposition]], coverage: CoverageConfig, samples: int,
+                           seed: int) -> Callable[[torch.nn.Module], dict[str, float]]:
+    """The trainer's validation: the mean hypervolume of the generator's front from `samples` z on each validation
+    chip, measured by the optimiser (one memo per chip kept across calls)."""
+    evaluators = [AllocationEvaluator(chip_coverage(chip, decomposition, coverage), chip.chip_id, seed)
+                  for chip, decomposition in chips]
+
+    def validate(generator: torch.nn.Module) -> dict[str, float]:
+        draws = generator_draws(generator, samples)
+        fronts = [query_front(draws, chip, decomposition, coverage, seed, evaluator)
+                  for (chip, decomposition), evaluator in zip(chips, evaluators, strict=True)]
+        return {"validation_hypervolume": float(np.mean([front.hypervolume for front in fronts]))}
+
+    return validate
+
+
 def train_generator(chips: list[tuple[Chip, Decomposition]], coverage: CoverageConfig, config: EgganConfig,
                     evolution: EvolutionConfig, threads: int, checkpoint: Path | None = None,
                     csv_path: Path | None = None) -> tuple[Trained, TeamsProblem]:
-    """Train EG-GAN on the training chips, resuming from `checkpoint` if it holds this run."""
-    problem = TeamsProblem(chips, coverage, evolution, seed=config.seed)
+    """Train EG-GAN on the training chips (less the validation chips), resuming from `checkpoint` if it holds
+    this run."""
+    training, validation = split_validation(chips, config)
+    problem = TeamsProblem(training, coverage, evolution, seed=config.seed, fitness=config.fitness)
+    validate = (validation_hypervolume(validation, coverage, config.validation_samples, config.seed)
+                if validation and config.validate_every else None)
     trained = train(problem, network_config(config), train_config(config, threads), checkpoint, csv_path,
-                    progress=True)
+                    progress=True, validate=validate)
     return trained, problem
+
+
+CHANCE_ACCURACY = 0.55  # a discriminator below this over the last tenth of training is flagged "at chance"
+
+
+def training_summary(rows: list[dict]) -> dict:
+    """What the metrics say about a training run: the discriminator's accuracy over the last tenth of the log
+    and whether it stayed at chance, and the validation curve's first, best and last hypervolume."""
+    tail = rows[-max(1, len(rows) // 10):]
+    accuracy = float(np.mean([row["d_accuracy"] for row in tail]))
+    summary = {"d_accuracy_final": round(accuracy, 4), "d_at_chance": accuracy < CHANCE_ACCURACY}
+    curve = [row["validation_hypervolume"] for row in rows if not np.isnan(row.get("validation_hypervolume", np.nan))]
+    if curve:
+        summary.update(validation_hypervolume_first=round(curve[0], 4),
+                       validation_hypervolume_best=round(max(curve), 4),
+                       validation_hypervolume_last=round(curve[-1], 4))
+    return summary
+
+
+def rounded(values: dict, digits: int = 4) -> dict:
+    """Floats rounded to `digits` significant digits (metrics files stay readable and stable)."""
+    return {k: float(f"{v:.{digits}g}") if isinstance(v, float) else v for k, v in values.items()}
 
 
 def save_teams_generator(trained: Trained, problem: TeamsProblem, params: dict, metrics: dict, path: Path) -> Path:

@@ -30,12 +30,16 @@ from robocompose.teams.species import allocation_to_counts
 REFERENCE_POINT = (0.25, 60.0)
 
 
+def deployment_share_draws(rng: np.random.Generator, n: int, n_regions: int, n_species: int) -> np.ndarray:
+    """(n, K, O) fractions: per species a share s ~ U(0, 1), split over the regions by a flat Dirichlet draw."""
+    share = rng.random((n, 1, n_species))  # (n, 1, O) deployed share per species
+    split = rng.dirichlet(np.ones(n_regions), size=(n, n_species))  # (n, O, K)
+    return share * split.transpose(0, 2, 1)
+
+
 class DeploymentShareSampling(Sampling):
     def _do(self, problem, n_samples, *args, random_state=None, **kwargs):
-        n_regions, n_species = problem.shape
-        share = random_state.random((n_samples, 1, n_species))  # (B, 1, O) deployed share per species
-        split = random_state.dirichlet(np.ones(n_regions), size=(n_samples, n_species))  # (B, O, K)
-        return (share * split.transpose(0, 2, 1)).reshape(n_samples, -1)
+        return deployment_share_draws(random_state, n_samples, *problem.shape).reshape(n_samples, -1)
 
 
 class AllocationProblem(GenomeProblem):

@@ -38,17 +38,49 @@ class ExperimentsConfig:
                     self.budgets)
 
 
+SOURCES = ("exact", "model")
+
+
+@dataclass(frozen=True)
+class TeamFitnessConfig:
+    """Where EG-GAN training's team costs come from (robocompose.teams.eggan_problem says how)."""
+
+    source: str = "exact"  # "exact": the optimiser for every team; "model": a learned region-cost model steers
+    warmup: int = 64  # random allocations per training chip optimised before the first fit (model)
+    real_every: int = 50  # evaluate calls between rounds: the call's unknown teams optimised, the model refitted
+    budget: int = 50_000  # teams the optimiser may run for training (model); then the model alone answers
+    seed: int = 0  # the warm-up draws and the model's fits
+
+    def __post_init__(self) -> None:
+        check_field(self.source in SOURCES, "source", f"one of {list(SOURCES)}", self.source)
+        for name in ("warmup", "real_every", "budget"):
+            check_field(isinstance(getattr(self, name), int) and getattr(self, name) >= 1, name,
+                        "a positive integer", getattr(self, name))
+
+
 @dataclass(frozen=True)
 class EgganConfig:
     iterations: int = 100  # Algorithm 1 iterations (`tasks` training chips each)
     batch: int = 32  # noise vectors per iteration = |X_gen| = |X_pop|, over `tasks` tasks
-    tasks: int = 4  # training chips per iteration (batch / tasks z each)
+    tasks: int = 4  # training chips per iteration (batch / tasks z each: NSGA-II's population per chip)
     evolution_steps: int = 1  # NSGA-II generations per iteration (the group's code: 1)
     lr: float = 1e-3  # Adam step of both networks (group's code 1e-3; thesis 1e-5 for 20 h)
     latent: int = 16  # P, the size of z (the group's code: 16)
     samples: int = 512  # noise vectors per query: the front of a task is their non-dominated set
     seed: int = 0  # seeds training
     checkpoint_every: int = 25  # iterations between checkpoints
+    fitness: TeamFitnessConfig = field(default_factory=TeamFitnessConfig)  # training's team costs
+    archive: bool = False  # data creation evolves X_gen with the chip's last X_pop (eggan_problem.py), not alone
+    validation_chips: int = 0  # the last training chips (by id), held out of training for the validation curve
+    validate_every: int = 0  # iterations between validation hypervolumes (a multiple of 5; 0: none)
+    validation_samples: int = 64  # noise vectors per validation query (fronts measured by the optimiser)
+
+    def __post_init__(self) -> None:
+        check_field(self.validation_chips >= 0, "validation_chips", "an integer >= 0", self.validation_chips)
+        check_field(self.validate_every >= 0 and self.validate_every % 5 == 0, "validate_every",
+                    "0 or a multiple of 5 (the log's rows)", self.validate_every)
+        check_field(self.validation_samples >= 1, "validation_samples", "a positive integer",
+                    self.validation_samples)
 
 
 @dataclass(frozen=True)

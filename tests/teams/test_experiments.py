@@ -15,6 +15,7 @@ from robocompose.teams.experiments import (
     example_allocation,
     example_trajectories,
     nsga2_runs,
+    random_fronts,
 )
 from robocompose.teams.params import ExperimentsConfig
 
@@ -61,6 +62,17 @@ def test_nsga2_runs_record_every_population_and_a_front_per_run(test_chips):
     trajectories = example_trajectories(chip, decomposition, TINY, counts, seed)
     assert len(trajectories) == counts.sum() * TINY.n_observations
     assert trajectories[["x", "y"]].to_numpy().min() >= 0 and trajectories[["x", "y"]].to_numpy().max() < 1
+
+
+def test_random_fronts_are_prefixes_of_one_draw_measured_by_the_optimiser(test_chips):
+    table = random_fronts(test_chips, TINY, EXPERIMENTS)
+    assert table.draws.tolist() == [64, 512] * 2 and table.seed.tolist() == [0, 0, 1, 1]
+    for _, rows in table.groupby("seed"):
+        small, large = rows.hypervolume.tolist()
+        assert 0 < small <= large  # 512 draws hold the 64: their front can only gain
+        assert rows.distinct_teams.nunique() == 1  # one memo per chip and seed, over all the draws
+    assert table.hypervolume.nunique() == 4  # another seed, other draws
+    pd.testing.assert_frame_equal(random_fronts(test_chips, TINY, EXPERIMENTS), table, check_exact=True)
 
 
 def test_coverage_baselines_deploy_exactly_the_budget(test_chips):

@@ -16,12 +16,19 @@ from robocompose.search.nsga2 import non_dominated
 from robocompose.teams.chips import synthetic_chip
 from robocompose.teams.compose import SHIPPED_MODEL
 from robocompose.teams.decompose import DecomposeConfig, decompose_chip
-from robocompose.teams.eggan_problem import TeamsProblem
+from robocompose.teams.eggan_problem import EvolutionConfig, TeamsProblem
 from robocompose.teams.ergodic import CoverageConfig
-from robocompose.teams.evaluator import chip_coverage
-from robocompose.teams.generative import query_front, save_teams_generator, teams_generator_info
-from robocompose.teams.nsga2 import team_hypervolume
-from robocompose.teams.params import TeamsParams
+from robocompose.teams.evaluator import AllocationEvaluator, chip_coverage
+from robocompose.teams.generative import (
+    query_front,
+    save_teams_generator,
+    split_validation,
+    teams_generator_info,
+    training_summary,
+)
+from robocompose.teams.nsga2 import deployment_share_draws, team_hypervolume
+from robocompose.teams.params import EgganConfig, TeamsParams
+from robocompose.teams.species import allocation_to_counts
 
 TINY = CoverageConfig(iterations=3, n_observations=5)
 
@@ -90,3 +97,33 @@ def test_the_shipped_generator_is_the_default_profiles_and_matches_the_model_cod
     problem = TeamsProblem([(chip, decompose_chip(chip, default.decompose))], default.coverage)
     LEARNERS["teams"]["eggan"].load(ROOT / SHIPPED_MODEL, problem)  # its weights fit a problem of its K
     assert (ROOT / SHIPPED_MODEL).stat().st_size < 1_000_000  # a small file in the repository
+
+
+def test_a_briefly_trained_generator_beats_random_allocations_of_the_same_count():
+    chip = synthetic_chip(6, 1, size=40)
+    pair = (chip, decompose_chip(chip, DecomposeConfig(n_regions=3)))
+    evaluate = AllocationEvaluator(chip_coverage(*pair, TINY), chip.chip_id, 0)
+    random = evaluate(allocation_to_counts(deployment_share_draws(np.random.default_rng(1), 64, 3, 3), 20))
+    random_hypervolume = team_hypervolume(random[non_dominated(random)])  # 9.39
+    fronts = {}
+    for iterations in (5, 200):  # barely trained, then trained (archive: X_pop evolves on from the last one)
+        trained = train(TeamsProblem([pair], TINY, EvolutionConfig(archive=True)), NetworkConfig(latent=4, hidden=32),
+                        TrainConfig(iterations=iterations, batch=16, tasks=1, evolution="nsga2", log_every=5,
+                                    checkpoint_every=5, lr_generator=1e-3, lr_discriminator=1e-3, seed=1))
+        draws = LEARNERS["teams"]["eggan"].answer(trained.generator, 64)
+        fronts[iterations] = query_front(draws, *pair, TINY, 0, evaluate).hypervolume
+    assert fronts[5] < random_hypervolume < fronts[200]  # 7.5 < 9.4 < 11.2
+
+
+def test_validation_chips_are_held_out_of_training_and_the_summary_flags_a_discriminator_at_chance():
+    chips = [(synthetic_chip(6, index, size=40), None) for index in range(3)]
+    training, validation = split_validation(chips, EgganConfig(validation_chips=1))
+    assert training == chips[:2] and validation == chips[2:]
+    with pytest.raises(InputError, match="validation_chips: 3 of 3 training chips leaves none"):
+        split_validation(chips, EgganConfig(validation_chips=3))
+    rows = [{"d_accuracy": 0.9, "validation_hypervolume": np.nan}] * 9 + [{"d_accuracy": 0.52,
+                                                                           "validation_hypervolume": 4.0}]
+    assert training_summary(rows) == {"d_accuracy_final": 0.52, "d_at_chance": True,
+                                      "validation_hypervolume_first": 4.0, "validation_hypervolume_best": 4.0,
+                                      "validation_hypervolume_last": 4.0}
+    assert training_summary(rows[:9])["d_at_chance"] is False
