@@ -54,6 +54,10 @@ def teams_yaml(**changed: str) -> str:
     (teams_yaml(chips="{n_synthetic: -1}"), r"teams.chips.n_synthetic: expected an integer >= 1, found -1"),
     (teams_yaml(coverage="{learning_rate: .nan}"), r"teams.coverage.learning_rate: expected a number > 0"),
     (teams_yaml(experiments="{mutation_rate: 2}"), r"teams.experiments.mutation_rate: expected a probability"),
+    (teams_yaml(eggan="{fitness: {source: surrogate}}"),
+     r"teams.eggan.fitness.source: expected one of \['exact', 'model'\], found 'surrogate'"),
+    (teams_yaml(eggan="{fitness: {budget: 0}}"), r"teams.eggan.fitness.budget: expected a positive integer"),
+    (teams_yaml(eggan="{validate_every: 7}"), r"teams.eggan.validate_every: expected 0 or a multiple of 5"),
 ])
 def test_bad_params_name_file_field_and_expectation(tmp_path, text, message):
     with pytest.raises(InputError, match=message) as error:
