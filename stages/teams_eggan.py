@@ -52,7 +52,8 @@ def main() -> None:
         write_table(coverage_examples(queried[:FIGURE_CHIPS], fronts, params.coverage, FIGURE_BUDGET,
                                       experiments.seeds[0]),
                     "data/teams/coverage_examples.parquet", "teams_coverage_examples")
-        metrics = {"train_chips": len(train_chips), "test_chips": len(queried), "iterations": params.eggan.iterations,
+        metrics = {"train_chips": len(problem.chips), "validation_chips": params.eggan.validation_chips,
+                   "test_chips": len(queried), "iterations": params.eggan.iterations,
                    "distinct_teams": problem.real_evaluations, "team_lookups": problem.team_lookups,
                    "mean_hypervolume": round(float(queries.hypervolume.mean()), 4),
                    "final_pop_coverage_best": round(trained.rows[-1]["pop_coverage_cost_best"], 5),
