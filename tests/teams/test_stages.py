@@ -39,11 +39,15 @@ def test_stages_write_their_tables_deterministically(tmp_path, monkeypatch):
     run_stage("teams_baselines")
     outputs = ["nsga2", "fronts", "coverage", "trajectories", "team_costs"]
     first = {name: Path(f"data/teams/{name}.parquet").read_bytes() for name in outputs}
+    random = pd.read_csv("data/teams/random_fronts.csv")
+    assert random.draws.tolist() == [64, 512] and random.hypervolume.is_monotonic_increasing
+    first["random_fronts"] = Path("data/teams/random_fronts.csv").read_bytes()
     nsga2 = pd.read_parquet("data/teams/nsga2.parquet")
     assert nsga2.population.tolist() == [4, 6] and (nsga2.distinct_teams < nsga2.team_lookups).all()
     run_stage("teams_baselines")  # every memo starts empty again: the same bytes
     for name in outputs:
         assert Path(f"data/teams/{name}.parquet").read_bytes() == first[name], name
+    assert Path("data/teams/random_fronts.csv").read_bytes() == first["random_fronts"]
 
 
 def test_eggan_stage_trains_queries_and_resumes(tmp_path, monkeypatch):
