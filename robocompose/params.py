@@ -42,6 +42,7 @@ SECTIONS = {
     "train_vae": ("robocompose.latent.params", "TrainVaeParams"),
     "train_vae.landscape": ("robocompose.latent.landscape", "LandscapeConfig"),
     "glso": ("robocompose.glso.runs", "GLSOConfig"),
+    "glso_campaign": ("robocompose.glso.campaign", "CampaignConfig"),
 }
 
 

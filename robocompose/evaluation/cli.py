@@ -54,9 +54,9 @@ def _evaluate(args: argparse.Namespace) -> int:
 def register_fidelity(subparsers: argparse._SubParsersAction) -> None:
     fidelity = subparsers.add_parser("evaluator-fidelity",
                                      help="score a fixed design set under a ladder of MPPI settings (hours)")
-    fidelity.add_argument("action", choices=("build-set", "search", "measure", "summarise"),
-                          help="build-set: the design set; search: the searches whose best designs join the set "
-                               "(resumable); measure: score what the pieces lack; summarise: the table")
+    fidelity.add_argument("action", choices=("build-set", "measure", "summarise"),
+                          help="build-set: the design set; measure: score what the pieces lack; summarise: the "
+                               "table (the search-found designs: `robocompose fidelity-search`)")
     fidelity.add_argument("--params", default="params.yaml", help="params file whose `evaluator_fidelity` is used")
     fidelity.add_argument("--tasks", help="comma-separated tasks instead of evaluator_fidelity.tasks")
     fidelity.add_argument("--rungs", help="comma-separated ladder rungs instead of evaluator_fidelity.rungs")
@@ -64,8 +64,6 @@ def register_fidelity(subparsers: argparse._SubParsersAction) -> None:
                                             "process on another part of the set)")
     fidelity.add_argument("--kinds", help="measure: comma-separated kinds of design (reference, search, screened, "
                                           "random), only these")
-    fidelity.add_argument("--checkpoints", type=Path, default=Path("data/fidelity_searches"),
-                          help="search: where each search's checkpoint is kept (default: data/fidelity_searches)")
     fidelity.add_argument("--dataset", type=input_file("a designs table (parquet)"),
                           default=Path("data/designs.parquet"),
                           help="build-set: the dataset whose first designs are drawn (default: data/designs.parquet)")
@@ -89,14 +87,6 @@ def _fidelity(args: argparse.Namespace) -> int:
         print(json.dumps({"designs": str(fidelity.write_design_set(table, config.directory))}))
         return 0
     designs = fidelity.read_design_set(config.directory)
-    if args.action == "search":
-        from robocompose.evaluation import search_designs
-        from robocompose.glso.runs import GLSOConfig
-
-        search_designs.run_searches(config, load_section(GLSOConfig, "glso", args.params), args.checkpoints)
-        designs = search_designs.add_search_designs(config, designs)
-        print(json.dumps({"designs": str(fidelity.write_design_set(designs, config.directory)),
-                          "search_designs": int((designs["kind"] == fidelity.SEARCH).sum())}))
     if args.action == "measure":
         chosen = designs
         if args.kinds:

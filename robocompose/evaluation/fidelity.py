@@ -9,7 +9,7 @@ Spearman rank correlation with the thesis rung's scores, and whether the thesis 
 the rung's top 3. `choose_default` picks the cheapest rung that ranks like the thesis on every task.
 
     robocompose evaluator-fidelity build-set    # once, after `dvc repro enumerate`: the design set (committed)
-    robocompose evaluator-fidelity search       # hours: searches at cheap rungs; their best designs join the set
+    robocompose fidelity-search                 # hours: searches at cheap rungs; their best designs join the set
     robocompose evaluator-fidelity measure      # hours: resumable, skips rows already in the pieces
     robocompose evaluator-fidelity summarise    # the table
 
@@ -20,7 +20,7 @@ use the optimisers' objective (`objective`: an invalid result gets its penalty s
 seed 0, the settings of the default profile.
 
 What a search finds is what the evaluator must rank: the designs of kind `search` are the best designs of
-searches run at cheap rungs (`robocompose.evaluation.search_designs`). The thesis rung repeated with
+searches run at cheap rungs (`robocompose.glso.fidelity_search`). The thesis rung repeated with
 controller seed 1 (`thesis_seed1`) gives the noise ceiling: the seed-to-seed Spearman of the thesis setting.
 The selection rule (`choose_default`) ranks rungs on the search-found designs alone.
 """

@@ -4,6 +4,8 @@ in `registry.METHODS`; runs become step tables (`runs.py`); `robocompose glso` r
 
 FIG_8_1 = ("random", "ga", "mcts", "ghs", "glso")  # the thesis's comparison with baselines
 FIG_8_2 = ("glso", "glso_nopred", "glso_nogram")  # the thesis's ablations
+LABELS = {"glso": "GLSO", "glso_nopred": "GLSO_nopred", "glso_nogram": "GLSO_nogram", "random": "Random",
+          "ga": "GA", "mcts": "MCTS", "ghs": "GHS"}  # method -> the thesis's legend name
 
 
 def best_designs(steps):  # (pd.DataFrame) -> pd.DataFrame; no pandas import here: the CLI imports this package

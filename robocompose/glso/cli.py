@@ -6,7 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
-from robocompose.arguments import dask_address
+from robocompose.arguments import add_compute_arguments, dask_address
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -25,6 +25,62 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                       help="run the search on a worker of this Dask scheduler (tcp://host:8786; default: params' "
                            "compute.address; \"\" = here); its lines print when it finishes")
     glso.set_defaults(handler=_glso)
+    campaign = subparsers.add_parser("glso-campaign", help="the seeded GLSO campaign: run what is missing (hours, "
+                                     "resumable) or summarise the committed runs")
+    campaign.add_argument("action", choices=("run", "summarise"),
+                          help="run: every missing run, then the re-scores; summarise: the statistics as JSON")
+    campaign.add_argument("--params", default="params.yaml",
+                          help="params file (sections glso_campaign, glso, evaluation, compute)")
+    campaign.add_argument("--rung", default=None, help="the fidelity rung of the runs (default: glso_campaign.rung, "
+                                                       "else the one the evaluator fidelity rule chose)")
+    add_compute_arguments(campaign)
+    campaign.set_defaults(handler=_campaign)
+    search = subparsers.add_parser("fidelity-search", help="searches at cheap fidelity rungs whose best designs join "
+                                   "the evaluator fidelity set (hours, resumable)")
+    search.add_argument("--params", default="params.yaml", help="params file (sections evaluator_fidelity, glso)")
+    search.add_argument("--checkpoints", default="data/fidelity_searches",
+                        help="where each search's checkpoint is kept (default: data/fidelity_searches)")
+    search.set_defaults(handler=_fidelity_search)
+
+
+def _fidelity_search(args: argparse.Namespace) -> int:
+    from robocompose.evaluation import fidelity
+    from robocompose.glso import fidelity_search
+    from robocompose.glso.runs import GLSOConfig
+    from robocompose.params import load_section
+
+    config = load_section(fidelity.FidelityConfig, "evaluator_fidelity", args.params)
+    designs = fidelity.read_design_set(config.directory)
+    fidelity_search.run_searches(config, load_section(GLSOConfig, "glso", args.params), args.checkpoints)
+    designs = fidelity_search.add_search_designs(config, designs)
+    print(json.dumps({"designs": str(fidelity.write_design_set(designs, config.directory)),
+                      "search_designs": int((designs["kind"] == fidelity.SEARCH).sum())}))
+    return 0
+
+
+def _campaign(args: argparse.Namespace) -> int:
+    import dataclasses
+
+    from robocompose.arguments import command_compute
+    from robocompose.evaluation.evaluate import EvaluationConfig
+    from robocompose.glso import campaign
+    from robocompose.glso.runs import GLSOConfig
+    from robocompose.params import load_section
+
+    config = load_section(campaign.CampaignConfig, "glso_campaign", args.params)
+    if args.rung is not None:
+        config = dataclasses.replace(config, rung=args.rung)  # re-checked by __post_init__
+    if args.action == "run":
+        rung = campaign.campaign_rung(config)
+        glso = load_section(GLSOConfig, "glso", args.params)
+        evaluation = load_section(EvaluationConfig, "evaluation", args.params)
+        with command_compute(args, args.params).executor() as executor:
+            tables = campaign.run_campaign(config, glso, evaluation, rung, executor)
+        print(json.dumps({"rung": rung, "finished": len(tables), "planned": len(campaign.run_specs(config))}))
+        return 0
+    summary = campaign.summarise(config)
+    print(json.dumps({k: summary[k] for k in ("runs", "planned")} | {"tests": summary["tests"]}, default=float))
+    return 0
 
 
 def _remote_search(job: tuple) -> object:
@@ -100,8 +156,11 @@ def _glso(args: argparse.Namespace) -> int:
     else:
         steps = run_search(spec, config, evaluation, on_step=show, checkpoint=checkpoint, table=out, model_path=model,
                            named_checkpoint=True, cache=compute.open_cache())
-    best = steps.loc[steps["score"].idxmax()]
-    print(json.dumps({"best": {"design_id": best.design_id, "rules": list(best.rules), "score": best.score,
-                               "status": best.status, "step": int(best.step), "parents": list(best.parents),
-                               "tokens": list(best.tokens)}}))
+    from robocompose.glso import best_designs
+
+    found = best_designs(steps)  # the best simulated design: an invalid score is never a result
+    best = None if found.empty else found.iloc[0]
+    print(json.dumps({"best": None if best is None else {
+        "design_id": best.design_id, "rules": list(best.rules), "score": best.score, "status": best.status,
+        "step": int(best.step), "parents": list(best.parents), "tokens": list(best.tokens)}}))
     return 0

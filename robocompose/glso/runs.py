@@ -34,6 +34,7 @@ import dataclasses
 import hashlib
 import json
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -70,7 +71,7 @@ class RunSettings:
     def __post_init__(self) -> None:
         for section, cls in settings_sections().items():
             if isinstance(getattr(self, section), dict):
-                object.__setattr__(self, section, build_config(cls, getattr(self, section), f"glso.{section}"))
+                object.__setattr__(self, section, build_config(cls, getattr(self, section), "glso." + section))
         unknown = [m for m in self.methods if m not in METHODS]
         check_field(not unknown, "methods", f"some of {list(METHODS)}", unknown[:1])
         for task in self.tasks:
@@ -169,6 +170,10 @@ def run_search(spec: RunSpec, config: GLSOConfig, evaluation: EvaluationConfig,
     torch.set_num_threads(1)
     threadpool_limits(1)
     check_field(spec.method in METHODS, "method", f"one of {list(METHODS)}", spec.method)
+    init = getattr(config.settings(spec.method), "init", None)
+    if METHODS[spec.method].variant is not None and init is not None and init >= config.budget:
+        warnings.warn(f"glso: {spec.method} has init {init} >= budget {config.budget}: every call is a random "
+                      "latent point, no BO step is taken", stacklevel=2)
     model_path = model_path or config.model_path(spec.method)
     env = SearchEnv(get_task(spec.task).name)
     if model_path is not None:

@@ -36,6 +36,7 @@ def build_report(params: ReportParams, reports_dir: Path = Path("reports"), data
         fidelity.section(reports_dir, params.mppi),
         latent.section(reports_dir, data_dir, params.train_vae),
         glso.section(reports_dir, data_dir),
+        glso.campaign_section(reports_dir),
         modular.section(reports_dir, data_dir, params.modular),
         eggan.section(reports_dir, data_dir),
         teams.section(reports_dir, data_dir),

@@ -42,7 +42,7 @@ def section(reports_dir: Path, mppi: MPPIConfig) -> str:
              "One fixed set of designs scored under a ladder of MPPI settings, controller seed 0. The base set: the "
              "two RoboGrammar reference designs, random dataset designs and the best of a quick random search. The "
              "search-found designs: the best designs of GLSO, random search, MCTS and GHS runs at two cheap rungs "
-             "(`robocompose evaluator-fidelity search`), what a search hands the evaluator to rank. Spearman is the "
+             "(`robocompose fidelity-search`), what a search hands the evaluator to rank. Spearman is the "
              "rank correlation with the thesis setting's scores (64 samples, 512 for the first update, horizon 16, "
              "128 control steps) over the designs measured at both; `top 3` says whether the thesis setting's best "
              "base design is among the setting's three best; the noise ceiling is the thesis setting against itself "

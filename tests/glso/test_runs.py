@@ -150,3 +150,9 @@ def test_runs_on_a_dask_cluster_match_local_processes(tiny_models, tmp_path):
                       silence_logs=40) as cluster, Executor(address=cluster.scheduler_address) as executor:
         remote, _ = run_all(config, TINY, tmp_path / "dask", executor)
     assert remote.equals(local)
+
+
+def test_glso_warns_when_its_random_init_fills_the_budget(small_config):
+    config = dataclasses.replace(small_config, budget=3)  # init 3: no BO step
+    with pytest.warns(UserWarning, match="init 3 >= budget 3"):
+        run_search(RunSpec("flat", "glso", 0), config, EVALUATION, objective_fn=fake_objective)

@@ -55,3 +55,28 @@ def test_section_draws_both_figures_the_table_and_the_best_design(tmp_path):
     discarded = steps.groupby("method")["rejected"].mean()
     assert f"| Random | 0% | {(steps[steps.method == 'random'].status != 'ok').mean():.0%} | " \
            f"{discarded['random']:.1f} |" in text and "The accounting rule, one for every method" in text
+
+
+def test_the_campaign_section_gives_verdicts_only_from_the_corrected_tests(tmp_path):
+    import json
+
+    from robocompose.glso.campaign import compare
+    from robocompose.report.glso import campaign_section
+
+    assert "Not run yet" in campaign_section(tmp_path)
+    (tmp_path / "metrics").mkdir()
+    (tmp_path / "metrics" / "glso_campaign.json").write_text(json.dumps({"runs": 0, "planned": 31}))
+    assert "0 of 31 planned" in campaign_section(tmp_path)
+    values = {"glso": [5.0, 5.1, 5.2, 5.3, 5.4], "random": [4.0, 4.1, 4.2, 4.3, 4.4],
+              "mcts": [4.9, 5.5, 5.0, 5.6, 5.05], "glso_nopred": [4.0, 4.1, 4.2]}
+    finals = pd.DataFrame([{"task": "flat", "method": m, "seed": i, "search": v, "rescored": v}
+                           for m, vs in values.items() for i, v in enumerate(vs)])
+    tests = compare(finals, "search", 100, 0.05) + compare(finals, "rescored", 100, 0.05)
+    (tmp_path / "metrics" / "glso_campaign.json").write_text(json.dumps(
+        {"runs": 18, "planned": 31, "budget": 200, "rescore_seeds": [101, 102], "finals": finals.to_dict("records"),
+         "tests": tests}))
+    text = campaign_section(tmp_path)
+    assert "| GLSO | flat | 5.200 [5.100, 5.300] (n=5) |" in text
+    assert "GLSO best of Fig. 8.1: **not shown**" in text  # MCTS is not beaten
+    assert "GLSO_nopred p = 0.018) (no runs yet of GLSO_nogram)" in text  # significant, but one ablation only
+    assert "both ablations worse than GLSO (Fig. 8.2): **not shown**" in text

@@ -5,8 +5,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from robocompose.evaluation import fidelity, search_designs
+from robocompose.evaluation import fidelity
 from robocompose.evaluation.fidelity import FidelityConfig
+from robocompose.glso import fidelity_search as search_designs
 
 
 def _set(n: int) -> pd.DataFrame:

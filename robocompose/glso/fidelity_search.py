@@ -6,7 +6,7 @@ points first); the `search_top` best distinct simulated designs of every search 
 (`reports/fidelity/designs.csv`) as kind `search`. Each search's step table is committed under
 `reports/fidelity/searches/` as the record of where its designs came from.
 
-    robocompose evaluator-fidelity search      # hours: resumable (a checkpoint per search); then adds the designs
+    robocompose fidelity-search      # hours: resumable (a checkpoint per search); then adds the designs
 """
 
 from __future__ import annotations
@@ -73,7 +73,7 @@ def add_search_designs(config: FidelityConfig, designs: pd.DataFrame) -> pd.Data
     for task, rung, method in search_specs(config):
         path = search_path(config.directory, task, rung, method)
         if not path.exists():
-            raise InputError(f"{path}: search step table not found (run `robocompose evaluator-fidelity search`)")
+            raise InputError(f"{path}: search step table not found (run `robocompose fidelity-search`)")
         steps = read_table(path, "glso_steps")
         ok = steps[(steps["status"] == OK) & (steps["rules"].map(len) > 0)]
         best = ok.sort_values(["reward", "step"], ascending=[False, True], kind="stable").drop_duplicates("design_id")

@@ -1,0 +1,326 @@
+"""The GLSO campaign (thesis 8, Figs. 8.1 and 8.2 at a budget that can test the thesis): every (task, method,
+seed) run of `budget` objective calls at the campaign's evaluator rung, each run's final best re-scored at the
+thesis setting with controller seeds the search never used, and the statistics a reviewer asks for.
+
+    robocompose glso-campaign run [--address tcp://SCHEDULER:8786]   # hours: resumable, a table per finished run
+    robocompose glso-campaign summarise                              # the statistics (stage glso_campaign)
+
+Runs: GLSO's loop as the thesis's (`init` random points, then BO steps), the GA at the thesis's population,
+every method under the accounting rule of `runs.py`. A finished run's step table is written to
+`<directory>/<task>_<method>_seed<k>.parquet` (committed, so that a campaign of many core-hours is
+summarised by the default pipeline and survives the machine); a run in progress lives in its checkpoint under
+`checkpoints` and resumes there. Runs go seed-major (every method's seed 0 first), so a partial campaign
+already compares every method. Each finished run's best simulated design is then re-scored at the thesis
+setting once per `rescore_seeds` into `<directory>/rescores.csv` (one appended line per score). The
+directory holds nothing else: it is the summarising stage's one dependency.
+
+Statistics (`summarise`), per task: best-so-far curves as median and interquartile range over seeds; the
+final best at the search rung and re-scored (mean over the re-score seeds; NaN when a re-score cannot be
+simulated); one-sided Mann-Whitney U of GLSO > each other method, Holm-corrected within a family (the
+baselines of Fig. 8.1; the ablations of Fig. 8.2); the median difference GLSO - method with a percentile
+bootstrap 95% interval. With n seeds per side the smallest one-sided p is 1 / C(n + m, n) (5 vs 5: 0.004;
+3 vs 5: 0.018), so small campaigns cannot reach significance after correction; the summary says so.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from robocompose.evaluation.evaluate import OK, EvaluationConfig, evaluate, objective
+from robocompose.evaluation.fidelity import THESIS, rung_config
+from robocompose.glso import FIG_8_1, FIG_8_2, LABELS, best_designs
+from robocompose.glso.registry import METHODS
+from robocompose.glso.runs import GLSOConfig, RunSpec, run_search
+from robocompose.grammar.tree import DesignTree
+from robocompose.io import read_table, write_table
+from robocompose.io.atomic import read_json
+from robocompose.io.errors import InputError, check_field
+
+BASELINES = tuple(m for m in FIG_8_1 if m != "glso")  # Fig. 8.1's family of comparisons
+ABLATIONS = tuple(m for m in FIG_8_2 if m != "glso")  # Fig. 8.2's
+RESCORE_COLUMNS = ("task", "method", "seed", "design_id", "rescore_seed", "reward", "status", "objective")
+RESCORES_FILE = "rescores.csv"
+
+
+@dataclass(frozen=True)
+class CampaignConfig:
+    """The `glso_campaign:` section of params.yaml."""
+
+    directory: str = "reports/glso_campaign"  # finished runs and re-scores (committed)
+    checkpoints: str = "data/glso_campaign"  # runs in progress (not committed)
+    tasks: list[str] = field(default_factory=lambda: ["flat"])  # ridged after flat if time allows
+    seeds: dict[str, int] = field(default_factory=lambda: {  # run seeds per method: 0 .. n-1
+        "glso": 5, "random": 5, "mcts": 5, "ghs": 5, "ga": 5, "glso_nopred": 3, "glso_nogram": 3})
+    budget: int = 200  # objective calls per run
+    init: int = 50  # GLSO's random initial points, then budget - init BO steps (the thesis's loop)
+    population: int = 50  # the GA's (thesis)
+    rung: str = ""  # the fidelity rung of the runs; "" = the one `evaluator_fidelity` chose by the search rule
+    rescore_seeds: list[int] = field(default_factory=lambda: [101, 102])  # controller seeds of the re-scores ...
+    rescore_rung: str = THESIS  # ... at this fidelity rung (the thesis setting)
+    run: bool = False  # stage: False summarises the committed runs; True first runs what is missing
+    bootstrap: int = 2000  # resamples of each median-difference interval
+    alpha: float = 0.05
+
+    def __post_init__(self) -> None:
+        unknown = [m for m in self.seeds if m not in METHODS]
+        check_field(not unknown, "seeds", f"methods of {list(METHODS)}", unknown[:1])
+        check_field(self.budget > self.init >= 1, "init", f"1 .. budget - 1 = {self.budget - 1}", self.init)
+        check_field(bool(self.rescore_seeds), "rescore_seeds", "at least one controller seed", self.rescore_seeds)
+        for rung in filter(None, (self.rung, self.rescore_rung)):
+            rung_config(rung)
+
+
+def campaign_rung(config: CampaignConfig, choice_file: str | Path = "reports/metrics/evaluator_fidelity.json") -> str:
+    """The rung the runs use: `config.rung`, else the fidelity stage's choice, which must be the search rule's
+    (a provisional choice would make the campaign a smoke run)."""
+    if config.rung:
+        return config.rung
+    path = Path(choice_file)
+    if not path.exists():
+        raise InputError(f"{path}: not found; run `dvc repro evaluator_fidelity` or set glso_campaign.rung")
+    choice = read_json(path)
+    if choice.get("rule") != "search" or not choice.get("rung"):
+        raise InputError(f"{path}: the evaluator rung is not chosen by the search rule yet ({choice.get('reason')}); "
+                         "measure the search-found designs first (README, evaluator fidelity) or set "
+                         "glso_campaign.rung to run a labelled trial")
+    return choice["rung"]
+
+
+def run_specs(config: CampaignConfig) -> list[RunSpec]:
+    """Every run, seed-major: all methods' seed 0 first, so a partial campaign compares every method."""
+    most = max(config.seeds.values())
+    return [RunSpec(task, method, seed) for task in config.tasks for seed in range(most)
+            for method in METHODS if seed < config.seeds.get(method, 0)]
+
+
+def run_path(config: CampaignConfig, spec: RunSpec) -> Path:
+    return Path(config.directory) / f"{spec.name}.parquet"
+
+
+def search_config(config: CampaignConfig, glso: GLSOConfig) -> GLSOConfig:
+    """The `glso:` settings with the campaign's budget, GLSO init and GA population."""
+    return dataclasses.replace(glso, budget=config.budget, bo=dataclasses.replace(glso.bo, init=config.init),
+                               ga=dataclasses.replace(glso.ga, population=config.population))
+
+
+@dataclass(frozen=True)
+class CampaignJob:
+    """One run and its re-scores, as a picklable work item."""
+
+    spec: RunSpec
+    glso: GLSOConfig
+    evaluation: EvaluationConfig
+    table: str
+    checkpoint: str
+
+
+def run_job(job: CampaignJob) -> str:
+    """Run (or resume) one search; its step table appears at `job.table` only once complete."""
+    table = Path(job.table)
+    partial = Path(job.checkpoint).with_suffix(".parquet")
+    Path(job.checkpoint).parent.mkdir(parents=True, exist_ok=True)
+    steps = run_search(job.spec, job.glso, job.evaluation, checkpoint=Path(job.checkpoint), table=partial)
+    write_table(steps, table, "glso_steps")
+    partial.unlink(missing_ok=True)
+    return str(table)
+
+
+def best_design(steps: pd.DataFrame) -> pd.Series | None:
+    """A run's best simulated design (the first of equal rewards), or None if nothing was simulated."""
+    best = best_designs(steps)
+    return None if best.empty else best.iloc[0]
+
+
+def read_rescores(directory: str | Path) -> pd.DataFrame:
+    path = Path(directory) / RESCORES_FILE
+    if not path.exists():
+        return pd.DataFrame(columns=list(RESCORE_COLUMNS))
+    table = pd.read_csv(path, dtype={"design_id": str, "status": str})
+    missing = [c for c in RESCORE_COLUMNS if c not in table.columns]
+    if missing:
+        raise InputError(f"{path}: missing column {missing[0]!r}; expected {list(RESCORE_COLUMNS)}")
+    return table
+
+
+def _append_rescore(directory: Path, row: dict) -> None:
+    """One line per re-score, written and fsynced at once (a crash leaves whole lines)."""
+    directory.mkdir(parents=True, exist_ok=True)
+    path = directory / RESCORES_FILE
+    new = not path.exists()
+    with open(path, "a", encoding="utf-8", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(RESCORE_COLUMNS))
+        if new:
+            writer.writeheader()
+        writer.writerow(row)
+        f.flush()
+        os.fsync(f.fileno())
+
+
+def rescore(config: CampaignConfig, steps: pd.DataFrame, spec: RunSpec) -> int:
+    """Re-score a finished run's best simulated design at `rescore_rung` (the thesis setting), once per
+    re-score seed not yet recorded; the number of new scores."""
+    directory = Path(config.directory)
+    best = best_design(steps)
+    if best is None:
+        return 0
+    done = read_rescores(directory)
+    done = done[(done["task"] == spec.task) & (done["method"] == spec.method) & (done["seed"] == spec.seed)]
+    tree = DesignTree(tuple(best["parents"]), tuple(best["tokens"]))
+    added = 0
+    for seed in config.rescore_seeds:
+        if seed in set(done["rescore_seed"]):
+            continue
+        row = evaluate(tree, spec.task, EvaluationConfig(mppi=rung_config(config.rescore_rung), seed=seed), seed)
+        _append_rescore(directory, {"task": spec.task, "method": spec.method, "seed": spec.seed,
+                                    "design_id": best["design_id"], "rescore_seed": seed, "reward": row["reward"],
+                                    "status": row["status"], "objective": objective(row)})
+        added += 1
+    return added
+
+
+def run_campaign(config: CampaignConfig, glso: GLSOConfig, evaluation: EvaluationConfig, rung: str,
+                 executor: Any = None) -> list[Path]:
+    """Run every run whose table is missing (fanned out over `executor`), then re-score every finished run;
+    the finished tables. `evaluation` gives the settings besides MPPI; the runs use `rung`'s MPPI."""
+    from tqdm import tqdm
+
+    from robocompose.fanout.executor import Executor
+
+    for method in config.seeds:
+        path = glso.model_path(method)
+        if path is not None and not path.exists():
+            raise InputError(f"{path}: the VAE of method {method} is missing (dvc repro train_vae)")
+    settings = search_config(config, glso)
+    at_rung = dataclasses.replace(evaluation, mppi=rung_config(rung))
+    specs = run_specs(config)
+    jobs = [CampaignJob(spec, settings, at_rung, str(run_path(config, spec)),
+                        str(Path(config.checkpoints) / f"{spec.name}.pkl"))
+            for spec in specs if not run_path(config, spec).exists()]
+    executor = executor or Executor(workers=1)
+    list(tqdm(executor.imap(run_job, jobs), total=len(jobs), desc="campaign runs", unit="run"))
+    finished = [spec for spec in specs if run_path(config, spec).exists()]
+    for spec in tqdm(finished, desc="re-scores", unit="run"):
+        rescore(config, read_table(run_path(config, spec), "glso_steps"), spec)
+    return [run_path(config, spec) for spec in finished]
+
+
+def read_runs(config: CampaignConfig) -> pd.DataFrame:
+    """Every finished run's steps (the committed tables)."""
+    tables = [read_table(run_path(config, s), "glso_steps") for s in run_specs(config) if run_path(config, s).exists()]
+    return pd.concat(tables, ignore_index=True) if tables else pd.DataFrame()
+
+
+def curves(steps: pd.DataFrame) -> pd.DataFrame:
+    """Best so far after each call: median and interquartile range over seeds, per (task, method, calls)."""
+    frame = steps.assign(calls=steps["step"] + 1)
+    grouped = frame.groupby(["task", "method", "calls"])["best_so_far"]
+    return pd.DataFrame({"median": grouped.median(), "q25": grouped.quantile(0.25),
+                         "q75": grouped.quantile(0.75), "runs": grouped.size()}).reset_index()
+
+
+def holm(p: dict[str, float]) -> dict[str, float]:
+    """Holm-Bonferroni adjusted p-values (step-down, monotone, capped at 1)."""
+    order = sorted(p, key=p.get)
+    adjusted, running = {}, 0.0
+    for i, name in enumerate(order):
+        running = max(running, min(1.0, (len(order) - i) * p[name]))
+        adjusted[name] = running
+    return adjusted
+
+
+def bootstrap_median_difference(a: np.ndarray, b: np.ndarray, n: int, rng: np.random.Generator) -> tuple:
+    """median(a) - median(b) and its percentile bootstrap 95% interval (each side resampled on its own)."""
+    diffs = [np.median(rng.choice(a, len(a))) - np.median(rng.choice(b, len(b))) for _ in range(n)]
+    return float(np.median(a) - np.median(b)), float(np.percentile(diffs, 2.5)), float(np.percentile(diffs, 97.5))
+
+
+def final_bests(steps: pd.DataFrame, rescores: pd.DataFrame) -> pd.DataFrame:
+    """One row per run: its final best at the search rung and its re-scored best (mean over re-score seeds;
+    NaN if a re-score could not be simulated or is missing)."""
+    final = steps.sort_values("step").groupby(["task", "method", "seed"], as_index=False).last()
+    final = final[["task", "method", "seed", "best_so_far", "design_id"]].rename(columns={"best_so_far": "search"})
+    if len(rescores):
+        scored = rescores.assign(reward=np.where(rescores["status"] == OK, rescores["reward"], np.nan))
+        mean = scored.groupby(["task", "method", "seed"])["reward"].agg(lambda r: r.mean(skipna=False))
+        final = final.merge(mean.rename("rescored").reset_index(), on=["task", "method", "seed"], how="left")
+    else:
+        final["rescored"] = np.nan
+    return final
+
+
+def compare(final: pd.DataFrame, column: str, bootstrap: int, alpha: float, seed: int = 0) -> list[dict]:
+    """GLSO against each other method on `column`, per task: one-sided Mann-Whitney U (GLSO greater),
+    Holm-adjusted within its family, the median difference with a bootstrap 95% interval."""
+    from scipy.stats import mannwhitneyu
+
+    rng = np.random.default_rng(seed)
+    rows = []
+    for task, group in final.groupby("task", sort=False):
+        glso = group.loc[group["method"] == "glso", column].dropna().to_numpy()
+        for family in (BASELINES, ABLATIONS):
+            raw, found = {}, {}
+            for method in family:
+                other = group.loc[group["method"] == method, column].dropna().to_numpy()
+                if len(glso) and len(other):
+                    raw[method] = float(mannwhitneyu(glso, other, alternative="greater").pvalue)
+                    found[method] = other
+            for method, p_holm in holm(raw).items():
+                other = found[method]
+                diff, low, high = bootstrap_median_difference(glso, other, bootstrap, rng)
+                rows.append({"task": task, "on": column, "family": "baselines" if family is BASELINES else "ablations",
+                             "method": method, "n_glso": len(glso), "n_other": len(other), "p": raw[method],
+                             "p_holm": p_holm, "p_floor": 1 / math.comb(len(glso) + len(other), len(glso)),
+                             "median_difference": diff, "ci_low": low, "ci_high": high,
+                             "glso_better": bool(p_holm < alpha)})
+    return rows
+
+
+def summarise(config: CampaignConfig) -> dict:
+    """The campaign's statistics from the committed runs and re-scores (see the module docstring)."""
+    steps = read_runs(config)
+    planned = len(run_specs(config))
+    if steps.empty:
+        return {"runs": 0, "planned": planned, "finals": [], "tests": [], "curves": []}
+    rescores = read_rescores(config.directory)
+    final = final_bests(steps, rescores)
+    tests = compare(final, "search", config.bootstrap, config.alpha) + compare(
+        final, "rescored", config.bootstrap, config.alpha, seed=1)
+    return {"runs": int(len(final)), "planned": planned, "budget": int(steps["step"].max() + 1),
+            "rescore_seeds": list(config.rescore_seeds), "finals": final.to_dict("records"), "tests": tests,
+            "curves": curves(steps).to_dict("records")}
+
+
+def plot(summary: dict, path: str | Path) -> Path:
+    """Figs. 8.1 and 8.2 of the campaign: median best so far over seeds, band = interquartile range."""
+    import matplotlib.pyplot as plt
+
+    stats = pd.DataFrame(summary["curves"])
+    tasks = list(dict.fromkeys(stats["task"])) if len(stats) else ["flat"]
+    fig, axes = plt.subplots(2, len(tasks), figsize=(4.5 * len(tasks), 6.4), squeeze=False)
+    for row, (methods, title) in enumerate([(FIG_8_1, "Fig. 8.1"), (FIG_8_2, "Fig. 8.2")]):
+        for ax, task in zip(axes[row], tasks, strict=True):
+            for method in methods:
+                s = stats[(stats["task"] == task) & (stats["method"] == method)] if len(stats) else stats
+                if len(s):
+                    line, = ax.plot(s["calls"], s["median"], label=LABELS[method])
+                    ax.fill_between(s["calls"], s["q25"], s["q75"], color=line.get_color(), alpha=0.2)
+            ax.set_title(f"{title}: {task}")
+            ax.set_xlabel("objective calls")
+            ax.set_ylabel("best reward so far")
+            if ax.get_legend_handles_labels()[0]:
+                ax.legend(fontsize=8)
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

@@ -1,0 +1,102 @@
+import json
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from robocompose.evaluation import fidelity
+from robocompose.evaluation.evaluate import EvaluationConfig, evaluate
+from robocompose.glso import campaign
+from robocompose.glso.campaign import CampaignConfig, compare, holm, run_specs
+from robocompose.glso.runs import GLSOConfig
+from robocompose.grammar.tree import DesignTree
+
+
+def test_runs_go_seed_major_so_a_partial_campaign_compares_every_method():
+    config = CampaignConfig(seeds={"glso": 2, "random": 2, "glso_nopred": 1})
+    names = [s.name for s in run_specs(config)]
+    assert names == ["flat_glso_seed0", "flat_glso_nopred_seed0", "flat_random_seed0", "flat_glso_seed1",
+                     "flat_random_seed1"]
+
+
+@pytest.mark.parametrize("bad, message", [({"seeds": {"nelder_mead": 3}}, "seeds"), ({"init": 200}, "init"),
+                                          ({"rung": "fast"}, "unknown fidelity rung 'fast'")])
+def test_bad_campaign_settings_name_the_field(bad, message):
+    with pytest.raises(ValueError, match=message):
+        CampaignConfig(**bad)
+
+
+def test_holm_adjusts_step_down_and_stays_monotone():
+    assert holm({"a": 0.01, "b": 0.04, "c": 0.03}) == pytest.approx({"a": 0.03, "b": 0.06, "c": 0.06})
+    assert holm({"a": 0.5, "b": 0.6}) == {"a": 1.0, "b": 1.0}
+
+
+def _finals(values: dict[str, list[float]]) -> pd.DataFrame:
+    return pd.DataFrame([{"task": "flat", "method": m, "seed": i, "search": v, "rescored": v - 1.0}
+                         for m, vs in values.items() for i, v in enumerate(vs)])
+
+
+def test_glso_is_called_better_only_when_the_test_after_correction_says_so():
+    finals = _finals({"glso": [5.0, 5.1, 5.2, 5.3, 5.4], "random": [4.0, 4.1, 4.2, 4.3, 4.4],
+                      "mcts": [4.9, 5.5, 5.0, 5.6, 5.05], "glso_nopred": [4.0, 4.1, 4.2]})
+    rows = {r["method"]: r for r in compare(finals, "search", bootstrap=500, alpha=0.05)}
+    assert rows["random"]["p"] == pytest.approx(1 / math.comb(10, 5))  # every GLSO run beats every random run
+    assert rows["random"]["p_holm"] == pytest.approx(2 / math.comb(10, 5)) and rows["random"]["glso_better"]
+    assert not rows["mcts"]["glso_better"] and rows["mcts"]["p_holm"] >= rows["mcts"]["p"]
+    assert rows["glso_nopred"]["family"] == "ablations" and rows["glso_nopred"]["p_floor"] == 1 / math.comb(8, 3)
+    assert rows["random"]["median_difference"] == pytest.approx(1.0)
+    assert rows["random"]["ci_low"] <= 1.0 <= rows["random"]["ci_high"] and rows["random"]["ci_low"] > 0
+
+
+def test_the_rung_must_come_from_the_search_rule(tmp_path):
+    choice = tmp_path / "evaluator_fidelity.json"
+    choice.write_text(json.dumps({"rung": "s8_h8_e48", "rule": "provisional", "reason": "provisional: not measured"}))
+    with pytest.raises(ValueError, match="not chosen by the search rule yet"):
+        campaign.campaign_rung(CampaignConfig(), choice)
+    choice.write_text(json.dumps({"rung": "s32_h8_e48", "rule": "search", "reason": "r"}))
+    assert campaign.campaign_rung(CampaignConfig(), choice) == "s32_h8_e48"
+    assert campaign.campaign_rung(CampaignConfig(rung="s16_h8_e48"), choice) == "s16_h8_e48"
+
+
+def test_a_tiny_campaign_runs_resumes_rescores_and_summarises(tmp_path, monkeypatch):
+    """Random search and MCTS, 1 seed each, 3 calls at a tiny rung, re-scored at another tiny rung."""
+    monkeypatch.setitem(fidelity.LADDER, "tiny", (2, 2, 2, 3))
+    monkeypatch.setitem(fidelity.LADDER, "tiny_rescore", (2, 2, 2, 4))
+    config = CampaignConfig(directory=str(tmp_path / "campaign"), checkpoints=str(tmp_path / "ckpt"),
+                            seeds={"random": 1, "mcts": 1}, budget=3, init=1, population=2,
+                            rescore_rung="tiny_rescore", rescore_seeds=[7, 8], bootstrap=50)
+    tables = campaign.run_campaign(config, GLSOConfig(), EvaluationConfig(), "tiny")
+    assert [t.name for t in tables] == ["flat_random_seed0.parquet", "flat_mcts_seed0.parquet"]
+    assert sorted(p.name for p in (tmp_path / "campaign").iterdir()) == [
+        "flat_mcts_seed0.parquet", "flat_random_seed0.parquet", "rescores.csv"]
+    rescores = campaign.read_rescores(config.directory)
+    assert len(rescores) == 4 and sorted(set(rescores["rescore_seed"])) == [7, 8]
+    steps = campaign.read_runs(config)
+    best = campaign.best_design(steps[steps["method"] == "random"])
+    row = rescores[(rescores["method"] == "random") & (rescores["rescore_seed"] == 8)].iloc[0]
+    again = evaluate(DesignTree(tuple(best["parents"]), tuple(best["tokens"])), "flat",
+                     EvaluationConfig(mppi=fidelity.rung_config("tiny_rescore"), seed=8), 8)
+    assert row["design_id"] == best["design_id"] and row["reward"] == pytest.approx(again["reward"], rel=1e-12)
+
+    def never(*args, **kwargs):
+        raise AssertionError("a finished run or re-score ran again")
+
+    monkeypatch.setattr(campaign, "run_search", never)
+    monkeypatch.setattr(campaign, "evaluate", never)
+    campaign.run_campaign(config, GLSOConfig(), EvaluationConfig(), "tiny")  # everything is there: nothing runs
+    summary = campaign.summarise(config)
+    assert summary["runs"] == summary["planned"] == 2 and summary["budget"] == 3
+    finals = pd.DataFrame(summary["finals"])
+    assert (finals["search"] == steps.groupby("method")["best_so_far"].last().loc[finals["method"]].values).all()
+    assert np.allclose(finals.set_index("method").loc["random", "rescored"],
+                       rescores[rescores["method"] == "random"]["reward"].mean())
+    assert summary["tests"] == []  # no GLSO runs: nothing to compare
+    path = campaign.plot(summary, tmp_path / "plot.png")
+    assert path.stat().st_size > 0
+    json.dumps({k: v for k, v in summary.items() if k != "curves"})  # the stage writes it as JSON
+
+
+def test_the_summary_of_no_runs_says_so(tmp_path):
+    summary = campaign.summarise(CampaignConfig(directory=str(tmp_path)))
+    assert summary["runs"] == 0 and summary["planned"] == 31
