@@ -15,7 +15,6 @@ import numpy as np
 import pybullet as pb
 
 from robocompose.grammar.tree import DesignTree
-from robocompose.sim.self_collision import capsule_self_penetrating, exempt_pairs
 
 # Robot (Y-up) -> world (Z-up) rotation: x -> -X, y -> Z, z -> Y.
 ROBOT_TO_WORLD = np.array([[-1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
@@ -55,7 +54,7 @@ class BuiltRobot:
     body: int
     pb_link: tuple[int, ...]  # pybullet link index of each tree node (-1 for the root, the base)
     hinges: tuple[int, ...]  # pybullet joint indices of the actuated joints, in tree order
-    self_penetrating: bool  # two links overlap by more than SELF_PENETRATION_TOLERANCE at placement
+    self_penetrating: bool
 
 
 def depth_first_order(tree: DesignTree) -> list[int]:
@@ -136,8 +135,15 @@ def build(tree: DesignTree, client: int, visual: bool = False,
 
 def _filter_self_collision(tree: DesignTree, body: int, client: int, pb_link: list[int]) -> None:
     """Hinge parent-child pairs and links in one rigid (fixed-joint) group do not collide."""
-    for i, j in exempt_pairs(tree.links()):
-        pb.setCollisionFilterPair(body, body, pb_link[i], pb_link[j], 0, physicsClientId=client)
+    links = tree.links()
+    group = list(range(len(links)))  # rigid group representative of each link
+    for i, lk in enumerate(links[1:], start=1):
+        if lk.joint_kind == "fixed":
+            group[i] = group[lk.parent]
+    for i, lk in enumerate(links):
+        for j in range(i):
+            if group[i] == group[j] or lk.parent == j:
+                pb.setCollisionFilterPair(body, body, pb_link[i], pb_link[j], 0, physicsClientId=client)
 
 
 def place_on_floor(body: int, client: int, floor_top: float = 0.0, front_x: float = 0.0) -> None:
@@ -156,6 +162,12 @@ def aabb(body: int, client: int) -> tuple[np.ndarray, np.ndarray]:
     return np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)
 
 
+def self_penetrating(body: int, client: int) -> bool:
+    pb.performCollisionDetection(physicsClientId=client)
+    return any(c[8] < -SELF_PENETRATION_TOLERANCE
+               for c in pb.getContactPoints(body, body, physicsClientId=client))
+
+
 def build_at_rest(tree: DesignTree, client: int, floor_top: float = 0.0, front_x: float = 0.0,
                   visual: bool = False) -> BuiltRobot:
     """Build the robot in `client`, resting on the floor with its front at `front_x`.
@@ -167,5 +179,4 @@ def build_at_rest(tree: DesignTree, client: int, floor_top: float = 0.0, front_x
     body, pb_link = build(tree, client, visual=visual)
     place_on_floor(body, client, floor_top, front_x)
     hinges = tuple(pb_link[i] for i, lk in enumerate(tree.links()) if lk.joint_kind == "hinge")
-    return BuiltRobot(tree, client, body, pb_link, hinges,
-                      capsule_self_penetrating(tree, SELF_PENETRATION_TOLERANCE))
+    return BuiltRobot(tree, client, body, pb_link, hinges, self_penetrating(body, client))
