@@ -29,8 +29,9 @@ import numpy as np
 import pybullet as pb
 
 from robocompose.grammar.tree import DesignTree
-from robocompose.sim.builder import build_at_rest
+from robocompose.sim.builder import SELF_PENETRATION_TOLERANCE, build_at_rest
 from robocompose.sim.physics import PhysicsSettings, add_floor, configure
+from robocompose.sim.self_collision import capsule_self_penetrating
 
 MAX_PAIRS = 8  # contact manifolds read (GLSO: the first 8)
 MIN_POINTS = 4  # fewer floor points: invalid
@@ -97,14 +98,15 @@ def contact_features(tree: DesignTree, client: int, rest_self_penetrating: bool 
     """Rest the robot on a flat floor for 10 coarse steps and read its contact vector (see the module).
 
     With `rest_self_penetrating` False, a self-penetrating design is returned at once with padding
-    features (callers that reject it save the rest steps).
+    features, decided by the static capsule test before anything is built (callers that reject it save the
+    build and the rest steps).
     """
+    empty = contact_vector(np.zeros((0, 2)))
+    if not rest_self_penetrating and capsule_self_penetrating(tree.canonical_order(), SELF_PENETRATION_TOLERANCE):
+        return ContactResult(empty, 0, 0, False, "self_collision")  # decided without building it
     configure(client, REST_SETTINGS)
     add_floor(client, friction=FLOOR_FRICTION)
     robot = build_at_rest(tree, client)
-    empty = contact_vector(np.zeros((0, 2)))
-    if robot.self_penetrating and not rest_self_penetrating:
-        return ContactResult(empty, 0, 0, False, "self_collision")
     for _ in range(REST_STEPS):
         pb.stepSimulation(physicsClientId=client)
     raw = pair_points(pb.getContactPoints(bodyA=robot.body, physicsClientId=client))
