@@ -1,9 +1,10 @@
 """DVC stage `vae_landscape`: latent means of dataset designs (full and nopred VAEs) in 2-D, with flat-terrain
-scores from the evaluator -> data/vae_landscape.parquet (thesis Fig. 7.1)."""
+scores from the evaluator and the designs the committed fidelity searches scored -> data/vae_landscape.parquet
+(thesis Fig. 7.1); the k-NN predictability of those scores in latent space -> reports/metrics/vae_landscape.json."""
 
 from robocompose.evaluation.evaluate import EvaluationConfig
 from robocompose.fanout.compute import ComputeConfig
-from robocompose.io import write_table
+from robocompose.io import atomic_write_json, write_table
 from robocompose.io.timings import timed
 from robocompose.latent.landscape import LandscapeConfig, landscape
 from robocompose.latent.train import load_designs, load_model
@@ -18,9 +19,10 @@ def main() -> None:
     models = {name: load_model(f"models/vae_{name}.pt") for name in ("full", "nopred")}
     designs = load_designs("data/designs.parquet", "grammar", models["full"].config.max_nodes)
     with timed("vae_landscape") as timing, compute.executor("vae_landscape") as executor:
-        table = landscape(models, designs, config, evaluation, compute.open_cache(), executor)
+        table, knn = landscape(models, designs, config, evaluation, compute.open_cache(), executor)
         timing["evaluated"] = config.evaluated
         write_table(table, "data/vae_landscape.parquet", "vae_landscape")
+        atomic_write_json("reports/metrics/vae_landscape.json", {"knn_predictability": knn})
 
 
 if __name__ == "__main__":

@@ -156,7 +156,8 @@ SCHEMAS: dict[str, pa.Schema] = {
     "vae_landscape": pa.schema([
         _required("variant", pa.string()), _required("design_id", pa.string()), _required("pc1", pa.float64()),
         _required("pc2", pa.float64()), _required("explained1", pa.float64()), _required("explained2", pa.float64()),
-        _required("status", pa.string()), pa.field("reward", pa.float64(), nullable=True)]),
+        _required("status", pa.string()), pa.field("reward", pa.float64(), nullable=True),
+        _required("source", pa.string()), _required("task", pa.string()), _required("rung", pa.string())]),
 }
 
 # (table, column) -> exact number of values every row of that list column must hold.

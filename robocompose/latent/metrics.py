@@ -7,7 +7,9 @@
   no self-penetration, finite, GLSO's contact rule: >= 4 floor points, no mid-plane touch off the front).
 - uniqueness: distinct designs among the valid prior decodes; novelty: distinct valid decodes that are
   not in the training set.
-- property_mse: the predictor's MSE on the held-out contact vectors (None without a predictor).
+- property_mse: the predictor's MSE on the held-out contact vectors (None without a predictor);
+  property_baseline_mse: the MSE of predicting the training designs' mean contact vector instead, and
+  property_r2 = 1 - property_mse / property_baseline_mse (0: no better than the mean; None if that MSE is 0).
 
 Each decoding metric is reported twice: with the model's own (masked) decoder, and under
 "unconstrained" with the original's unmasked argmax over all 42 labels.
@@ -68,13 +70,19 @@ def vae_metrics(model: GraphVAE, train_set: Designs, test_set: Designs, prior_sa
     client = connect()
     out = {"heldout_designs": len(test_set.ids), "prior_samples": prior_samples,
            "constraints": model.config.constraints,
-           **decoding_metrics(model, train_set, test_set, prior_samples, seed, None, client), "property_mse": None}
+           **decoding_metrics(model, train_set, test_set, prior_samples, seed, None, client),
+           "property_mse": None, "property_baseline_mse": None, "property_r2": None}
     if model.predictor is not None:
         measured = ~np.isnan(test_set.contacts).any(1)
         with torch.no_grad():
             mean, _ = model.encoder(collate(test_set.replays, test_set.contacts))
             predicted = model.predictor(mean).numpy()
-        out["property_mse"] = float(np.mean((predicted[measured] - test_set.contacts[measured]) ** 2))
+        target = test_set.contacts[measured]
+        train_mean = train_set.contacts[~np.isnan(train_set.contacts).any(1)].mean(0)
+        out["property_mse"] = float(np.mean((predicted[measured] - target) ** 2))
+        out["property_baseline_mse"] = float(np.mean((train_mean - target) ** 2))
+        if out["property_baseline_mse"] > 0:  # else every held-out vector is the mean: R^2 is undefined
+            out["property_r2"] = 1 - out["property_mse"] / out["property_baseline_mse"]
     unconstrained = (out if model.config.constraints == UNCONSTRAINED else
                      decoding_metrics(model, train_set, test_set, prior_samples, seed, UNCONSTRAINED, client))
     out["unconstrained"] = {k: unconstrained[k] for k in DECODING_KEYS}

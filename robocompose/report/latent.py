@@ -14,10 +14,13 @@ from robocompose.io import read_table
 from robocompose.io.atomic import read_json
 from robocompose.io.errors import ArtifactError
 
+TASK = "flat"  # the task Fig. 7.1 colours
 VARIANTS = {"full": "GLSO (with property predictor)", "nopred": "GLSO_nopred", "nogram": "GLSO_nogram"}
 COLUMNS = [("reconstruction_accuracy", "reconstruction (held out)"), ("prior_validity", "prior valid (builds)"),
            ("prior_grammar_valid", "prior grammar-derivable"), ("prior_rest_valid", "prior passes rest check"),
-           ("uniqueness", "uniqueness"), ("novelty", "novelty"), ("property_mse", "property MSE (held out)")]
+           ("uniqueness", "uniqueness"), ("novelty", "novelty"), ("property_mse", "property MSE (held out)"),
+           ("property_baseline_mse", "MSE of the training mean"), ("property_r2", "property R^2")]
+PROPERTY_KEYS = {"property_mse", "property_baseline_mse", "property_r2"}
 
 
 def _fmt(value) -> str:
@@ -66,7 +69,7 @@ def section(reports_dir: Path, data_dir: Path, train_vae: dict) -> str:
             took = f"{seconds / 60:.1f} min" if seconds else "n/a"
             lines.append(f"| {label} | " + " | ".join(_fmt(metrics[name].get(k)) for k, _ in COLUMNS) + f" | {took} |")
     samples = next(iter(metrics.values())).get("prior_samples")
-    unmasked = [k for k, _ in COLUMNS if k != "property_mse"]
+    unmasked = [k for k, _ in COLUMNS if k not in PROPERTY_KEYS]
     lines += ["", "Decoded as the original (unmasked argmax over all 42 labels):", "",
               "| variant | " + " | ".join(label for k, label in COLUMNS if k in unmasked) + " |",
               "|---|" + "---|" * len(unmasked)]
@@ -96,7 +99,8 @@ def section(reports_dir: Path, data_dir: Path, train_vae: dict) -> str:
         plt.close(fig)
         lines += ["![VAE training curves](figures/vae_training.png)", ""]
 
-    lines += _landscape(data_dir / "vae_landscape.parquet", figures, plt)
+    lines += _landscape(data_dir / "vae_landscape.parquet", reports_dir / "metrics" / "vae_landscape.json", figures,
+                        plt)
     bench = reports_dir / "benchmarks.json"
     figures_ = read_json(bench) if bench.exists() else {}
     if "vae.steps_per_s" in figures_:
@@ -117,22 +121,25 @@ def _evaluation(path: Path) -> dict:
     return summary["evaluation"]
 
 
-def _landscape(path: Path, figures: Path, plt) -> list[str]:
+def _landscape(path: Path, knn_path: Path, figures: Path, plt) -> list[str]:
     if not path.exists():
         return [f"Latent landscape (Fig. 7.1): pending (stage `vae_landscape`, {path} missing)."]
     table = read_table(path, "vae_landscape")
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4.2))
-    scored = table[table["status"] == "ok"]
+    dataset = table[table["source"] == "dataset"]
+    flat = table[table["task"] == TASK]
+    scored = flat[flat["status"] == "ok"]
     low, high = (np.nanpercentile(scored["reward"], [5, 95]) if len(scored) else (0.0, 1.0))
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4.2))
     for ax, name in zip(axes, ("full", "nopred"), strict=True):
         part = table[table["variant"] == name]
         if part.empty:
             continue
-        ax.scatter(part["pc1"], part["pc2"], s=6, color="#cccccc", label="not scored")
-        ok = part[part["status"] == "ok"]
-        points = ax.scatter(ok["pc1"], ok["pc2"], c=ok["reward"], cmap="viridis", vmin=low, vmax=high, s=30,
+        unscored = part[part["status"] == ""]
+        ax.scatter(unscored["pc1"], unscored["pc2"], s=6, color="#cccccc", label="dataset, not scored")
+        ok = part[(part["status"] == "ok") & (part["task"] == TASK)]
+        points = ax.scatter(ok["pc1"], ok["pc2"], c=ok["reward"], cmap="viridis", vmin=low, vmax=high, s=22,
                             edgecolors="k", linewidths=0.3)
-        bad = part[(part["status"] != "ok") & (part["status"] != "")]
+        bad = part[(part["status"] != "ok") & (part["status"] != "") & (part["task"] == TASK)]
         ax.scatter(bad["pc1"], bad["pc2"], marker="x", color="#d62728", s=25, label="invalid in simulation")
         ax.set(title=f"{VARIANTS[name]}", xlabel=f"PC1 ({100 * part['explained1'].iloc[0]:.0f}% var.)",
                ylabel=f"PC2 ({100 * part['explained2'].iloc[0]:.0f}% var.)")
@@ -140,13 +147,35 @@ def _landscape(path: Path, figures: Path, plt) -> list[str]:
     fig.colorbar(points, ax=axes, label="flat-terrain reward (MPPI)")
     fig.savefig(figures / "vae_landscape.png", dpi=110)
     plt.close(fig)
-    n_scored = int((table[table["variant"] == "full"]["status"] != "").sum())
-    n_all = int((table["variant"] == "full").sum())
-    return ["![Latent landscape](figures/vae_landscape.png)", "",
-            f"Latent means of {n_all} dataset designs projected on their first two principal components; "
-            f"{n_scored} of them scored on flat terrain by the MPPI evaluator (one episode each at the default "
-            "evaluator settings; the thesis colours a few hundred, which would take hours on 2 cores here). "
-            f"Same designs and scores in both panels. The rewards span {low:.2f}-{high:.2f} (5th-95th "
-            "percentile; ~4 is standing still): at the default evaluator settings few designs move, so the "
-            "colours cannot show the thesis's grouping of good designs; the paper profile scores 300 designs "
-            "with the thesis's controller."]
+    full = table[table["variant"] == "full"]
+    n_scored = int(((full["source"] == "dataset") & (full["status"] != "")).sum())
+    found = full[full["source"] != "dataset"]
+    lines = ["![Latent landscape](figures/vae_landscape.png)", "",
+             f"Latent means of {int((full['source'] == 'dataset').sum())} dataset designs projected on their first "
+             f"two principal components; {n_scored} of them scored on flat terrain by the default evaluator (one "
+             f"episode each), and {len(found)} designs that the committed fidelity searches scored "
+             f"({', '.join(sorted(found['source'].str.removeprefix('search:').unique()))}; "
+             f"{', '.join(f'{t} at {r}' for t, r in sorted(set(zip(found['task'], found['rung'], strict=True))))}) "
+             "placed on the same axes; the flat ones are coloured (rungs mixed: the same task, cheaper or dearer "
+             f"MPPI settings). The flat rewards span {low:.2f}-{high:.2f} (5th-95th percentile; ~4 is standing "
+             "still). The thesis colours a few hundred designs scored with its controller; the campaign's scored "
+             "designs join here once its runs are committed."]
+    if len(dataset) and knn_path.exists():
+        knn = read_json(knn_path)["knn_predictability"]
+        if knn:
+            lines += ["", "Does the latent space order scores? Each scored search design's reward predicted by the "
+                      "mean of its 5 nearest neighbours in the full latent space (leave one out), Spearman against "
+                      "its reward, beside the same statistic over shuffled rewards (permutation test, one-sided):",
+                      "", "| VAE | task | rung | designs | k-NN Spearman | shuffled mean | shuffled 95th pct. | p |",
+                      "|---|---|---|---:|---:|---:|---:|---:|"]
+            for key, row in knn.items():
+                name, task, rung = key.split("/")
+                lines.append(f"| {VARIANTS[name]} | {task} | {rung} | {row['designs']} | {row['spearman']:.3f} | "
+                             f"{row['shuffled_mean']:.3f} | {row['shuffled_95']:.3f} | {row['p_value']:.3f} |")
+            above = {name: [k for k, row in knn.items() if k.startswith(f"{name}/")
+                            and row["spearman"] > row["shuffled_95"]] for name in ("full", "nopred")}
+            groups = {name: sum(k.startswith(f"{name}/") for k in knn) for name in ("full", "nopred")}
+            lines += ["", "Above the shuffled 95th percentile: "
+                      + "; ".join(f"{VARIANTS[name]} in {len(above[name])} of {groups[name]} groups"
+                                  for name in ("full", "nopred")) + "."]
+    return lines

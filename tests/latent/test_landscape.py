@@ -1,10 +1,22 @@
+from pathlib import Path
+
 import numpy as np
+import pandas as pd
+import pytest
 import torch
 
 from robocompose.control.mppi import MPPIConfig
 from robocompose.evaluation.evaluate import EvaluationConfig
+from robocompose.io import read_table, write_table
+from robocompose.io.errors import InputError
 from robocompose.latent.constraints import replay
-from robocompose.latent.landscape import LandscapeConfig, landscape, principal_components
+from robocompose.latent.landscape import (
+    LandscapeConfig,
+    knn_predictability,
+    landscape,
+    principal_components,
+    read_search_designs,
+)
 from robocompose.latent.model import GraphVAE, VAEConfig
 from robocompose.latent.train import Designs
 
@@ -25,11 +37,69 @@ def test_landscape_scores_the_subset_with_the_evaluator(make_trees):
                       np.zeros((len(trees), 16), dtype=np.float32))
     models = {name: GraphVAE(VAEConfig(hidden=8, latent=3)) for name in ("full", "nopred")}
     quick = EvaluationConfig(mppi=MPPIConfig(samples=2, first_samples=2, horizon=2, episode=2))
-    table = landscape(models, designs, LandscapeConfig(designs=10, evaluated=2), quick)
-    assert len(table) == 20 and set(table["variant"]) == {"full", "nopred"}
+    table, knn = landscape(models, designs, LandscapeConfig(designs=10, evaluated=2, searches=""), quick)
+    assert len(table) == 20 and knn == {} and set(table["source"]) == {"dataset"}
+    assert set(table["variant"]) == {"full", "nopred"}
     for _, part in table.groupby("variant"):
         assert (part["status"] != "").sum() == 2 and part["status"].iloc[2:].eq("").all()
         assert abs(part["pc1"].mean()) < 1e-6  # centred
     full, nopred = (table[table["variant"] == v].reset_index() for v in ("full", "nopred"))
     assert list(full["design_id"]) == list(nopred["design_id"])
     assert full["reward"].iloc[:2].equals(nopred["reward"].iloc[:2])  # same designs, same scores
+
+
+SEARCH = Path(__file__).parents[2] / "reports" / "fidelity" / "searches" / "flat__s8_h8_e48__random.parquet"
+
+
+def _search_tables(directory: Path) -> pd.DataFrame:
+    """A committed search table's first rows, its first 4 designs again under another method and on ridged."""
+    steps = read_table(SEARCH, "glso_steps").head(12)
+    write_table(steps, directory / "flat__s8_h8_e48__random.parquet", "glso_steps")
+    write_table(steps.head(4).assign(method="mcts"), directory / "flat__s8_h8_e48__mcts.parquet", "glso_steps")
+    write_table(steps.head(4).assign(task="ridged"), directory / "ridged__s8_h8_e48__random.parquet", "glso_steps")
+    return steps
+
+
+def test_search_designs_are_read_once_per_task_and_rung_with_their_first_result(tmp_path):
+    steps = _search_tables(tmp_path)
+    table, designs = read_search_designs(tmp_path, "grammar", 50)
+    flat = table[table["task"] == "flat"]
+    assert len(flat) == steps["design_id"].nunique() and len(table) == len(flat) + steps.head(4)["design_id"].nunique()
+    assert designs.ids == list(table["design_id"]) == [t.design_id for t in designs.trees]
+    first = steps.drop_duplicates("design_id").set_index("design_id")["reward"]
+    np.testing.assert_array_equal(flat.set_index("design_id")["reward"], first[flat["design_id"]])
+    (tmp_path / "flat_s8_random.parquet").write_bytes(SEARCH.read_bytes())
+    with pytest.raises(InputError, match="flat_s8_random.parquet: expected a search table named"):
+        read_search_designs(tmp_path, "grammar", 50)
+    with pytest.raises(InputError, match="missing is not a directory"):
+        read_search_designs(tmp_path / "missing", "grammar", 50)
+
+
+def test_search_designs_join_the_projection_on_the_dataset_axes(make_trees, tmp_path):
+    torch.manual_seed(0)
+    _search_tables(tmp_path)
+    trees = make_trees(10, 0, min_links=11)
+    designs = Designs([t.design_id for t in trees], trees, [replay(t, "grammar", 50) for t in trees],
+                      np.zeros((len(trees), 16), dtype=np.float32))
+    models = {"full": GraphVAE(VAEConfig(hidden=8, latent=3))}
+    quick = EvaluationConfig(mppi=MPPIConfig(samples=2, first_samples=2, horizon=2, episode=2))
+    config = LandscapeConfig(designs=10, evaluated=1, searches=str(tmp_path), neighbours=2, min_group=5, shuffles=20)
+    table, knn = landscape(models, designs, config, quick)
+    dataset, found = table[table["source"] == "dataset"], table[table["source"] != "dataset"]
+    assert len(dataset) == 10 and abs(dataset["pc1"].mean()) < 1e-6  # the axes are the dataset designs' own
+    # files in name order: the mcts table, read first, claims the 4 designs it repeats
+    assert found[found["task"] == "flat"]["source"].value_counts().to_dict() == {"search:random": 8, "search:mcts": 4}
+    assert set(knn) == {"full/flat/s8_h8_e48"}  # ridged has 4 designs, fewer than min_group
+    assert knn["full/flat/s8_h8_e48"]["designs"] == int((found[found["task"] == "flat"]["status"] == "ok").sum())
+
+
+def test_knn_predictability_tells_a_smooth_score_from_a_shuffled_one():
+    rng = np.random.default_rng(0)
+    latents = rng.normal(size=(120, 4))
+    smooth = knn_predictability(latents, latents[:, 0] + 0.1 * rng.normal(size=120), k=5, shuffles=200, seed=0)
+    noise = knn_predictability(latents, rng.normal(size=120), k=5, shuffles=200, seed=0)
+    assert smooth["spearman"] > 0.7 and smooth["p_value"] == pytest.approx(1 / 201)
+    assert abs(smooth["shuffled_mean"]) < 0.1 and smooth["shuffled_95"] < 0.3
+    assert noise["spearman"] < noise["shuffled_95"] and noise["p_value"] > 0.05
+    assert knn_predictability(latents, latents[:, 0], k=5, shuffles=50, seed=3) == \
+        knn_predictability(latents, latents[:, 0], k=5, shuffles=50, seed=3)  # seeded

@@ -50,3 +50,28 @@ def test_free_model_decodes_trees_the_grammar_does_not_make(nogram_trees):
     assert not all(derivation_matches(t) for t in trees)
     metrics = vae_metrics(model, _designs(nogram_trees[:20], "tree"), _designs(nogram_trees[20:], "tree"), 10, 0)
     assert metrics["property_mse"] is None and metrics["prior_validity"] == 1.0
+
+
+class _Constant(torch.nn.Module):
+    def __init__(self, value: np.ndarray) -> None:
+        super().__init__()
+        self.value = torch.as_tensor(value, dtype=torch.float32)
+
+    def forward(self, mean: torch.Tensor) -> torch.Tensor:  # (B, latent) -> (B, 16)
+        return self.value.expand(len(mean), -1)
+
+
+def test_property_r2_is_zero_for_the_training_mean_and_negative_below_it(trees):
+    rng = np.random.default_rng(0)
+    train, test = _designs(trees[:30], "grammar"), _designs(trees[30:], "grammar")
+    train = Designs(train.ids, train.trees, train.replays, rng.normal(size=(30, 16)).astype(np.float32))
+    test = Designs(test.ids, test.trees, test.replays, rng.normal(size=(10, 16)).astype(np.float32))
+    model = GraphVAE(VAEConfig(hidden=16, latent=4, max_nodes=30))
+    train_mean = train.contacts.mean(0)
+    model.predictor = _Constant(train_mean)
+    at_mean = vae_metrics(model, train, test, 4, seed=0)
+    assert at_mean["property_baseline_mse"] == pytest.approx(float(np.mean((train_mean - test.contacts) ** 2)), 1e-5)
+    assert at_mean["property_mse"] == pytest.approx(at_mean["property_baseline_mse"], 1e-5)
+    assert at_mean["property_r2"] == pytest.approx(0.0, abs=1e-5)
+    model.predictor = _Constant(train_mean + 1.0)
+    assert vae_metrics(model, train, test, 4, seed=0)["property_r2"] < -0.5

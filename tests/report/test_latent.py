@@ -1,3 +1,5 @@
+import json
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -11,7 +13,8 @@ TRAIN_VAE = {"model": {"hidden": 16, "latent": 4},
              "train": {"steps": 200, "batch_size": 8, "beta_start": 100, "beta_increment": 0.001, "beta_every": 10,
                        "pred_weight": 20.0, "holdout": 0.1}}
 METRIC = {"reconstruction_accuracy": 0.75, "prior_validity": 1.0, "prior_grammar_valid": 1.0,
-          "prior_rest_valid": 0.8, "uniqueness": 0.9, "novelty": 0.5, "property_mse": 0.25, "prior_samples": 100,
+          "prior_rest_valid": 0.8, "uniqueness": 0.9, "novelty": 0.5, "property_mse": 0.25,
+          "property_baseline_mse": 0.5, "property_r2": 0.5, "prior_samples": 100,
           "unconstrained": {"reconstruction_accuracy": 0.125, "prior_validity": 0.5, "prior_grammar_valid": 0.0,
                             "prior_rest_valid": 0.0, "uniqueness": 1.0, "novelty": 1.0}}
 
@@ -39,15 +42,26 @@ def test_section_shows_metrics_curves_and_landscape(tmp_path):
             log_evaluation(live, metric)
     text = section(tmp_path, tmp_path, TRAIN_VAE)
     assert "| GLSO (with property predictor) | 0.750 | 1.000" in text and "| GLSO_nopred |" in text
-    assert "n/a" in text  # nopred has no property predictor
+    assert "| 0.250 | 0.500 | 0.500 |" in text and "n/a" in text  # MSE, its mean baseline, R^2; nopred: none
     assert "| GLSO (with property predictor) | 0.125 | 0.500 | 0.000" in text  # decoded as the original
     assert (tmp_path / "figures" / "vae_training.png").exists()
     assert "Latent landscape (Fig. 7.1): pending" in text
 
     rows = [{"variant": v, "design_id": f"d{i}", "pc1": float(i), "pc2": float(-i), "explained1": 0.5,
-             "explained2": 0.2, "status": ["ok", "self_collision", ""][i % 3], "reward": [4.5, None, None][i % 3]}
-            for v in ("full", "nopred") for i in range(9)]
+             "explained2": 0.2, "status": ["ok", "self_collision", ""][i % 3], "reward": [4.5, None, None][i % 3],
+             "source": "dataset", "task": "flat", "rung": "default"} for v in ("full", "nopred") for i in range(9)]
+    rows += [{**row, "design_id": f"s{i}", "status": "ok", "reward": 4.0 + i / 10, "source": "search:glso",
+              "rung": "s8_h8_e48", "task": ["flat", "ridged"][i % 2]} for i, row in enumerate(rows)]
     write_table(pd.DataFrame(rows), tmp_path / "vae_landscape.parquet", "vae_landscape")
     text = section(tmp_path, tmp_path, TRAIN_VAE)
-    assert "figures/vae_landscape.png" in text and "6 of them scored" in text
+    assert "figures/vae_landscape.png" in text and "6 of them scored" in text and "and 9 designs" in text
+    assert "glso; flat at s8_h8_e48, ridged at s8_h8_e48" in text
     assert (tmp_path / "figures" / "vae_landscape.png").exists()
+
+    knn = {"spearman": 0.4, "shuffled_mean": 0.0, "shuffled_95": 0.15, "p_value": 0.001, "designs": 120}
+    (tmp_path / "metrics").mkdir()
+    (tmp_path / "metrics" / "vae_landscape.json").write_text(json.dumps({"knn_predictability": {
+        "full/flat/s8_h8_e48": knn, "nopred/flat/s8_h8_e48": {**knn, "spearman": 0.1}}}))
+    text = section(tmp_path, tmp_path, TRAIN_VAE)
+    assert "| GLSO (with property predictor) | flat | s8_h8_e48 | 120 | 0.400 | 0.000 | 0.150 | 0.001 |" in text
+    assert "GLSO (with property predictor) in 1 of 1 groups; GLSO_nopred in 0 of 1 groups" in text
