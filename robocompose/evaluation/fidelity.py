@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import csv
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -168,6 +169,51 @@ def read_design_set(directory: str | Path) -> pd.DataFrame:
     return table
 
 
+# Append-only CSV logs (the score pieces, the campaign's re-scores): several processes extend them one row at a
+# time. One row is one write() on an O_APPEND file followed by fsync, so a crash leaves whole lines and at most
+# one line cut off at the end; readers keep complete rows only. Values never contain commas or line breaks
+# (names, digests, numbers), which keeps a row's field count a completeness check.
+def _field(value: object) -> str:
+    text = "" if value is None else (repr(value) if isinstance(value, float) else str(value))
+    if "," in text or "\n" in text or "\r" in text:
+        raise ValueError(f"csv log value {text!r} contains a comma or a line break")
+    return text
+
+
+def append_row(path: str | os.PathLike[str], columns: Sequence[str], row: dict) -> None:
+    """Append `row` (its `columns`, in order; None is empty) to the log at `path`, creating it with a header."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    line = ",".join(_field(row[c]) for c in columns) + "\n"
+    if not path.exists():
+        try:
+            with open(path, "x", encoding="utf-8") as f:
+                f.write(",".join(columns) + "\n")
+        except FileExistsError:  # another process created it first
+            pass
+    with open(path, "rb") as f:  # a line cut off by a crash: end it, so it stays one bad line, ignored
+        f.seek(-1, os.SEEK_END)
+        cut = f.read(1) != b"\n"
+    fd = os.open(path, os.O_WRONLY | os.O_APPEND)
+    try:
+        os.write(fd, (("\n" if cut else "") + line).encode())
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def read_rows(path: str | os.PathLike[str], columns: Sequence[str]) -> list[list[str]]:
+    """The complete rows of the log at `path` as strings ([] if it does not exist); InputError on a wrong header."""
+    path = Path(path)
+    if not path.exists():
+        return []
+    lines = path.read_text(encoding="utf-8").splitlines(keepends=True)
+    if not lines or lines[0].strip() != ",".join(columns):
+        raise InputError(f"{path}: expected the header {','.join(columns)}")
+    complete = [line for line in lines[1:] if line.endswith("\n") and line.count(",") == len(columns) - 1]
+    return list(csv.reader(complete))
+
+
 def piece_path(directory: str | Path, task: str, rung: str) -> Path:
     return Path(directory) / SCORES_DIR / f"{task}__{rung}.csv"
 
@@ -179,38 +225,12 @@ def read_piece(path: Path) -> pd.DataFrame:
     measured it, and rows of an older digest stay (hours of CPU); that the current code gives the same
     scores is checked by re-measuring a sample (see docs/evaluation.md).
     """
-    if not path.exists():
-        return pd.DataFrame(columns=list(SCORE_COLUMNS))
-    text = path.read_text(encoding="utf-8")
-    lines = text.splitlines(keepends=True)
-    complete = [line for line in lines[1:] if line.endswith("\n") and line.count(",") == len(SCORE_COLUMNS) - 1]
-    if not lines or lines[0].strip() != ",".join(SCORE_COLUMNS):
-        raise InputError(f"{path}: expected the header {','.join(SCORE_COLUMNS)}")
-    rows = list(csv.reader(complete))
+    rows = read_rows(path, SCORE_COLUMNS)
     table = pd.DataFrame(rows, columns=list(SCORE_COLUMNS))
     for column in ("reward", "objective", "seconds"):  # an empty reward is a result without one (not ok)
         table[column] = pd.to_numeric(table[column].replace("", np.nan))
     table["sim_steps"] = table["sim_steps"].astype(int)
     return table.reset_index(drop=True)
-
-
-def _append(path: Path, row: dict) -> None:
-    """Append one row as one write() on an O_APPEND file, then fsync: a crash leaves whole lines only."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    if not path.exists():
-        with open(path, "x", encoding="utf-8") as f:
-            f.write(",".join(SCORE_COLUMNS) + "\n")
-    values = ["" if row[c] is None else (repr(row[c]) if isinstance(row[c], float) else str(row[c]))
-              for c in SCORE_COLUMNS]
-    with open(path, "rb") as f:  # a line cut off by a crash: end it, so it stays one bad line, ignored
-        f.seek(-1, os.SEEK_END)
-        cut = f.read(1) != b"\n"
-    fd = os.open(path, os.O_WRONLY | os.O_APPEND)
-    try:
-        os.write(fd, (("\n" if cut else "") + ",".join(values) + "\n").encode())
-        os.fsync(fd)
-    finally:
-        os.close(fd)
 
 
 def measure_order(designs: pd.DataFrame) -> pd.DataFrame:
@@ -245,9 +265,9 @@ def measure(config: FidelityConfig, designs: pd.DataFrame) -> int:
             continue
         seed = rung_seed(rung, config.seed)
         row = evaluate(trees[design_id], task, EvaluationConfig(mppi=rung_config(rung), seed=seed), seed)
-        _append(piece_path(config.directory, task, rung),
-                {"task": task, "rung": rung, "name": name, "design_id": design_id, **row,
-                 "objective": objective(row), "evaluator": simulation_digest(task)})
+        append_row(piece_path(config.directory, task, rung), SCORE_COLUMNS,
+                   {"task": task, "rung": rung, "name": name, "design_id": design_id, **row,
+                    "objective": objective(row), "evaluator": simulation_digest(task)})
         scored += 1
     return scored
 

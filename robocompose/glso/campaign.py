@@ -24,10 +24,8 @@ bootstrap 95% interval. With n seeds per side the smallest one-sided p is 1 / C(
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import math
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -36,7 +34,7 @@ import numpy as np
 import pandas as pd
 
 from robocompose.evaluation.evaluate import OK, EvaluationConfig, evaluate, objective
-from robocompose.evaluation.fidelity import THESIS, rung_config
+from robocompose.evaluation.fidelity import THESIS, append_row, read_rows, rung_config
 from robocompose.glso import FIG_8_1, FIG_8_2, LABELS, best_designs
 from robocompose.glso.registry import METHODS
 from robocompose.glso.runs import GLSOConfig, RunSpec, run_search
@@ -141,28 +139,13 @@ def best_design(steps: pd.DataFrame) -> pd.Series | None:
 
 
 def read_rescores(directory: str | Path) -> pd.DataFrame:
-    path = Path(directory) / RESCORES_FILE
-    if not path.exists():
-        return pd.DataFrame(columns=list(RESCORE_COLUMNS))
-    table = pd.read_csv(path, dtype={"design_id": str, "status": str})
-    missing = [c for c in RESCORE_COLUMNS if c not in table.columns]
-    if missing:
-        raise InputError(f"{path}: missing column {missing[0]!r}; expected {list(RESCORE_COLUMNS)}")
+    """Every complete re-score row (a line cut off by a crash mid-write is ignored)."""
+    table = pd.DataFrame(read_rows(Path(directory) / RESCORES_FILE, RESCORE_COLUMNS), columns=list(RESCORE_COLUMNS))
+    for column in ("seed", "rescore_seed"):
+        table[column] = table[column].astype(int)
+    for column in ("reward", "objective"):  # an empty reward is a result without one (not ok)
+        table[column] = pd.to_numeric(table[column].replace("", np.nan))
     return table
-
-
-def _append_rescore(directory: Path, row: dict) -> None:
-    """One line per re-score, written and fsynced at once (a crash leaves whole lines)."""
-    directory.mkdir(parents=True, exist_ok=True)
-    path = directory / RESCORES_FILE
-    new = not path.exists()
-    with open(path, "a", encoding="utf-8", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(RESCORE_COLUMNS))
-        if new:
-            writer.writeheader()
-        writer.writerow(row)
-        f.flush()
-        os.fsync(f.fileno())
 
 
 def rescore(config: CampaignConfig, steps: pd.DataFrame, spec: RunSpec) -> int:
@@ -180,9 +163,10 @@ def rescore(config: CampaignConfig, steps: pd.DataFrame, spec: RunSpec) -> int:
         if seed in set(done["rescore_seed"]):
             continue
         row = evaluate(tree, spec.task, EvaluationConfig(mppi=rung_config(config.rescore_rung), seed=seed), seed)
-        _append_rescore(directory, {"task": spec.task, "method": spec.method, "seed": spec.seed,
-                                    "design_id": best["design_id"], "rescore_seed": seed, "reward": row["reward"],
-                                    "status": row["status"], "objective": objective(row)})
+        append_row(directory / RESCORES_FILE, RESCORE_COLUMNS,
+                   {"task": spec.task, "method": spec.method, "seed": spec.seed, "design_id": best["design_id"],
+                    "rescore_seed": seed, "reward": row["reward"], "status": row["status"],
+                    "objective": objective(row)})
         added += 1
     return added
 

@@ -13,14 +13,17 @@ from robocompose.evaluation.fidelity import (
     SCORE_COLUMNS,
     THESIS,
     FidelityConfig,
+    append_row,
     choose_default,
     read_piece,
+    read_rows,
     rung_config,
     spearman,
     summarise,
 )
 from robocompose.grammar.derivation import derive, parse_rules
 from robocompose.grammar.references import REFERENCE_DESIGNS
+from robocompose.io.errors import InputError
 from robocompose.params import load_section
 
 
@@ -97,7 +100,7 @@ def test_measure_appends_rows_and_resumes(tmp_path, monkeypatch):
         f.write("flat,tiny,cut")  # a line cut off by a crash mid-write
     row = read_piece(piece).iloc[0]
     assert list(read_piece(piece).columns) == list(SCORE_COLUMNS) and len(read_piece(piece)) == 1
-    fidelity._append(piece, row.to_dict())  # the next row after a cut line is whole
+    append_row(piece, fidelity.SCORE_COLUMNS, row.to_dict())  # the next row after a cut line is whole
     assert len(read_piece(piece)) == 2
     again = evaluate(derive(parse_rules(rules)).tree, "flat", EvaluationConfig(mppi=rung_config("tiny")), 0)
     assert row["reward"] == again["reward"] and row["sim_steps"] == again["sim_steps"]  # the exact float survives
@@ -117,9 +120,9 @@ def test_measure_skips_what_another_process_wrote_meanwhile(tmp_path, monkeypatc
 
     def evaluate_while_another_process_writes(tree, task, evaluation, seed):
         row = real_evaluate(tree, task, evaluation, seed)
-        fidelity._append(fidelity.piece_path(tmp_path, "flat", "tiny2"),  # the other process's row
-                         {"task": "flat", "rung": "tiny2", "name": "ridged_ref", "design_id": design_id, **row,
-                          "objective": 0.0, "evaluator": "other"})
+        append_row(fidelity.piece_path(tmp_path, "flat", "tiny2"), fidelity.SCORE_COLUMNS,  # another process
+                   {"task": "flat", "rung": "tiny2", "name": "ridged_ref", "design_id": design_id, **row,
+                    "objective": 0.0, "evaluator": "other"})
         return row
 
     monkeypatch.setattr(fidelity, "evaluate", evaluate_while_another_process_writes)
@@ -221,3 +224,43 @@ def test_a_repeat_rung_runs_its_rung_with_the_next_controller_seed(tmp_path, mon
     config = EvaluationConfig(mppi=rung_config("tiny"))
     assert scores["tiny_seed1"] == evaluate(tree, "flat", config, 1)["reward"]
     assert scores["tiny"] == evaluate(tree, "flat", config, 0)["reward"] != scores["tiny_seed1"]
+
+
+LOG_COLUMNS = ("name", "reward", "note")
+
+
+def test_rows_round_trip_with_exact_floats_and_empty_none(tmp_path):
+    path = tmp_path / "log" / "scores.csv"
+    append_row(path, LOG_COLUMNS, {"name": "a", "reward": 0.1 + 0.2, "note": None})
+    append_row(path, LOG_COLUMNS, {"name": "b", "reward": -2.0, "note": "exploded"})
+    assert path.read_text().splitlines()[0] == "name,reward,note"  # one header
+    rows = read_rows(path, LOG_COLUMNS)
+    assert rows == [["a", repr(0.1 + 0.2), ""], ["b", "-2.0", "exploded"]]
+    assert float(rows[0][1]) == 0.1 + 0.2
+
+
+def test_a_line_cut_by_a_crash_is_ignored_and_the_next_row_is_whole(tmp_path):
+    path = tmp_path / "scores.csv"
+    append_row(path, LOG_COLUMNS, {"name": "a", "reward": 1.0, "note": "ok"})
+    with open(path, "a") as f:
+        f.write("b,2.")  # the process died mid-write
+    assert read_rows(path, LOG_COLUMNS) == [["a", "1.0", "ok"]]
+    append_row(path, LOG_COLUMNS, {"name": "c", "reward": 3.0, "note": "ok"})
+    assert read_rows(path, LOG_COLUMNS) == [["a", "1.0", "ok"], ["c", "3.0", "ok"]]
+
+
+def test_a_missing_log_is_empty_and_a_wrong_header_names_the_file(tmp_path):
+    assert read_rows(tmp_path / "absent.csv", LOG_COLUMNS) == []
+    path = tmp_path / "other.csv"
+    path.write_text("name,score\n")
+    with pytest.raises(InputError, match="other.csv: expected the header name,reward,note"):
+        read_rows(path, LOG_COLUMNS)
+
+
+def test_a_value_with_a_comma_is_refused_before_anything_is_written(tmp_path):
+    path = tmp_path / "scores.csv"
+    append_row(path, LOG_COLUMNS, {"name": "a", "reward": 1.0, "note": "ok"})
+    with pytest.raises(ValueError, match="comma"):
+        append_row(path, LOG_COLUMNS, {"name": "b,c", "reward": 1.0, "note": "ok"})
+    assert read_rows(path, LOG_COLUMNS) == [["a", "1.0", "ok"]]
+
