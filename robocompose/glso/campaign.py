@@ -61,6 +61,8 @@ class CampaignConfig:
     budget: int = 200  # objective calls per run
     init: int = 50  # GLSO's random initial points, then budget - init BO steps (the thesis's loop)
     population: int = 50  # the GA's (thesis)
+    ghs_eps_end: float = 0.1  # GHS's rule- and sample-epsilon ends (the original's; the default profile's smoke
+    #                           run uses 0.5 because over 16 calls 0.1 sends its greedy rollouts to the depth limit)
     rung: str = ""  # the fidelity rung of the runs; "" = the one `evaluator_fidelity` chose by the search rule
     rescore_seeds: list[int] = field(default_factory=lambda: [101, 102])  # controller seeds of the re-scores ...
     rescore_rung: str = THESIS  # ... at this fidelity rung (the thesis setting)
@@ -72,6 +74,7 @@ class CampaignConfig:
         unknown = [m for m in self.seeds if m not in METHODS]
         check_field(not unknown, "seeds", f"methods of {list(METHODS)}", unknown[:1])
         check_field(self.budget > self.init >= 1, "init", f"1 .. budget - 1 = {self.budget - 1}", self.init)
+        check_field(0.0 <= self.ghs_eps_end <= 1.0, "ghs_eps_end", "a probability in [0, 1]", self.ghs_eps_end)
         check_field(bool(self.rescore_seeds), "rescore_seeds", "at least one controller seed", self.rescore_seeds)
         for rung in filter(None, (self.rung, self.rescore_rung)):
             rung_config(rung)
@@ -105,9 +108,11 @@ def run_path(config: CampaignConfig, spec: RunSpec) -> Path:
 
 
 def search_config(config: CampaignConfig, glso: GLSOConfig) -> GLSOConfig:
-    """The `glso:` settings with the campaign's budget, GLSO init and GA population."""
+    """The `glso:` settings with the campaign's budget, GLSO init, GA population and GHS epsilon ends."""
     return dataclasses.replace(glso, budget=config.budget, bo=dataclasses.replace(glso.bo, init=config.init),
-                               ga=dataclasses.replace(glso.ga, population=config.population))
+                               ga=dataclasses.replace(glso.ga, population=config.population),
+                               ghs=dataclasses.replace(glso.ghs, eps_end=config.ghs_eps_end,
+                                                       eps_sample_end=config.ghs_eps_end))
 
 
 @dataclass(frozen=True)

@@ -21,10 +21,19 @@ def test_runs_go_seed_major_so_a_partial_campaign_compares_every_method():
 
 
 @pytest.mark.parametrize("bad, message", [({"seeds": {"nelder_mead": 3}}, "seeds"), ({"init": 200}, "init"),
-                                          ({"rung": "fast"}, "unknown fidelity rung 'fast'")])
+                                          ({"rung": "fast"}, "unknown fidelity rung 'fast'"),
+                                          ({"ghs_eps_end": 1.5}, "ghs_eps_end")])
 def test_bad_campaign_settings_name_the_field(bad, message):
     with pytest.raises(ValueError, match=message):
         CampaignConfig(**bad)
+
+
+def test_the_campaign_runs_its_own_budget_init_population_and_ghs_epsilons_over_the_profile():
+    smoke = GLSOConfig(budget=16, bo={"init": 6}, ga={"population": 8}, ghs={"eps_end": 0.5, "eps_sample_end": 0.5})
+    runs = campaign.search_config(CampaignConfig(budget=200, init=50, population=50, ghs_eps_end=0.1), smoke)
+    assert (runs.budget, runs.bo.init, runs.ga.population) == (200, 50, 50)
+    assert (runs.ghs.eps_end, runs.ghs.eps_sample_end) == (0.1, 0.1)
+    assert runs.ghs.eps_decay == smoke.ghs.eps_decay and runs.mcts == smoke.mcts  # the rest is the profile's
 
 
 def test_holm_adjusts_step_down_and_stays_monotone():
