@@ -35,7 +35,7 @@ import pandas as pd
 
 from robocompose.evaluation.evaluate import OK, EvaluationConfig, evaluate, objective
 from robocompose.evaluation.fidelity import THESIS, append_row, read_rows, rung_config
-from robocompose.glso import FIG_8_1, FIG_8_2, LABELS, best_designs
+from robocompose.glso import FIG_8_1, FIG_8_2, best_designs, best_so_far_curves, draw_curves
 from robocompose.glso.registry import METHODS
 from robocompose.glso.runs import GLSOConfig, RunSpec, run_search
 from robocompose.grammar.tree import DesignTree
@@ -208,14 +208,6 @@ def read_runs(config: CampaignConfig) -> pd.DataFrame:
     return pd.concat(tables, ignore_index=True) if tables else pd.DataFrame()
 
 
-def curves(steps: pd.DataFrame) -> pd.DataFrame:
-    """Best so far after each call: median and interquartile range over seeds, per (task, method, calls)."""
-    frame = steps.assign(calls=steps["step"] + 1)
-    grouped = frame.groupby(["task", "method", "calls"])["best_so_far"]
-    return pd.DataFrame({"median": grouped.median(), "q25": grouped.quantile(0.25),
-                         "q75": grouped.quantile(0.75), "runs": grouped.size()}).reset_index()
-
-
 def holm(p: dict[str, float]) -> dict[str, float]:
     """Holm-Bonferroni adjusted p-values (step-down, monotone, capped at 1)."""
     order = sorted(p, key=p.get)
@@ -285,7 +277,8 @@ def summarise(config: CampaignConfig) -> dict:
         final, "rescored", config.bootstrap, config.alpha, seed=1)
     return {"runs": int(len(final)), "planned": planned, "budget": int(steps["step"].max() + 1),
             "rescore_seeds": list(config.rescore_seeds), "finals": final.to_dict("records"), "tests": tests,
-            "curves": curves(steps).to_dict("records")}
+            "curves": best_so_far_curves(steps)[["task", "method", "calls", "median", "q25", "q75", "runs"]]
+            .to_dict("records")}
 
 
 def plot(summary: dict, path: str | Path) -> Path:
@@ -297,11 +290,7 @@ def plot(summary: dict, path: str | Path) -> Path:
     fig, axes = plt.subplots(2, len(tasks), figsize=(4.5 * len(tasks), 6.4), squeeze=False)
     for row, (methods, title) in enumerate([(FIG_8_1, "Fig. 8.1"), (FIG_8_2, "Fig. 8.2")]):
         for ax, task in zip(axes[row], tasks, strict=True):
-            for method in methods:
-                s = stats[(stats["task"] == task) & (stats["method"] == method)] if len(stats) else stats
-                if len(s):
-                    line, = ax.plot(s["calls"], s["median"], label=LABELS[method])
-                    ax.fill_between(s["calls"], s["q25"], s["q75"], color=line.get_color(), alpha=0.2)
+            draw_curves(ax, stats, task, methods, "median", "q25", "q75")
             ax.set_title(f"{title}: {task}")
             ax.set_xlabel("objective calls")
             ax.set_ylabel("best reward so far")

@@ -14,15 +14,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from robocompose.glso import FIG_8_1, FIG_8_2, LABELS, best_designs
+from robocompose.glso import FIG_8_1, FIG_8_2, LABELS, best_designs, best_so_far_curves, draw_curves
 from robocompose.io import read_table
-
-
-def curves(steps: pd.DataFrame) -> pd.DataFrame:
-    """Best so far after each evaluation: mean, min and max over seeds, per (task, method, evaluations)."""
-    frame = steps.assign(evaluations=steps["step"] + 1)
-    return (frame.groupby(["task", "method", "evaluations"])["best_so_far"]
-            .agg(["mean", "min", "max"]).reset_index())
 
 
 def _plot(stats: pd.DataFrame, tasks: list[str], methods: tuple[str, ...], title: str, path: Path) -> None:
@@ -30,11 +23,7 @@ def _plot(stats: pd.DataFrame, tasks: list[str], methods: tuple[str, ...], title
 
     fig, axes = plt.subplots(1, len(tasks), figsize=(4.2 * len(tasks), 3.4), squeeze=False)
     for ax, task in zip(axes[0], tasks, strict=True):
-        for method in methods:
-            s = stats[(stats.task == task) & (stats.method == method)]
-            if len(s):
-                line, = ax.plot(s["evaluations"], s["mean"], label=LABELS[method])
-                ax.fill_between(s["evaluations"], s["min"], s["max"], color=line.get_color(), alpha=0.2)
+        draw_curves(ax, stats, task, methods, "mean", "min", "max")
         ax.set_title(task)
         ax.set_xlabel("evaluations")
         ax.set_ylabel("best reward so far")
@@ -88,7 +77,7 @@ def section(reports_dir: Path, data_dir: Path) -> str:
     tasks = list(dict.fromkeys(steps["task"]))
     methods = [m for m in LABELS if m in set(steps["method"])]
     figures = Path(reports_dir) / "figures"
-    stats = curves(steps)
+    stats = best_so_far_curves(steps)
     _plot(stats, tasks, FIG_8_1, "Fig. 8.1: mean best so far over seeds, band = min-max", figures / "glso_fig8_1.png")
     _plot(stats, tasks, FIG_8_2, "Fig. 8.2: GLSO and its ablations", figures / "glso_fig8_2.png")
     final = steps.sort_values("step").groupby(["task", "method", "seed"], as_index=False).last()

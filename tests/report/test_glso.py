@@ -1,7 +1,9 @@
 import pandas as pd
+import pytest
 from PIL import Image
 
-from robocompose.report.glso import claims, curves, section
+from robocompose.glso import best_so_far_curves
+from robocompose.report.glso import claims, section
 
 
 def _steps(best: dict[tuple[str, int], list[float]]) -> pd.DataFrame:
@@ -12,10 +14,11 @@ def _steps(best: dict[tuple[str, int], list[float]]) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def test_curves_are_mean_min_max_over_seeds_per_evaluation_count():
-    stats = curves(_steps({("glso", 0): [4.0, 4.5], ("glso", 1): [4.2, 4.3]}))
-    last = stats[stats.evaluations == 2].iloc[0]
-    assert (last["mean"], last["min"], last["max"]) == (4.4, 4.3, 4.5)
+def test_curves_summarise_the_seeds_at_each_call_count():
+    stats = best_so_far_curves(_steps({("glso", 0): [4.0, 4.5], ("glso", 1): [4.2, 4.3], ("glso", 2): [4.1, 4.9]}))
+    last = stats[stats.calls == 2].iloc[0]
+    assert (last["min"], last["max"], last["runs"]) == (4.3, 4.9, 3) and last["mean"] == pytest.approx(13.7 / 3)
+    assert [last["median"], last["q25"], last["q75"]] == pytest.approx([4.5, 4.4, 4.7])
 
 
 def test_claims_say_plainly_whether_they_hold():
