@@ -14,7 +14,7 @@ from robocompose.io import read_table
 from robocompose.io.atomic import read_json
 from robocompose.io.errors import ArtifactError
 
-TASK = "flat"  # the task Fig. 7.1 colours
+TASK = "flat"  # the task whose dataset designs are scored (Fig. 7.1's first row)
 VARIANTS = {"full": "GLSO (with property predictor)", "nopred": "GLSO_nopred", "nogram": "GLSO_nogram"}
 COLUMNS = [("reconstruction_accuracy", "reconstruction (held out)"), ("prior_validity", "prior valid (builds)"),
            ("prior_grammar_valid", "prior grammar-derivable"), ("prior_rest_valid", "prior passes rest check"),
@@ -126,25 +126,33 @@ def _landscape(path: Path, knn_path: Path, figures: Path, plt) -> list[str]:
         return [f"Latent landscape (Fig. 7.1): pending (stage `vae_landscape`, {path} missing)."]
     table = read_table(path, "vae_landscape")
     dataset = table[table["source"] == "dataset"]
-    flat = table[table["task"] == TASK]
-    scored = flat[flat["status"] == "ok"]
-    low, high = (np.nanpercentile(scored["reward"], [5, 95]) if len(scored) else (0.0, 1.0))
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4.2))
-    for ax, name in zip(axes, ("full", "nopred"), strict=True):
-        part = table[table["variant"] == name]
-        if part.empty:
-            continue
-        unscored = part[part["status"] == ""]
-        ax.scatter(unscored["pc1"], unscored["pc2"], s=6, color="#cccccc", label="dataset, not scored")
-        ok = part[(part["status"] == "ok") & (part["task"] == TASK)]
-        points = ax.scatter(ok["pc1"], ok["pc2"], c=ok["reward"], cmap="viridis", vmin=low, vmax=high, s=22,
-                            edgecolors="k", linewidths=0.3)
-        bad = part[(part["status"] != "ok") & (part["status"] != "") & (part["task"] == TASK)]
-        ax.scatter(bad["pc1"], bad["pc2"], marker="x", color="#d62728", s=25, label="invalid in simulation")
-        ax.set(title=f"{VARIANTS[name]}", xlabel=f"PC1 ({100 * part['explained1'].iloc[0]:.0f}% var.)",
-               ylabel=f"PC2 ({100 * part['explained2'].iloc[0]:.0f}% var.)")
-        ax.legend(fontsize=7, loc="lower right")
-    fig.colorbar(points, ax=axes, label="flat-terrain reward (MPPI)")
+    tasks = list(dict.fromkeys([TASK, *sorted(set(table["task"]))]))  # one row of panels per task, flat first
+
+    def reward_range(task: str) -> tuple[float, float]:
+        scored = table[(table["task"] == task) & (table["status"] == "ok")]
+        return tuple(np.nanpercentile(scored["reward"], [5, 95])) if len(scored) else (0.0, 1.0)
+
+    low, high = reward_range(TASK)
+    fig, axes = plt.subplots(len(tasks), 2, figsize=(10, 4.2 * len(tasks)), squeeze=False, layout="constrained")
+    for row, task in enumerate(tasks):
+        task_low, task_high = reward_range(task)
+        points = None
+        for ax, name in zip(axes[row], ("full", "nopred"), strict=True):
+            part = table[table["variant"] == name]
+            if part.empty:
+                continue
+            unscored = part[part["status"] == ""]
+            ax.scatter(unscored["pc1"], unscored["pc2"], s=6, color="#cccccc", label="dataset, not scored")
+            ok = part[(part["status"] == "ok") & (part["task"] == task)]
+            points = ax.scatter(ok["pc1"], ok["pc2"], c=ok["reward"], cmap="viridis", vmin=task_low, vmax=task_high,
+                                s=22, edgecolors="k", linewidths=0.3)
+            bad = part[(part["status"] != "ok") & (part["status"] != "") & (part["task"] == task)]
+            ax.scatter(bad["pc1"], bad["pc2"], marker="x", color="#d62728", s=25, label="invalid in simulation")
+            ax.set(title=f"{VARIANTS[name]}: {task}", xlabel=f"PC1 ({100 * part['explained1'].iloc[0]:.0f}% var.)",
+                   ylabel=f"PC2 ({100 * part['explained2'].iloc[0]:.0f}% var.)")
+            ax.legend(fontsize=7, loc="lower right")
+        if points is not None:
+            fig.colorbar(points, ax=axes[row], label=f"{task} reward (MPPI)")
     fig.savefig(figures / "vae_landscape.png", dpi=110)
     plt.close(fig)
     full = table[table["variant"] == "full"]
@@ -156,10 +164,10 @@ def _landscape(path: Path, knn_path: Path, figures: Path, plt) -> list[str]:
              f"episode each), and {len(found)} designs that the committed fidelity searches scored "
              f"({', '.join(sorted(found['source'].str.removeprefix('search:').unique()))}; "
              f"{', '.join(f'{t} at {r}' for t, r in sorted(set(zip(found['task'], found['rung'], strict=True))))}) "
-             "placed on the same axes; the flat ones are coloured (rungs mixed: the same task, cheaper or dearer "
-             f"MPPI settings). The flat rewards span {low:.2f}-{high:.2f} (5th-95th percentile; ~4 is standing "
-             "still). The thesis colours a few hundred designs scored with its controller; the campaign's scored "
-             "designs join here once its runs are committed."]
+             "placed on the same axes, one row of panels per task coloured by that task's rewards (rungs mixed: "
+             f"the same task, cheaper or dearer MPPI settings). The flat rewards span {low:.2f}-{high:.2f} (5th-95th "
+             "percentile; ~4 is standing still). The thesis colours a few hundred designs scored with its "
+             "controller; the campaign's scored designs join here once its runs are committed."]
     if len(dataset) and knn_path.exists():
         knn = read_json(knn_path)["knn_predictability"]
         if knn:

@@ -3,6 +3,7 @@ import json
 import numpy as np
 import pandas as pd
 import pytest
+from PIL import Image
 
 from robocompose.io import ArtifactError, write_table
 from robocompose.latent.curves import LOG_FIELDS
@@ -56,7 +57,8 @@ def test_section_shows_metrics_curves_and_landscape(tmp_path):
     text = section(tmp_path, tmp_path, TRAIN_VAE)
     assert "figures/vae_landscape.png" in text and "6 of them scored" in text and "and 9 designs" in text
     assert "glso; flat at s8_h8_e48, ridged at s8_h8_e48" in text
-    assert (tmp_path / "figures" / "vae_landscape.png").exists()
+    with Image.open(tmp_path / "figures" / "vae_landscape.png") as figure:  # a row of panels per task
+        assert figure.size == (1100, 924)
 
     knn = {"spearman": 0.4, "shuffled_mean": 0.0, "shuffled_95": 0.15, "p_value": 0.001, "designs": 120}
     (tmp_path / "metrics").mkdir()
