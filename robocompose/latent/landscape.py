@@ -28,7 +28,7 @@ from robocompose.io import read_table
 from robocompose.io.errors import InputError
 from robocompose.latent.batch import collate
 from robocompose.latent.constraints import replay
-from robocompose.latent.model import GraphVAE
+from robocompose.latent.model import N_CONTACTS, GraphVAE
 from robocompose.latent.train import Designs
 
 TASK = "flat"
@@ -91,7 +91,7 @@ def read_search_designs(directory: str | Path, constraints: str, max_nodes: int)
         frames.append(steps.assign(rung=parts[1], source=f"search:{parts[2]}"))
     columns = ["task", "rung", "source", "design_id", "status", "reward"]
     if not frames:
-        return pd.DataFrame(columns=columns), Designs([], [], [], np.zeros((0, 16), dtype=np.float32))
+        return pd.DataFrame(columns=columns), Designs([], [], [], np.zeros((0, N_CONTACTS), dtype=np.float32))
     steps = pd.concat(frames, ignore_index=True).drop_duplicates(["task", "rung", "design_id"])
     keep, trees, replays = [], [], []
     for i, row in enumerate(steps.itertuples()):
@@ -103,7 +103,8 @@ def read_search_designs(directory: str | Path, constraints: str, max_nodes: int)
         keep.append(i)
         trees.append(tree)
     table = steps.iloc[keep][columns].reset_index(drop=True)
-    return table, Designs(list(table["design_id"]), trees, replays, np.zeros((len(trees), 16), dtype=np.float32))
+    no_contacts = np.zeros((len(trees), N_CONTACTS), dtype=np.float32)  # search designs carry no contact vector
+    return table, Designs(list(table["design_id"]), trees, replays, no_contacts)
 
 
 def knn_predictability(latents: np.ndarray, scores: np.ndarray, k: int, shuffles: int, seed: int) -> dict:
