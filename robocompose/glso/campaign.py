@@ -35,6 +35,7 @@ import pandas as pd
 
 from robocompose.evaluation.evaluate import OK, EvaluationConfig, evaluate, objective
 from robocompose.evaluation.fidelity import THESIS, append_row, read_rows, rung_config
+from robocompose.fanout.cache import EvaluationCache
 from robocompose.glso import FIG_8_1, FIG_8_2, best_designs, best_so_far_curves, draw_curves
 from robocompose.glso.registry import METHODS
 from robocompose.glso.runs import GLSOConfig, RunSpec, run_search
@@ -47,6 +48,7 @@ BASELINES = tuple(m for m in FIG_8_1 if m != "glso")  # Fig. 8.1's family of com
 ABLATIONS = tuple(m for m in FIG_8_2 if m != "glso")  # Fig. 8.2's
 RESCORE_COLUMNS = ("task", "method", "seed", "design_id", "rescore_seed", "reward", "status", "objective")
 RESCORES_FILE = "rescores.csv"
+CACHE_FILE = "eval_cache.parquet"  # under `checkpoints`: not committed, it only saves time
 
 
 @dataclass(frozen=True)
@@ -124,14 +126,31 @@ class CampaignJob:
     evaluation: EvaluationConfig
     table: str
     checkpoint: str
+    cache: str  # the evaluation cache file every run of the campaign shares
+
+
+def campaign_jobs(config: CampaignConfig, glso: GLSOConfig, evaluation: EvaluationConfig,
+                  rung: str) -> list[CampaignJob]:
+    """Every run of the campaign as a job, in `run_specs` order; `evaluation` gives the settings besides MPPI,
+    the runs use `rung`'s MPPI."""
+    settings = search_config(config, glso)
+    at_rung = dataclasses.replace(evaluation, mppi=rung_config(rung))
+    checkpoints = Path(config.checkpoints)
+    return [CampaignJob(spec, settings, at_rung, str(run_path(config, spec)), str(checkpoints / f"{spec.name}.pkl"),
+                        str(checkpoints / CACHE_FILE)) for spec in run_specs(config)]
 
 
 def run_job(job: CampaignJob) -> str:
-    """Run (or resume) one search; its step table appears at `job.table` only once complete."""
+    """Run (or resume) one search; its step table appears at `job.table` only once complete.
+
+    Runs share one evaluation cache: a design that another run (of any method or seed) already sent to the
+    evaluator at the same settings costs this run its call but no simulation (evaluations are deterministic,
+    so the table is the same with an empty cache)."""
     table = Path(job.table)
     partial = Path(job.checkpoint).with_suffix(".parquet")
     Path(job.checkpoint).parent.mkdir(parents=True, exist_ok=True)
-    steps = run_search(job.spec, job.glso, job.evaluation, checkpoint=Path(job.checkpoint), table=partial)
+    steps = run_search(job.spec, job.glso, job.evaluation, checkpoint=Path(job.checkpoint), table=partial,
+                       cache=EvaluationCache(job.cache))
     write_table(steps, table, "glso_steps")
     partial.unlink(missing_ok=True)
     return str(table)
@@ -188,12 +207,8 @@ def run_campaign(config: CampaignConfig, glso: GLSOConfig, evaluation: Evaluatio
         path = glso.model_path(method)
         if path is not None and not path.exists():
             raise InputError(f"{path}: the VAE of method {method} is missing (dvc repro train_vae)")
-    settings = search_config(config, glso)
-    at_rung = dataclasses.replace(evaluation, mppi=rung_config(rung))
     specs = run_specs(config)
-    jobs = [CampaignJob(spec, settings, at_rung, str(run_path(config, spec)),
-                        str(Path(config.checkpoints) / f"{spec.name}.pkl"))
-            for spec in specs if not run_path(config, spec).exists()]
+    jobs = [job for job in campaign_jobs(config, glso, evaluation, rung) if not Path(job.table).exists()]
     executor = executor or Executor(workers=1)
     list(tqdm(executor.imap(run_job, jobs), total=len(jobs), desc="campaign runs", unit="run"))
     finished = [spec for spec in specs if run_path(config, spec).exists()]

@@ -1,5 +1,6 @@
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -104,6 +105,27 @@ def test_a_tiny_campaign_runs_resumes_rescores_and_summarises(tmp_path, monkeypa
     path = campaign.plot(summary, tmp_path / "plot.png")
     assert path.stat().st_size > 0
     json.dumps({k: v for k, v in summary.items() if k != "curves"})  # the stage writes it as JSON
+
+
+def test_runs_share_one_evaluation_cache_and_give_the_same_table_from_it(tmp_path, monkeypatch):
+    """A design another run already simulated costs a call but no simulation; the table does not change."""
+    import robocompose.evaluation.evaluate as evaluate_module
+
+    monkeypatch.setitem(fidelity.LADDER, "tiny", (2, 2, 2, 3))
+    monkeypatch.setitem(fidelity.LADDER, "tiny_rescore", (2, 2, 2, 4))
+    config = CampaignConfig(directory=str(tmp_path / "campaign"), checkpoints=str(tmp_path / "ckpt"),
+                            seeds={"random": 1}, budget=3, init=1, rescore_rung="tiny_rescore")
+    (job,) = campaign.campaign_jobs(config, GLSOConfig(), EvaluationConfig(), "tiny")
+    assert job.cache == str(tmp_path / "ckpt" / campaign.CACHE_FILE)
+    first = Path(campaign.run_job(job)).read_bytes()
+    Path(job.table).unlink()
+    Path(job.checkpoint).unlink()
+
+    def never(*args, **kwargs):
+        raise AssertionError("a cached design was simulated again")
+
+    monkeypatch.setattr(evaluate_module, "run_job", never)
+    assert Path(campaign.run_job(job)).read_bytes() == first
 
 
 def test_the_summary_of_no_runs_says_so(tmp_path):
