@@ -11,8 +11,9 @@ every method under the accounting rule of `runs.py`. A finished run's step table
 summarised by the default pipeline and survives the machine); a run in progress lives in its checkpoint under
 `checkpoints` and resumes there. Runs go seed-major (every method's seed 0 first), so a partial campaign
 already compares every method. Each finished run's best simulated design is then re-scored at the thesis
-setting once per `rescore_seeds` into `<directory>/rescores.csv` (one appended line per score). The
-directory holds nothing else: it is the summarising stage's one dependency.
+setting once per `rescore_seeds` into `<directory>/rescores.csv` (one appended line per score), and
+`<directory>/campaign.json` records the evaluator every run used (rung and settings hash per task: a campaign
+does not mix evaluators). The directory holds nothing else: it is the summarising stage's one dependency.
 
 Statistics (`summarise`), per task: best-so-far curves as median and interquartile range over seeds; the
 final best at the search rung and re-scored (mean over the re-score seeds; NaN when a re-score cannot be
@@ -35,6 +36,7 @@ import pandas as pd
 
 from robocompose.evaluation.evaluate import OK, EvaluationConfig, evaluate, objective
 from robocompose.evaluation.fidelity import THESIS, append_row, read_rows, rung_config
+from robocompose.evaluation.manifest import claim_directory, read_manifest
 from robocompose.fanout.cache import EvaluationCache
 from robocompose.glso import FIG_8_1, FIG_8_2, best_designs, best_so_far_curves, draw_curves
 from robocompose.glso.registry import METHODS
@@ -132,9 +134,13 @@ class CampaignJob:
 def campaign_jobs(config: CampaignConfig, glso: GLSOConfig, evaluation: EvaluationConfig,
                   rung: str) -> list[CampaignJob]:
     """Every run of the campaign as a job, in `run_specs` order; `evaluation` gives the settings besides MPPI,
-    the runs use `rung`'s MPPI."""
+    the runs use `rung`'s MPPI. The directory's manifest records that evaluator (written by the first call): runs
+    of one campaign are comparable only if they all used it, so another rung, other settings or other simulation
+    code is an InputError that names both."""
     settings = search_config(config, glso)
     at_rung = dataclasses.replace(evaluation, mppi=rung_config(rung))
+    hashes = {task: at_rung.settings_hash(task) for task in config.tasks}
+    claim_directory(config.directory, {"rung": rung, "settings_hash": hashes})
     checkpoints = Path(config.checkpoints)
     return [CampaignJob(spec, settings, at_rung, str(run_path(config, spec)), str(checkpoints / f"{spec.name}.pkl"),
                         str(checkpoints / CACHE_FILE)) for spec in run_specs(config)]
@@ -291,6 +297,7 @@ def summarise(config: CampaignConfig) -> dict:
     tests = compare(final, "search", config.bootstrap, config.alpha) + compare(
         final, "rescored", config.bootstrap, config.alpha, seed=1)
     return {"runs": int(len(final)), "planned": planned, "budget": int(steps["step"].max() + 1),
+            "rung": read_manifest(config.directory).get("rung", ""),
             "rescore_seeds": list(config.rescore_seeds), "finals": final.to_dict("records"), "tests": tests,
             "curves": best_so_far_curves(steps)[["task", "method", "calls", "median", "q25", "q75", "runs"]]
             .to_dict("records")}

@@ -5,7 +5,8 @@ The thesis colours a few hundred designs; each score here is one MPPI episode (~
 default evaluator settings), so the default scores a documented subset (`evaluated`) and places the
 rest of the `designs` in the projection unscored. The designs that searches scored are free to reuse: every
 simulated design of the committed step tables under `searches` (the fidelity searches, named
-`<task>__<rung>__<method>.parquet`) joins the projection with its score, projected on the dataset designs' axes.
+`<task>__<rung>__<method>.parquet`) and of the GLSO campaign's finished runs under `campaign` joins the projection
+with its score, projected on the dataset designs' axes.
 
 A number says whether the latent space orders scores (`knn_predictability`): each scored design's score is
 predicted by the mean of its k nearest neighbours' scores in the full latent space (leave one out), and the
@@ -42,6 +43,7 @@ class LandscapeConfig:
     evaluated: int = 32  # of those, scored on flat terrain by the evaluator
     seed: int = 0
     searches: str = "reports/fidelity/searches"  # step tables of searches whose simulated designs join ("" = none)
+    campaign: str = "reports/glso_campaign"  # the GLSO campaign's finished runs: their designs join too ("" = none)
     neighbours: int = 5  # k of the k-NN predictability
     shuffles: int = 1000  # permutations of the scores for its null distribution
     min_group: int = 30  # fewer scored designs of one (task, rung): no k-NN figure for it
@@ -74,21 +76,34 @@ def latent_means(model: GraphVAE, designs: Designs) -> np.ndarray:
     return mean.double().numpy()
 
 
-def read_search_designs(directory: str | Path, constraints: str, max_nodes: int) -> tuple[pd.DataFrame, Designs]:
-    """The distinct (task, rung, design) that the step tables under `directory` scored, with the evaluator's status
-    and reward of its first call (a repeat is a cache hit: the same result), and the designs to encode.
+def read_search_designs(directory: str | Path, constraints: str, max_nodes: int,
+                        campaign: str | Path = "") -> tuple[pd.DataFrame, Designs]:
+    """The distinct (task, rung, design) that the step tables under `directory` (fidelity searches) and
+    `campaign` (the GLSO campaign's finished runs, at the rung its manifest records) scored, with the evaluator's
+    status and reward of its first call (a repeat is a cache hit: the same result), and the designs to encode.
 
-    Designs the decoder's constraints cannot walk are left out (none of a grammar search's are). No `directory`
+    Designs the decoder's constraints cannot walk are left out (none of a grammar search's are). No directory
     ("") reads nothing; one that does not exist is an error."""
     frames = []
-    if directory and not Path(directory).is_dir():
-        raise InputError(f"train_vae.landscape.searches: {directory} is not a directory of search step tables")
+    for name, where in (("searches", directory), ("campaign", campaign)):
+        if where and not Path(where).is_dir():
+            raise InputError(f"train_vae.landscape.{name}: {where} is not a directory of search step tables")
     for path in sorted(Path(directory).glob("*.parquet")) if directory else []:
         parts = path.stem.split("__")
         if len(parts) != 3:
             raise InputError(f"{path}: expected a search table named <task>__<rung>__<method>.parquet")
         steps = read_table(path, "glso_steps")
         frames.append(steps.assign(rung=parts[1], source=f"search:{parts[2]}"))
+    if campaign:
+        from robocompose.evaluation.manifest import MANIFEST_FILE, read_manifest
+
+        tables = sorted(Path(campaign).glob("*.parquet"))
+        rung = read_manifest(campaign).get("rung")
+        if tables and not rung:
+            raise InputError(f"{Path(campaign) / MANIFEST_FILE}: missing; the campaign's runs do not say their rung")
+        for path in tables:
+            steps = read_table(path, "glso_steps")
+            frames.append(steps.assign(rung=rung, source="campaign:" + steps["method"]))
     columns = ["task", "rung", "source", "design_id", "status", "reward"]
     if not frames:
         return pd.DataFrame(columns=columns), Designs([], [], [], np.zeros((0, N_CONTACTS), dtype=np.float32))
@@ -140,7 +155,8 @@ def landscape(models: dict[str, GraphVAE], designs: Designs, config: LandscapeCo
     scores = evaluate_designs(chosen.trees[: config.evaluated], [TASK], evaluation, seeds=[evaluation.seed],
                               cache=cache, executor=executor)
     model_config = next(iter(models.values())).config
-    found, found_designs = read_search_designs(config.searches, model_config.constraints, model_config.max_nodes)
+    found, found_designs = read_search_designs(config.searches, model_config.constraints, model_config.max_nodes,
+                                               config.campaign)
     frames, knn = [], {}
     for name, model in models.items():
         dataset_means = latent_means(model, chosen)

@@ -161,13 +161,14 @@ def _landscape(path: Path, knn_path: Path, figures: Path, plt) -> list[str]:
     lines = ["![Latent landscape](figures/vae_landscape.png)", "",
              f"Latent means of {int((full['source'] == 'dataset').sum())} dataset designs projected on their first "
              f"two principal components; {n_scored} of them scored on flat terrain by the default evaluator (one "
-             f"episode each), and {len(found)} designs that the committed fidelity searches scored "
-             f"({', '.join(sorted(found['source'].str.removeprefix('search:').unique()))}; "
+             f"episode each), and {len(found)} designs that committed searches scored "
+             f"({', '.join(sorted(found['source'].unique()))}: search = a fidelity search, campaign = a run of the "
+             "GLSO campaign; "
              f"{', '.join(f'{t} at {r}' for t, r in sorted(set(zip(found['task'], found['rung'], strict=True))))}) "
              "placed on the same axes, one row of panels per task coloured by that task's rewards (rungs mixed: "
              f"the same task, cheaper or dearer MPPI settings). The flat rewards span {low:.2f}-{high:.2f} (5th-95th "
              "percentile; ~4 is standing still). The thesis colours a few hundred designs scored with its "
-             "controller; the campaign's scored designs join here once its runs are committed."]
+             "controller."]
     if len(dataset) and knn_path.exists():
         knn = read_json(knn_path)["knn_predictability"]
         if knn:

@@ -79,7 +79,7 @@ def test_a_tiny_campaign_runs_resumes_rescores_and_summarises(tmp_path, monkeypa
     tables = campaign.run_campaign(config, GLSOConfig(), EvaluationConfig(), "tiny")
     assert [t.name for t in tables] == ["flat_random_seed0.parquet", "flat_mcts_seed0.parquet"]
     assert sorted(p.name for p in (tmp_path / "campaign").iterdir()) == [
-        "flat_mcts_seed0.parquet", "flat_random_seed0.parquet", "rescores.csv"]
+        "campaign.json", "flat_mcts_seed0.parquet", "flat_random_seed0.parquet", "rescores.csv"]
     rescores = campaign.read_rescores(config.directory)
     assert len(rescores) == 4 and sorted(set(rescores["rescore_seed"])) == [7, 8]
     steps = campaign.read_runs(config)
@@ -96,7 +96,12 @@ def test_a_tiny_campaign_runs_resumes_rescores_and_summarises(tmp_path, monkeypa
     monkeypatch.setattr(campaign, "evaluate", never)
     campaign.run_campaign(config, GLSOConfig(), EvaluationConfig(), "tiny")  # everything is there: nothing runs
     summary = campaign.summarise(config)
-    assert summary["runs"] == summary["planned"] == 2 and summary["budget"] == 3
+    assert summary["runs"] == summary["planned"] == 2 and summary["budget"] == 3 and summary["rung"] == "tiny"
+    with pytest.raises(ValueError, match="campaign.json: the committed runs used rung tiny .* would use tiny_rescore"):
+        campaign.run_campaign(config, GLSOConfig(), EvaluationConfig(), "tiny_rescore")
+    with pytest.raises(ValueError, match="the committed runs used rung tiny"):  # same rung, other physics code
+        monkeypatch.setattr(EvaluationConfig, "settings_hash", lambda self, task: "0" * 16)
+        campaign.run_campaign(config, GLSOConfig(), EvaluationConfig(), "tiny")
     finals = pd.DataFrame(summary["finals"])
     assert (finals["search"] == steps.groupby("method")["best_so_far"].last().loc[finals["method"]].values).all()
     assert np.allclose(finals.set_index("method").loc["random", "rescored"],

@@ -1,3 +1,4 @@
+import json
 from pathlib import Path
 
 import numpy as np
@@ -37,7 +38,7 @@ def test_landscape_scores_the_subset_with_the_evaluator(make_trees):
                       np.zeros((len(trees), 16), dtype=np.float32))
     models = {name: GraphVAE(VAEConfig(hidden=8, latent=3)) for name in ("full", "nopred")}
     quick = EvaluationConfig(mppi=MPPIConfig(samples=2, first_samples=2, horizon=2, episode=2))
-    table, knn = landscape(models, designs, LandscapeConfig(designs=10, evaluated=2, searches=""), quick)
+    table, knn = landscape(models, designs, LandscapeConfig(designs=10, evaluated=2, searches="", campaign=""), quick)
     assert len(table) == 20 and knn == {} and set(table["source"]) == {"dataset"}
     assert set(table["variant"]) == {"full", "nopred"}
     for _, part in table.groupby("variant"):
@@ -75,6 +76,21 @@ def test_search_designs_are_read_once_per_task_and_rung_with_their_first_result(
         read_search_designs(tmp_path / "missing", "grammar", 50)
 
 
+def test_campaign_runs_join_at_the_rung_their_manifest_records(tmp_path):
+    """Campaign tables are named <task>_<method>_seed<k>.parquet and say their rung only in campaign.json."""
+    steps = read_table(SEARCH, "glso_steps").head(6)
+    (tmp_path / "searches").mkdir()
+    campaign = tmp_path / "campaign"
+    campaign.mkdir()
+    write_table(steps.assign(method="ghs"), campaign / "flat_ghs_seed0.parquet", "glso_steps")
+    with pytest.raises(InputError, match="campaign.json: missing"):
+        read_search_designs(tmp_path / "searches", "grammar", 50, campaign)
+    (campaign / "campaign.json").write_text(json.dumps({"rung": "s16_h16_e48", "settings_hash": {}}))
+    table, designs = read_search_designs(tmp_path / "searches", "grammar", 50, campaign)
+    assert set(table["rung"]) == {"s16_h16_e48"} and set(table["source"]) == {"campaign:ghs"}
+    assert list(table["design_id"]) == list(steps["design_id"].drop_duplicates()) == designs.ids
+
+
 def test_search_designs_join_the_projection_on_the_dataset_axes(make_trees, tmp_path):
     torch.manual_seed(0)
     _search_tables(tmp_path)
@@ -83,7 +99,8 @@ def test_search_designs_join_the_projection_on_the_dataset_axes(make_trees, tmp_
                       np.zeros((len(trees), 16), dtype=np.float32))
     models = {"full": GraphVAE(VAEConfig(hidden=8, latent=3))}
     quick = EvaluationConfig(mppi=MPPIConfig(samples=2, first_samples=2, horizon=2, episode=2))
-    config = LandscapeConfig(designs=10, evaluated=1, searches=str(tmp_path), neighbours=2, min_group=5, shuffles=20)
+    config = LandscapeConfig(designs=10, evaluated=1, searches=str(tmp_path), campaign="", neighbours=2, min_group=5,
+                             shuffles=20)
     table, knn = landscape(models, designs, config, quick)
     dataset, found = table[table["source"] == "dataset"], table[table["source"] != "dataset"]
     assert len(dataset) == 10 and abs(dataset["pc1"].mean()) < 1e-6  # the axes are the dataset designs' own

@@ -56,7 +56,8 @@ def test_section_shows_metrics_curves_and_landscape(tmp_path):
     write_table(pd.DataFrame(rows), tmp_path / "vae_landscape.parquet", "vae_landscape")
     text = section(tmp_path, tmp_path, TRAIN_VAE)
     assert "figures/vae_landscape.png" in text and "6 of them scored" in text and "and 9 designs" in text
-    assert "glso; flat at s8_h8_e48, ridged at s8_h8_e48" in text
+    assert "(search:glso: search = a fidelity search, campaign = a run of the GLSO campaign; flat at s8_h8_e48, " \
+        "ridged at s8_h8_e48)" in text
     with Image.open(tmp_path / "figures" / "vae_landscape.png") as figure:  # a row of panels per task
         assert figure.size == (1100, 924)
 
