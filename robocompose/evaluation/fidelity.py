@@ -43,7 +43,7 @@ from robocompose.grammar.derivation import derive, parse_rules
 from robocompose.grammar.references import REFERENCE_DESIGNS
 from robocompose.grammar.tree import DesignTree
 from robocompose.io import atomic_write_text
-from robocompose.io.errors import InputError
+from robocompose.io.errors import ArtifactError, InputError
 from robocompose.tasks.terrains import get_task
 
 THESIS = "thesis"
@@ -174,7 +174,7 @@ def read_design_set(directory: str | Path) -> pd.DataFrame:
 # one line cut off at the end; readers keep complete rows only. Values never contain commas or line breaks
 # (names, digests, numbers), which keeps a row's field count a completeness check.
 def _field(value: object) -> str:
-    text = "" if value is None else (repr(value) if isinstance(value, float) else str(value))
+    text = "" if value is None else (repr(float(value)) if isinstance(value, float) else str(value))  # np.float64 too
     if "," in text or "\n" in text or "\r" in text:
         raise ValueError(f"csv log value {text!r} contains a comma or a line break")
     return text
@@ -223,14 +223,20 @@ def read_piece(path: Path) -> pd.DataFrame:
 
     The pieces are a measurement record, not a cache: each row keeps the simulation digest of the code that
     measured it, and rows of an older digest stay (hours of CPU); that the current code gives the same
-    scores is checked by re-measuring a sample (see docs/evaluation.md).
+    scores is checked by re-measuring a sample (see docs/evaluation.md). A design measured twice (two workers
+    that reached it at once) keeps its first row; two different results for one design are an ArtifactError.
     """
     rows = read_rows(path, SCORE_COLUMNS)
     table = pd.DataFrame(rows, columns=list(SCORE_COLUMNS))
     for column in ("reward", "objective", "seconds"):  # an empty reward is a result without one (not ok)
         table[column] = pd.to_numeric(table[column].replace("", np.nan))
     table["sim_steps"] = table["sim_steps"].astype(int)
-    return table.reset_index(drop=True)
+    for design_id, group in table[table.duplicated("design_id", keep=False)].groupby("design_id"):
+        if group["objective"].nunique() > 1 or group["status"].nunique() > 1:
+            raise ArtifactError(f"{path}: design {design_id} has {len(group)} rows with different results "
+                                f"(objective {sorted(group['objective'])}, status {sorted(group['status'])}); "
+                                "the evaluator is deterministic, so keep the row of the current code")
+    return table.drop_duplicates("design_id").reset_index(drop=True)
 
 
 def measure_order(designs: pd.DataFrame) -> pd.DataFrame:

@@ -23,7 +23,7 @@ from robocompose.evaluation.fidelity import (
 )
 from robocompose.grammar.derivation import derive, parse_rules
 from robocompose.grammar.references import REFERENCE_DESIGNS
-from robocompose.io.errors import InputError
+from robocompose.io.errors import ArtifactError, InputError
 from robocompose.params import load_section
 
 
@@ -100,8 +100,13 @@ def test_measure_appends_rows_and_resumes(tmp_path, monkeypatch):
         f.write("flat,tiny,cut")  # a line cut off by a crash mid-write
     row = read_piece(piece).iloc[0]
     assert list(read_piece(piece).columns) == list(SCORE_COLUMNS) and len(read_piece(piece)) == 1
-    append_row(piece, fidelity.SCORE_COLUMNS, row.to_dict())  # the next row after a cut line is whole
-    assert len(read_piece(piece)) == 2
+    append_row(piece, fidelity.SCORE_COLUMNS, {**row.to_dict(), "design_id": "other"})  # whole after a cut line
+    assert list(read_piece(piece)["design_id"]) == [design_id, "other"]
+    append_row(piece, fidelity.SCORE_COLUMNS, row.to_dict())  # two workers measured it at once: one row stays
+    assert list(read_piece(piece)["design_id"]) == [design_id, "other"]
+    append_row(piece, fidelity.SCORE_COLUMNS, {**row.to_dict(), "objective": row["objective"] + 1})
+    with pytest.raises(ArtifactError, match=f"flat__tiny.csv: design {design_id} has 3 rows with different results"):
+        read_piece(piece)
     again = evaluate(derive(parse_rules(rules)).tree, "flat", EvaluationConfig(mppi=rung_config("tiny")), 0)
     assert row["reward"] == again["reward"] and row["sim_steps"] == again["sim_steps"]  # the exact float survives
 
