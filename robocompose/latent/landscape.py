@@ -57,17 +57,12 @@ class LandscapeConfig:
             raise InputError(f"shuffles must be >= 1, got {self.shuffles}")
 
 
-def project_axes(x: np.ndarray, k: int = 2) -> np.ndarray:
-    """(k, d) first k principal axes of x (sign fixed: largest loading positive)."""
-    _, _, vt = np.linalg.svd(x - x.mean(0), full_matrices=False)
-    return vt[:k] * np.sign(vt[:k][np.arange(k), np.abs(vt[:k]).argmax(1)])[:, None]
-
-
-def principal_components(x: np.ndarray, k: int = 2) -> tuple[np.ndarray, np.ndarray]:
-    """(n, k) projection on the first k principal axes, and the fraction of variance each explains."""
-    centred = x - x.mean(0)
-    s = np.linalg.svd(centred, compute_uv=False)
-    return centred @ project_axes(x, k).T, (s[:k] ** 2) / (s**2).sum()
+def principal_axes(x: np.ndarray, k: int = 2) -> tuple[np.ndarray, np.ndarray]:
+    """(k, d) first k principal axes of x (sign fixed: largest loading positive) and the fraction of the
+    variance each explains; project with `(y - x.mean(0)) @ axes.T`."""
+    _, s, vt = np.linalg.svd(x - x.mean(0), full_matrices=False)
+    axes = vt[:k] * np.sign(vt[:k][np.arange(k), np.abs(vt[:k]).argmax(1)])[:, None]
+    return axes, (s[:k] ** 2) / (s**2).sum()
 
 
 def latent_means(model: GraphVAE, designs: Designs) -> np.ndarray:
@@ -160,7 +155,8 @@ def landscape(models: dict[str, GraphVAE], designs: Designs, config: LandscapeCo
     frames, knn = [], {}
     for name, model in models.items():
         dataset_means = latent_means(model, chosen)
-        xy, explained = principal_components(dataset_means)
+        axes, explained = principal_axes(dataset_means)
+        xy = (dataset_means - dataset_means.mean(0)) @ axes.T
         frame = pd.DataFrame({"variant": name, "design_id": chosen.ids, "pc1": xy[:, 0], "pc2": xy[:, 1],
                               "explained1": explained[0], "explained2": explained[1], "status": "",
                               "reward": np.nan, "source": "dataset", "task": TASK, "rung": "default"})
@@ -170,7 +166,6 @@ def landscape(models: dict[str, GraphVAE], designs: Designs, config: LandscapeCo
         if not found_designs.ids:
             continue
         means = latent_means(model, found_designs)
-        axes = project_axes(dataset_means)
         projected = (means - dataset_means.mean(0)) @ axes.T
         frames.append(found.assign(variant=name, pc1=projected[:, 0], pc2=projected[:, 1],
                                    explained1=explained[0], explained2=explained[1]))
