@@ -151,12 +151,16 @@ def run_job(job: CampaignJob) -> str:
 
     Runs share one evaluation cache: a design that another run (of any method or seed) already sent to the
     evaluator at the same settings costs this run its call but no simulation (evaluations are deterministic,
-    so the table is the same with an empty cache)."""
+    so the table is the same with an empty cache). A progress bar on stderr counts the run's calls (a resumed
+    run jumps to its checkpoint's count at its first new call)."""
+    from tqdm import tqdm
+
     table = Path(job.table)
     partial = Path(job.checkpoint).with_suffix(".parquet")
     Path(job.checkpoint).parent.mkdir(parents=True, exist_ok=True)
-    steps = run_search(job.spec, job.glso, job.evaluation, checkpoint=Path(job.checkpoint), table=partial,
-                       cache=EvaluationCache(job.cache))
+    with tqdm(total=job.glso.budget, desc=job.spec.name, unit="call", leave=False) as bar:
+        steps = run_search(job.spec, job.glso, job.evaluation, checkpoint=Path(job.checkpoint), table=partial,
+                           cache=EvaluationCache(job.cache), on_step=lambda row: bar.update(row["step"] + 1 - bar.n))
     write_table(steps, table, "glso_steps")
     partial.unlink(missing_ok=True)
     return str(table)
