@@ -168,9 +168,12 @@ def campaign_section(reports_dir: Path) -> str:
                 "claims get no verdict from them.\n")
     finals, tests = pd.DataFrame(summary["finals"]), pd.DataFrame(summary["tests"])
     tasks = list(dict.fromkeys(finals["task"]))
+    rung = f" at rung {summary['rung']} (the fidelity search rule's)" if summary.get("rung") else ""
+    partial = (" The campaign is partial: every number and verdict below is interim until all planned runs are "
+               "committed." if summary["runs"] < summary["planned"] else "")
     lines = [title, "", f"{summary['runs']} of {summary['planned']} planned runs committed, "
-             f"{summary['budget']} objective calls each; each run's best simulated design re-scored at the "
-             f"thesis setting with controller seeds {summary['rescore_seeds']} (never used in search).", "",
+             f"{summary['budget']} objective calls each{rung}; each run's best simulated design re-scored at the "
+             f"thesis setting with controller seeds {summary['rescore_seeds']} (never used in search).{partial}", "",
              "![GLSO campaign](plots/glso_campaign.png)", "",
              "| method | task | final best at the search rung, median [IQR] | re-scored, median [IQR] |",
              "|---|---|---|---|"]
@@ -180,7 +183,8 @@ def campaign_section(reports_dir: Path) -> str:
             lines.append(f"| {LABELS[method]} | {task} | {_median_iqr(rows['search'])} | "
                          f"{_median_iqr(rows['rescored'])} |")
     if tests.empty:
-        return "\n".join(lines + ["", "No GLSO runs yet: nothing to compare.", ""])
+        alone = "Only GLSO has runs yet" if "glso" in set(finals["method"]) else "No GLSO runs yet"
+        return "\n".join(lines + ["", f"{alone}: nothing to compare.", ""])
     lines += ["", "GLSO against each method: one-sided Mann-Whitney U (GLSO greater), Holm-corrected within its "
               "family; median difference GLSO - method with a bootstrap 95% interval.", "",
               "| task | on | method | n (GLSO / other) | p | p (Holm) | median difference [95% CI] |",

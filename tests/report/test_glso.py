@@ -79,7 +79,16 @@ def test_the_campaign_section_gives_verdicts_only_from_the_corrected_tests(tmp_p
         {"runs": 18, "planned": 31, "budget": 200, "rescore_seeds": [101, 102], "finals": finals.to_dict("records"),
          "tests": tests}))
     text = campaign_section(tmp_path)
+    assert "18 of 31 planned runs committed, 200 objective calls each; each" in text
+    assert "The campaign is partial: every number and verdict below is interim" in text
     assert "| GLSO | flat | 5.200 [5.100, 5.300] (n=5) |" in text
     assert "GLSO best of Fig. 8.1: **not shown**" in text  # MCTS is not beaten
     assert "GLSO_nopred p = 0.018) (no runs yet of GLSO_nogram)" in text  # significant, but one ablation only
     assert "both ablations worse than GLSO (Fig. 8.2): **not shown**" in text
+    alone = finals[finals["method"] == "glso"]
+    (tmp_path / "metrics" / "glso_campaign.json").write_text(json.dumps(
+        {"runs": 5, "planned": 5, "budget": 200, "rung": "s16_h16_e48", "rescore_seeds": [101, 102],
+         "finals": alone.to_dict("records"), "tests": []}))
+    text = campaign_section(tmp_path)
+    assert "200 objective calls each at rung s16_h16_e48 (the fidelity search rule's)" in text
+    assert "partial" not in text and "Only GLSO has runs yet: nothing to compare." in text
