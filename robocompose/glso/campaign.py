@@ -250,10 +250,14 @@ def bootstrap_median_difference(a: np.ndarray, b: np.ndarray, n: int, rng: np.ra
 
 
 def final_bests(steps: pd.DataFrame, rescores: pd.DataFrame) -> pd.DataFrame:
-    """One row per run: its final best at the search rung and its re-scored best (mean over re-score seeds;
-    NaN if a re-score could not be simulated or is missing)."""
-    final = steps.sort_values("step").groupby(["task", "method", "seed"], as_index=False).last()
-    final = final[["task", "method", "seed", "best_so_far", "design_id"]].rename(columns={"best_so_far": "search"})
+    """One row per run: its final best at the search rung (`search`, and that design's `design_id`), its
+    re-scored best (mean over re-score seeds; NaN if a re-score could not be simulated or is missing), and
+    how many of its calls went to a design it had sent before (`repeats`: cached, a call all the same)."""
+    runs = steps.sort_values("step", kind="stable").groupby(["task", "method", "seed"], sort=False)
+    final = runs.agg(search=("best_so_far", "last"), repeats=("repeat", "sum")).reset_index()
+    best = [best_design(group) for _, group in runs]
+    final.insert(4, "design_id", ["" if b is None else b["design_id"] for b in best])
+    final["repeats"] = final["repeats"].astype(int)
     if len(rescores):
         scored = rescores.assign(reward=np.where(rescores["status"] == OK, rescores["reward"], np.nan))
         mean = scored.groupby(["task", "method", "seed"])["reward"].agg(lambda r: r.mean(skipna=False))

@@ -175,13 +175,14 @@ def campaign_section(reports_dir: Path) -> str:
              f"{summary['budget']} objective calls each{rung}; each run's best simulated design re-scored at the "
              f"thesis setting with controller seeds {summary['rescore_seeds']} (never used in search).{partial}", "",
              "![GLSO campaign](plots/glso_campaign.png)", "",
-             "| method | task | final best at the search rung, median [IQR] | re-scored, median [IQR] |",
-             "|---|---|---|---|"]
+             "| method | task | final best at the search rung, median [IQR] | re-scored, median [IQR] | "
+             "calls on a repeated design, median |", "|---|---|---|---|---:|"]
     for task in tasks:
         for method in [m for m in LABELS if m in set(finals["method"])]:
             rows = finals[(finals["task"] == task) & (finals["method"] == method)]
+            repeats = f"{rows['repeats'].median():.0f}" if "repeats" in rows else "-"
             lines.append(f"| {LABELS[method]} | {task} | {_median_iqr(rows['search'])} | "
-                         f"{_median_iqr(rows['rescored'])} |")
+                         f"{_median_iqr(rows['rescored'])} | {repeats} |")
     if tests.empty:
         alone = "Only GLSO has runs yet" if "glso" in set(finals["method"]) else "No GLSO runs yet"
         return "\n".join(lines + ["", f"{alone}: nothing to compare.", ""])

@@ -104,6 +104,10 @@ def test_a_tiny_campaign_runs_resumes_rescores_and_summarises(tmp_path, monkeypa
         campaign.run_campaign(config, GLSOConfig(), EvaluationConfig(), "tiny")
     finals = pd.DataFrame(summary["finals"])
     assert (finals["search"] == steps.groupby("method")["best_so_far"].last().loc[finals["method"]].values).all()
+    for final in finals.itertuples():  # the best design's id (not the last call's), and the run's repeat count
+        run = steps[steps["method"] == final.method]
+        assert final.design_id == campaign.best_design(run)["design_id"]
+        assert final.repeats == int(run["repeat"].sum())
     assert np.allclose(finals.set_index("method").loc["random", "rescored"],
                        rescores[rescores["method"] == "random"]["reward"].mean())
     assert summary["tests"] == []  # no GLSO runs: nothing to compare
