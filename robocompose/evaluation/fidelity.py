@@ -202,8 +202,13 @@ def append_row(path: str | os.PathLike[str], columns: Sequence[str], row: dict) 
         os.close(fd)
 
 
-def read_rows(path: str | os.PathLike[str], columns: Sequence[str]) -> list[list[str]]:
-    """The complete rows of the log at `path` as strings ([] if it does not exist); InputError on a wrong header."""
+def read_rows(path: str | os.PathLike[str], columns: Sequence[str], key: Sequence[str] = (),
+              results: Sequence[str] = ()) -> list[list[str]]:
+    """The complete rows of the log at `path` as strings ([] if it does not exist); InputError on a wrong header.
+
+    With `key` (column names), a row whose key an earlier row holds is dropped (two workers that measured one
+    thing at once), but only if its `results` columns are the same: the evaluator is deterministic, so two
+    different results for one key are an ArtifactError naming the log, the key and the results."""
     path = Path(path)
     if not path.exists():
         return []
@@ -211,7 +216,19 @@ def read_rows(path: str | os.PathLike[str], columns: Sequence[str]) -> list[list
     if not lines or lines[0].strip() != ",".join(columns):
         raise InputError(f"{path}: expected the header {','.join(columns)}")
     complete = [line for line in lines[1:] if line.endswith("\n") and line.count(",") == len(columns) - 1]
-    return list(csv.reader(complete))
+    rows = list(csv.reader(complete))
+    if not key:
+        return rows
+    keys, kept = [columns.index(c) for c in key], {}
+    checked = [columns.index(c) for c in results]
+    for row in rows:
+        first = kept.setdefault(tuple(row[i] for i in keys), row)
+        if any(first[i] != row[i] for i in checked):
+            named = dict(zip(key, (row[i] for i in keys), strict=True))
+            raise ArtifactError(f"{path}: {named} has rows with different results "
+                                f"({', '.join(f'{columns[i]} {first[i]!r} / {row[i]!r}' for i in checked)}); "
+                                "the evaluator is deterministic, so keep the row of the current code")
+    return list(kept.values())
 
 
 def piece_path(directory: str | Path, task: str, rung: str) -> Path:
@@ -226,17 +243,12 @@ def read_piece(path: Path) -> pd.DataFrame:
     scores is checked by re-measuring a sample (see docs/evaluation.md). A design measured twice (two workers
     that reached it at once) keeps its first row; two different results for one design are an ArtifactError.
     """
-    rows = read_rows(path, SCORE_COLUMNS)
+    rows = read_rows(path, SCORE_COLUMNS, key=("design_id",), results=("objective", "status"))
     table = pd.DataFrame(rows, columns=list(SCORE_COLUMNS))
     for column in ("reward", "objective", "seconds"):  # an empty reward is a result without one (not ok)
         table[column] = pd.to_numeric(table[column].replace("", np.nan))
     table["sim_steps"] = table["sim_steps"].astype(int)
-    for design_id, group in table[table.duplicated("design_id", keep=False)].groupby("design_id"):
-        if group["objective"].nunique() > 1 or group["status"].nunique() > 1:
-            raise ArtifactError(f"{path}: design {design_id} has {len(group)} rows with different results "
-                                f"(objective {sorted(group['objective'])}, status {sorted(group['status'])}); "
-                                "the evaluator is deterministic, so keep the row of the current code")
-    return table.drop_duplicates("design_id").reset_index(drop=True)
+    return table
 
 
 def measure_order(designs: pd.DataFrame) -> pd.DataFrame:

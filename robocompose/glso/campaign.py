@@ -173,8 +173,11 @@ def best_design(steps: pd.DataFrame) -> pd.Series | None:
 
 
 def read_rescores(directory: str | Path) -> pd.DataFrame:
-    """Every complete re-score row (a line cut off by a crash mid-write is ignored)."""
-    table = pd.DataFrame(read_rows(Path(directory) / RESCORES_FILE, RESCORE_COLUMNS), columns=list(RESCORE_COLUMNS))
+    """Every complete re-score row (a line cut off by a crash mid-write is ignored); a score recorded twice (two
+    workers re-scored one run at once) keeps one row, two different ones are an ArtifactError."""
+    rows = read_rows(Path(directory) / RESCORES_FILE, RESCORE_COLUMNS, key=RESCORE_COLUMNS[:3] + ("rescore_seed",),
+                     results=("design_id", "reward", "status", "objective"))
+    table = pd.DataFrame(rows, columns=list(RESCORE_COLUMNS))
     for column in ("seed", "rescore_seed"):
         table[column] = table[column].astype(int)
     for column in ("reward", "objective"):  # an empty reward is a result without one (not ok)

@@ -12,6 +12,7 @@ from robocompose.glso import campaign
 from robocompose.glso.campaign import CampaignConfig, compare, holm, run_specs
 from robocompose.glso.runs import GLSOConfig
 from robocompose.grammar.tree import DesignTree
+from robocompose.io.errors import ArtifactError
 
 
 def test_runs_go_seed_major_so_a_partial_campaign_compares_every_method():
@@ -114,6 +115,21 @@ def test_a_tiny_campaign_runs_resumes_rescores_and_summarises(tmp_path, monkeypa
     path = campaign.plot(summary, tmp_path / "plot.png")
     assert path.stat().st_size > 0
     json.dumps({k: v for k, v in summary.items() if k != "curves"})  # the stage writes it as JSON
+
+
+def test_a_rescore_recorded_twice_keeps_one_row_and_two_different_ones_are_an_error(tmp_path):
+    """Two workers that re-scored one run at once wrote the same line twice; a different score is corruption."""
+    row = {"task": "flat", "method": "ga", "seed": 2, "design_id": "abc", "rescore_seed": 101, "reward": 4.25,
+           "status": "ok", "objective": 4.25}
+    log = tmp_path / campaign.RESCORES_FILE
+    for line in (row, {**row, "rescore_seed": 102}, row):
+        fidelity.append_row(log, campaign.RESCORE_COLUMNS, line)
+    scores = campaign.read_rescores(tmp_path)
+    assert list(scores["rescore_seed"]) == [101, 102] and list(scores["reward"]) == [4.25, 4.25]
+    fidelity.append_row(log, campaign.RESCORE_COLUMNS, {**row, "reward": 4.5, "objective": 4.5})
+    with pytest.raises(ArtifactError, match="rescores.csv: .*'rescore_seed': '101'.* different results .*reward "
+                                            "'4.25' / '4.5'"):
+        campaign.read_rescores(tmp_path)
 
 
 def test_runs_share_one_evaluation_cache_and_give_the_same_table_from_it(tmp_path, monkeypatch):
