@@ -14,7 +14,6 @@ from robocompose.io import read_table
 from robocompose.io.atomic import read_json
 from robocompose.io.errors import ArtifactError
 
-TASK = "flat"  # the task whose dataset designs are scored (Fig. 7.1's first row)
 VARIANTS = {"full": "GLSO (with property predictor)", "nopred": "GLSO_nopred", "nogram": "GLSO_nogram"}
 COLUMNS = [("reconstruction_accuracy", "reconstruction (held out)"), ("prior_validity", "prior valid (builds)"),
            ("prior_grammar_valid", "prior grammar-derivable"), ("prior_rest_valid", "prior passes rest check"),
@@ -126,13 +125,14 @@ def _landscape(path: Path, knn_path: Path, figures: Path, plt) -> list[str]:
         return [f"Latent landscape (Fig. 7.1): pending (stage `vae_landscape`, {path} missing)."]
     table = read_table(path, "vae_landscape")
     dataset = table[table["source"] == "dataset"]
-    tasks = list(dict.fromkeys([TASK, *sorted(set(table["task"]))]))  # one row of panels per task, flat first
+    # one row of panels per task, first the task vae_landscape scored the dataset designs on
+    tasks = list(dict.fromkeys([*sorted(set(dataset["task"])), *sorted(set(table["task"]))]))
 
     def reward_range(task: str) -> tuple[float, float]:
         scored = table[(table["task"] == task) & (table["status"] == "ok")]
         return tuple(np.nanpercentile(scored["reward"], [5, 95])) if len(scored) else (0.0, 1.0)
 
-    low, high = reward_range(TASK)
+    low, high = reward_range(tasks[0])
     fig, axes = plt.subplots(len(tasks), 2, figsize=(10, 4.2 * len(tasks)), squeeze=False, layout="constrained")
     for row, task in enumerate(tasks):
         task_low, task_high = reward_range(task)
@@ -160,14 +160,14 @@ def _landscape(path: Path, knn_path: Path, figures: Path, plt) -> list[str]:
     found = full[full["source"] != "dataset"]
     lines = ["![Latent landscape](figures/vae_landscape.png)", "",
              f"Latent means of {int((full['source'] == 'dataset').sum())} dataset designs projected on their first "
-             f"two principal components; {n_scored} of them scored on flat terrain by the default evaluator (one "
-             f"episode each), and {len(found)} designs that committed searches scored "
+             f"two principal components; {n_scored} of them scored on {tasks[0]} terrain by the default evaluator "
+             f"(one episode each), and {len(found)} designs that committed searches scored "
              f"({', '.join(sorted(found['source'].unique()))}: search = a fidelity search, campaign = a run of the "
              "GLSO campaign; "
              f"{', '.join(f'{t} at {r}' for t, r in sorted(set(zip(found['task'], found['rung'], strict=True))))}) "
              "placed on the same axes, one row of panels per task coloured by that task's rewards (rungs mixed: "
-             f"the same task, cheaper or dearer MPPI settings). The flat rewards span {low:.2f}-{high:.2f} (5th-95th "
-             "percentile; ~4 is standing still). The thesis colours a few hundred designs scored with its "
+             f"the same task, cheaper or dearer MPPI settings). The {tasks[0]} rewards span {low:.2f}-{high:.2f} "
+             "(5th-95th percentile; ~4 is standing still). The thesis colours a few hundred designs scored with its "
              "controller."]
     if len(dataset) and knn_path.exists():
         knn = read_json(knn_path)["knn_predictability"]
