@@ -176,8 +176,9 @@ def dask_address():
     session's tests."""
     from dask.distributed import LocalCluster
 
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
-                      silence_logs=40) as cluster:
+    # the scheduler's HTTP server on a free loopback port: None would try 8787 (taken by any other cluster here)
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                      dashboard_address="127.0.0.1:0", silence_logs=40) as cluster:
         yield cluster.scheduler_address
 
 

@@ -227,8 +227,9 @@ def test_a_dask_worker_killed_during_a_map_loses_no_result() -> None:
 
     from robocompose.fanout.executor import Executor
 
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
-                      silence_logs=50) as cluster, Client(cluster.scheduler_address) as client:
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                      dashboard_address="127.0.0.1:0", silence_logs=50) as cluster, \
+            Client(cluster.scheduler_address) as client:
         worker_pids = set(client.run(os.getpid).values())
         items = list(range(24))
         with Executor(address=cluster.scheduler_address) as executor:

@@ -66,19 +66,14 @@ def test_a_failing_evaluation_propagates_and_earlier_results_are_kept(tmp_path):
     assert _key(("good", 1)) in EvaluationCache(tmp_path / "cache.parquet")
 
 
-def test_dask_cluster_backend():
-    from dask.distributed import LocalCluster
-
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                      dashboard_address=None) as cluster:
-        with Executor(address=cluster.scheduler_address) as ex:
-            assert ex.backend == "dask"
-            pids = ex.map(lambda _: os.getpid(), range(6))
-            assert os.getpid() not in pids
-            rows = evaluate_many(lambda item: {"reward": float(item[1]), "status": "ok", "sim_steps": 2,
-                                               "seconds": 0.0},
-                                 [("a", 1), ("b", 2)], _key, executor=ex)
-            assert [r["reward"] for r in rows] == [1.0, 2.0]
+def test_dask_cluster_backend(dask_address):
+    with Executor(address=dask_address) as ex:
+        assert ex.backend == "dask"
+        pids = ex.map(lambda _: os.getpid(), range(6))
+        assert os.getpid() not in pids
+        rows = evaluate_many(lambda item: {"reward": float(item[1]), "status": "ok", "sim_steps": 2, "seconds": 0.0},
+                             [("a", 1), ("b", 2)], _key, executor=ex)
+        assert [r["reward"] for r in rows] == [1.0, 2.0]
 
 
 # --- a real Dask cluster (`dask_address`, tests/conftest.py): every kind of fan-out gives what local processes give ---

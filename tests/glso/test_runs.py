@@ -136,9 +136,7 @@ def test_run_all_fans_the_runs_out_resumes_them_and_replays_each_tasks_best(tiny
     assert (tmp_path / "rollouts" / "flat.mcap").stat().st_size > 0 and (tmp_path / "rollouts" / "flat.gif").exists()
 
 
-def test_runs_on_a_dask_cluster_match_local_processes(tiny_models, tmp_path):
-    from dask.distributed import LocalCluster
-
+def test_runs_on_a_dask_cluster_match_local_processes(tiny_models, tmp_path, dask_address):
     from robocompose.fanout.executor import Executor
     from robocompose.glso.runs import run_all
 
@@ -146,8 +144,7 @@ def test_runs_on_a_dask_cluster_match_local_processes(tiny_models, tmp_path):
                         ghs=GHSConfig(num_samples=2, opt_iter=2, eps_end=1.0))  # random rollouts: fast
     with Executor(workers=2) as executor:
         local, _ = run_all(config, TINY, tmp_path / "local", executor)
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
-                      silence_logs=40) as cluster, Executor(address=cluster.scheduler_address) as executor:
+    with Executor(address=dask_address) as executor:
         remote, _ = run_all(config, TINY, tmp_path / "dask", executor)
     assert remote.equals(local)
 
