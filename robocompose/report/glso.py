@@ -144,9 +144,9 @@ def campaign_verdicts(tests: pd.DataFrame, alpha: float) -> list[str]:
         missing = [LABELS[m] for m in (FIG_8_1 if family == "baselines" else FIG_8_2)
                    if m != "glso" and m not in set(group["method"])]
         held = not missing and bool(group["glso_better"].all())
-        floor = float(group["p_floor"].max() * len(group))
-        caveat = (f" (with these seed counts the smallest Holm-adjusted p is {floor:.3f}, above {alpha}: this "
-                  "campaign cannot show it)") if not held and floor >= alpha else ""
+        floor = float(group["holm_floor"].max())
+        caveat = (f" (with these seed counts the family's largest Holm-adjusted p is at least {floor:.3f}, not "
+                  f"below {alpha}: this campaign cannot show it)") if not held and floor >= alpha else ""
         caveat += f" (no runs yet of {', '.join(missing)})" if missing else ""
         detail = "; ".join(f"{LABELS[r.method]} p = {r.p_holm:.3f}" for r in group.itertuples())
         out.append(f"- {task}: {claim}: **{'holds' if held else 'not shown'}** ({detail}){caveat}.")

@@ -56,8 +56,19 @@ def test_glso_is_called_better_only_when_the_test_after_correction_says_so():
     assert rows["random"]["p_holm"] == pytest.approx(2 / math.comb(10, 5)) and rows["random"]["glso_better"]
     assert not rows["mcts"]["glso_better"] and rows["mcts"]["p_holm"] >= rows["mcts"]["p"]
     assert rows["glso_nopred"]["family"] == "ablations" and rows["glso_nopred"]["p_floor"] == 1 / math.comb(8, 3)
+    assert rows["glso_nopred"]["holm_floor"] == rows["glso_nopred"]["p_floor"]  # alone in its family
+    assert rows["random"]["holm_floor"] == rows["mcts"]["holm_floor"] == pytest.approx(2 / math.comb(10, 5))
     assert rows["random"]["median_difference"] == pytest.approx(1.0)
     assert rows["random"]["ci_low"] <= 1.0 <= rows["random"]["ci_high"] and rows["random"]["ci_low"] > 0
+
+
+def test_the_holm_floor_is_set_by_the_smallest_samples_not_by_the_family_size():
+    # Floors 1/252, 1/252, 1/21, 1/21: at best Holm gives 4/252, 3/252, 2/21, 1/21 -> the largest is 2/21.
+    finals = _finals({"glso": [5.0, 5.1, 5.2, 5.3, 5.4], "random": [4.0, 4.1], "ga": [4.0, 4.1],
+                      "mcts": [4.0, 4.1, 4.2, 4.3, 4.4], "ghs": [4.0, 4.1, 4.2, 4.3, 4.4]})
+    rows = compare(finals, "search", bootstrap=10, alpha=0.05)
+    assert all(r["holm_floor"] == pytest.approx(2 / 21) for r in rows)
+    assert max(r["p_holm"] for r in rows) == pytest.approx(2 / 21)  # reached: every GLSO run above every other
 
 
 def test_the_rung_must_come_from_the_search_rule(tmp_path):

@@ -85,6 +85,14 @@ def test_the_campaign_section_gives_verdicts_only_from_the_corrected_tests(tmp_p
     assert "GLSO best of Fig. 8.1: **not shown**" in text  # MCTS is not beaten
     assert "GLSO_nopred p = 0.018) (no runs yet of GLSO_nogram)" in text  # significant, but one ablation only
     assert "both ablations worse than GLSO (Fig. 8.2): **not shown**" in text
+    assert "cannot show it" not in text  # 5 vs 5 and 5 vs 3 seeds can reach significance
+    few = finals[(finals["method"] != "glso") | (finals["seed"] < 3)]  # 3 GLSO seeds: 3 vs 3 floors at 0.05
+    tests = compare(few, "rescored", 100, 0.05)
+    (tmp_path / "metrics" / "glso_campaign.json").write_text(json.dumps(
+        {"runs": 16, "planned": 31, "budget": 200, "rescore_seeds": [101, 102], "finals": few.to_dict("records"),
+         "tests": tests}))
+    assert "(with these seed counts the family's largest Holm-adjusted p is at least 0.050, not below 0.05: " \
+           "this campaign cannot show it)" in campaign_section(tmp_path)
     alone = finals[finals["method"] == "glso"]
     (tmp_path / "metrics" / "glso_campaign.json").write_text(json.dumps(
         {"runs": 5, "planned": 5, "budget": 200, "rung": "s16_h16_e48", "rescore_seeds": [101, 102],
