@@ -7,6 +7,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import statistics
 import subprocess
 import sys
 from pathlib import Path
@@ -152,6 +153,16 @@ def changes_section(params_file: Path, root: Path = Path(".")) -> list[str]:
     return lines
 
 
+def _figure(value: object) -> str:
+    """A timings figure for a table cell: a list of per-run records becomes its count and median times."""
+    if not (isinstance(value, list) and value and all(isinstance(item, dict) for item in value)):
+        return str(value)
+    times = [key for key in ("seconds", "milliseconds")
+             if all(isinstance(item.get(key), int | float) for item in value)]
+    medians = ", ".join(f"{key} {round(statistics.median(item[key] for item in value), 3)}" for key in times)
+    return f"{len(value)} runs" + (f" (median {medians})" if medians else "")
+
+
 def section(reports_dir: Path, params_file: Path = Path("params.yaml"), root: Path = Path(".")) -> str:
     stages, written = pipeline(root)
     revision = _git("rev-parse", "--short", "HEAD", cwd=root)
@@ -175,6 +186,6 @@ def section(reports_dir: Path, params_file: Path = Path("params.yaml"), root: Pa
         if figures is None:
             lines.append(f"| {stage} | not recorded | |")
             continue
-        extra = ", ".join(f"{k} {v}" for k, v in figures.items() if k != "seconds")
+        extra = ", ".join(f"{k} {_figure(v)}" for k, v in figures.items() if k != "seconds")
         lines.append(f"| {stage} | {figures.get('seconds', '')} | {extra} |")
     return "\n".join([*lines, *changes[1:]]) + "\n"

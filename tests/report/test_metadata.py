@@ -49,10 +49,11 @@ def project(tmp_path):
 def test_outputs_dvc_writes_do_not_count_as_uncommitted(project):
     for name in ("dvc.lock", "reports/metrics/made.json", "reports/training/a/metrics.json"):
         (project / name).write_text((project / name).read_text() + "# rerun\n")  # as `dvc repro` leaves them
-    (project / "reports/timings.json").write_text(json.dumps({"make": {"seconds": 1.5, "rows": 3}}))
+    runs = [{"chip": "a", "seconds": 4.0}, {"chip": "b", "seconds": 9.0}, {"chip": "c", "seconds": 2.0}]
+    (project / "reports/timings.json").write_text(json.dumps({"make": {"seconds": 1.5, "rows": 3, "runs": runs}}))
     text = section(project / "reports", project / "params.yaml", project)
     assert "uncommitted" not in text and "- git revision: `" in text
-    assert "| make | 1.5 | rows 3 |" in text
+    assert "| make | 1.5 | rows 3, runs 3 runs (median seconds 4.0) |" in text
     assert "| train@a | not recorded | |" in text and "| train@b | not recorded | |" in text
 
 
