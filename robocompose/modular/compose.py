@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -21,6 +22,11 @@ from robocompose.arguments import input_file, non_negative_int, positive_int
 from robocompose.io.errors import InputError
 
 if TYPE_CHECKING:
+    import numpy as np
+
+    from robocompose.eggan.networks import Generator
+    from robocompose.modular.eggan_problem import ModularEgganProblem
+    from robocompose.modular.params import ModularParams
     from robocompose.modular.terrain import TerrainConfig
 
 SHIPPED_MODEL = Path(__file__).resolve().parent / "pretrained" / "eggan.pt"
@@ -67,35 +73,50 @@ def parse_caps(text: str) -> dict[str, int]:
     return caps
 
 
-def read_heightmap(path: Path, terrain: TerrainConfig, where: str):
-    """A (50, 20) float32 height map from a .npy file, its heights within the block heights of `terrain`.
+def read_heightmap(path: Path, terrain: TerrainConfig, where: str) -> np.ndarray:
+    """A (50, 20) float32 height map from a .npy file (see `check_heightmap`); `where` names the params."""
+    if not path.is_file():
+        found = "a directory" if path.is_dir() else "no such file"
+        raise InputError(f"--heightmap {path}: {found}, expected a .npy height map")
+    return check_heightmap(load_npy(path.read_bytes(), f"--heightmap {path}"), terrain, where, f"--heightmap {path}")
+
+
+def load_npy(data: bytes, label: str) -> np.ndarray:
+    """The array of .npy bytes (numpy.save format); never unpickled. `label` names the input in the error."""
+    import io
+
+    import numpy as np
+
+    try:
+        array = np.load(io.BytesIO(data), allow_pickle=False)
+    except (OSError, ValueError, EOFError):  # pickled, text, truncated: np.load's reasons say little to a user
+        raise InputError(f"{label}: not a .npy array file (numpy.save format)") from None
+    if not isinstance(array, np.ndarray):  # an .npz archive
+        raise InputError(f"{label}: a .npz archive, expected a .npy array file (numpy.save format)")
+    return array
+
+
+def check_heightmap(heights: np.ndarray, terrain: TerrainConfig, where: str, label: str) -> np.ndarray:
+    """`heights` as (50, 20) float32, checked to be a height map of the block terrains of `terrain`.
 
     The generator learnt height maps of blocks of height U(0, H), H ~ U(max_height_range), on the ground (height 0):
-    a map outside [0, max_height_range[1]] is no terrain of the model. `where` names the params the range is from.
+    a map outside [0, max_height_range[1]] is no terrain of the model. `where` names the params the range is from,
+    `label` the input (a flag and file, or a request field).
     """
     import numpy as np
 
     from robocompose.modular.terrain import GRID_X, GRID_Y
 
-    if not path.is_file():
-        found = "a directory" if path.is_dir() else "no such file"
-        raise InputError(f"--heightmap {path}: {found}, expected a .npy height map")
-    try:
-        heights = np.load(path, allow_pickle=False)
-    except (OSError, ValueError, EOFError):  # pickled, text, truncated: np.load's reasons say little to a user
-        raise InputError(f"--heightmap {path}: not a .npy array file (numpy.save format)") from None
-    if not isinstance(heights, np.ndarray):  # an .npz archive
-        raise InputError(f"--heightmap {path}: a .npz archive, expected a .npy array file (numpy.save format)")
     if heights.shape != (GRID_X, GRID_Y):
-        raise InputError(f"--heightmap {path}: expected shape ({GRID_X}, {GRID_Y}) (x by y), found {heights.shape}")
+        raise InputError(f"{label}: expected shape ({GRID_X}, {GRID_Y}) (x by y), found {heights.shape}")
     if not (np.issubdtype(heights.dtype, np.integer) or np.issubdtype(heights.dtype, np.floating)):
-        raise InputError(f"--heightmap {path}: expected real numbers (metres), found dtype {heights.dtype}")
+        raise InputError(f"{label}: expected real numbers (metres), found dtype {heights.dtype}")
     if not np.isfinite(heights).all():
         bad = heights[~np.isfinite(heights)][0]
-        raise InputError(f"--heightmap {path}: expected finite numbers (metres), found {bad}")
+        raise InputError(f"{label}: expected finite numbers (metres), found {bad}")
     low, high = 0.0, terrain.max_height_range[1]
     if heights.min() < low or heights.max() > high:
-        raise InputError(f"--heightmap {path}: heights expected in [{low:g}, {high:g}] m (the ground and the highest "
+        raise InputError(f"{label}: heights expected in [{low:g}, {high:g}] m (the ground and the highest "
                          f"block of {where}.terrain.max_height_range), found [{heights.min():g}, {heights.max():g}]")
     return heights.astype(np.float32)
 
@@ -114,39 +135,99 @@ def _ship(args: argparse.Namespace) -> None:
     print(json.dumps({"shipped": str(SHIPPED_MODEL), "from": str(args.source), "bytes": SHIPPED_MODEL.stat().st_size}))
 
 
+DISTANCES = ("table", "rollout")  # where a query's distances come from: the committed exhaustive table, pybullet
+
+
+@dataclass
+class ModularComposer:
+    """A trained generator kept warm with the params it answers for: `query` is what `compose modular` prints and
+    what the service (robocompose.serve) answers, one function for both."""
+
+    path: Path
+    params: ModularParams
+    problem: ModularEgganProblem
+    generator: Generator
+    info: dict
+
+    @classmethod
+    def load(cls, path: Path | None, params: ModularParams) -> ModularComposer:
+        """The generator at `path` (default: the shipped one) for the modular problem of `params`."""
+        from robocompose.eggan.query import load_generator
+        from robocompose.modular.eggan_problem import FitnessConfig, ModularEgganProblem
+
+        path = Path(path or SHIPPED_MODEL)
+        problem = ModularEgganProblem(params, FitnessConfig())
+        generator, info = load_generator(path, problem)
+        return cls(path, params, problem, generator, info)
+
+    def query(self, terrain_seed: int | None = None, heights: np.ndarray | None = None, k: int = 10,
+              caps: dict[str, int] | None = None, samples: int = 64, seed: int = 0,
+              distances: str | None = None) -> dict:
+        """The k most probable distinct designs for a terrain (its seed, or a checked (50, 20) height map) that the
+        fitness rule accepts and `caps` allows, each with its score; `distances` adds each design's distance from
+        the terrain's committed exhaustive table ("table") or a pybullet rollout ("rollout"), both by seed only."""
+        import torch
+
+        from robocompose.eggan.query import top_distinct
+
+        if (terrain_seed is None) == (heights is None):
+            raise InputError("terrain: expected a terrain seed or a height map, exactly one")
+        if distances is not None and distances not in DISTANCES:
+            raise InputError(f"distances: expected one of {list(DISTANCES)}, found {distances!r}")
+        if distances is not None and terrain_seed is None:
+            raise InputError(f"distances: {distances!r} needs a terrain seed (a height map alone does not define the "
+                             "blocks)")
+        caps = caps or {}
+        table = self._table(terrain_seed) if distances == "table" else None
+        started = time.perf_counter()
+        tensor = self.problem.encode_task(terrain_seed) if heights is None else torch.from_numpy(heights)
+        ranked = top_distinct(self.generator, self.problem, terrain_seed, k, samples, seed, tensor,
+                              keep=lambda d: not self.params.fitness.skips(d)
+                              and all(d.count(m) <= c for m, c in caps.items()))
+        query_ms = (time.perf_counter() - started) * 1000
+        designs = [{"design": r.design, "score": round(r.score, 6)} for r in ranked]
+        if distances == "rollout":
+            from robocompose.modular.evaluate import evaluate_designs
+
+            results = evaluate_designs([d["design"] for d in designs], terrain_seed, self.params.eval,
+                                       self.params.fitness)
+            for entry, result in zip(designs, results, strict=True):
+                entry["distance"], entry["status"] = result.distance, result.status
+        elif table is not None:
+            for entry in designs:
+                entry["distance"] = float(table[entry["design"]])
+        return {"terrain_seed": terrain_seed, "k": k, "found": len(designs), "max": caps, "designs": designs,
+                "distances": distances, "model": str(self.path), "model_run_key": self.info.get("run_key"),
+                "query_ms": round(query_ms, 2)}
+
+    def _table(self, terrain_seed: int) -> dict[str, float]:
+        """design -> distance of the terrain's committed exhaustive table measured with these params' settings."""
+        from robocompose.modular.truth import COMMITTED_DIR, read_committed
+
+        table = read_committed(terrain_seed, self.params.eval, self.params.fitness)
+        if table is None:
+            seeds = sorted(int(p.stem.removeprefix("blocks-")) for p in COMMITTED_DIR.glob("blocks-*.parquet"))
+            raise InputError(f"distances: no committed exhaustive table of terrain seed {terrain_seed} measured with "
+                             f"these settings (tables under {COMMITTED_DIR}: seeds {seeds})")
+        return dict(zip(table.design, table.distance, strict=True))
+
+
 def _compose(args: argparse.Namespace) -> None:
     import torch
 
-    from robocompose.eggan.query import load_generator, top_distinct
     from robocompose.modular.cli import _params, params_source
-    from robocompose.modular.eggan_problem import FitnessConfig, ModularEgganProblem
 
     caps = parse_caps(args.max)
+    if args.simulate and args.heightmap is not None:
+        raise InputError("--simulate needs --terrain-seed (a height map alone does not define the blocks)")
     params = _params(args.params)
     heights = None if args.heightmap is None else read_heightmap(args.heightmap, params.eval.terrain,
                                                                   f"{params_source(args.params)}.eval")
-    problem = ModularEgganProblem(params, FitnessConfig())
     torch.set_num_threads(1)
     started = time.perf_counter()
-    generator, info = load_generator(args.model or SHIPPED_MODEL, problem)
-    if heights is not None:
-        task, tensor = None, torch.from_numpy(heights)
-    else:
-        task, tensor = args.terrain_seed, problem.encode_task(args.terrain_seed)
-    loaded = time.perf_counter()
-    ranked = top_distinct(generator, problem, task, args.k, args.samples, args.seed, tensor,
-                          keep=lambda d: not params.fitness.skips(d) and all(d.count(m) <= c for m, c in caps.items()))
-    query_ms = (time.perf_counter() - loaded) * 1000
-    designs = [{"design": r.design, "score": round(r.score, 6)} for r in ranked]
-    if args.simulate:
-        if task is None:
-            raise InputError("--simulate needs --terrain-seed (a height map alone does not define the blocks)")
-        from robocompose.modular.evaluate import evaluate_designs
-
-        for entry, result in zip(designs, evaluate_designs([d["design"] for d in designs], task, params.eval,
-                                                           params.fitness), strict=True):
-            entry["distance"], entry["status"] = result.distance, result.status
-    print(json.dumps({"terrain_seed": args.terrain_seed, "heightmap": str(args.heightmap) if args.heightmap else None,
-                      "k": args.k, "found": len(designs), "max": caps, "designs": designs,
-                      "model": str(args.model or SHIPPED_MODEL), "model_run_key": info.get("run_key"),
-                      "query_ms": round(query_ms, 2), "load_ms": round((loaded - started) * 1000, 2)}))
+    composer = ModularComposer.load(args.model, params)
+    load_ms = (time.perf_counter() - started) * 1000
+    answer = composer.query(args.terrain_seed, heights, args.k, caps, args.samples, args.seed,
+                            "rollout" if args.simulate else None)
+    print(json.dumps({**answer, "heightmap": str(args.heightmap) if args.heightmap else None,
+                      "load_ms": round(load_ms, 2)}))

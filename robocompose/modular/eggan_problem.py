@@ -28,6 +28,7 @@ error on unseen real data, its Spearman within each terrain (the ranking evoluti
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 from collections.abc import Sequence
@@ -55,7 +56,7 @@ from robocompose.modular.evaluate import evaluate_designs
 from robocompose.modular.params import ModularParams
 from robocompose.modular.problem import ModularProblem
 from robocompose.modular.robot import MODULE_LETTERS, N_PORTS, all_designs, design_to_index, parse_design
-from robocompose.modular.terrain import GRID_X, GRID_Y, generate_terrain, height_map
+from robocompose.modular.terrain import GRID_X, GRID_Y, TerrainConfig, generate_terrain, height_map
 
 HOLDOUT_EVERY = 5  # every fifth real rollout is held out of the surrogate's fit
 SOURCES = ("table", "surrogate")
@@ -123,7 +124,9 @@ _DESIGNS = np.array(all_designs())  # (4096,) port strings, port 0 the most sign
 _PLACE = len(MODULE_LETTERS) ** np.arange(N_PORTS - 1, -1, -1)  # (6,) base-4 place values
 _CODE = {design: code for code, design in enumerate(_DESIGNS.tolist())}
 _ONE_HOT = one_hot_rows(np.array([design_to_index(d) for d in _DESIGNS]), len(MODULE_LETTERS))  # (4096, 6, 4)
-_MAPS: dict[tuple[int, str], torch.Tensor] = {}  # (terrain seed, terrain config) -> height map, per process
+@functools.lru_cache(maxsize=4096)  # ~13 ms a terrain (Poisson-disk sampling in Python): keep recent ones, bounded
+def _height_map(seed: int, terrain: TerrainConfig) -> torch.Tensor:
+    return torch.from_numpy(height_map(generate_terrain(seed, terrain)))  # (50, 20), shared: never written to
 
 
 class ModularEgganProblem:
@@ -157,10 +160,7 @@ class ModularEgganProblem:
         return self.fitness.train_seed_base + int(rng.integers(self.fitness.train_terrains))
 
     def encode_task(self, task: int) -> torch.Tensor:
-        key = (int(task), json.dumps(asdict(self.modular.eval.terrain), sort_keys=True))
-        if key not in _MAPS:  # ~70 ms per terrain (Poisson-disk sampling in Python): keep them
-            _MAPS[key] = torch.from_numpy(height_map(generate_terrain(int(task), self.modular.eval.terrain)))
-        return _MAPS[key]  # (50, 20)
+        return _height_map(int(task), self.modular.eval.terrain)  # (50, 20)
 
     def design_head(self, logits: torch.Tensor) -> torch.Tensor:
         return torch.softmax(logits, dim=-1)  # (B, 6, 4): a categorical distribution per port

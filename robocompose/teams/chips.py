@@ -20,6 +20,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import BinaryIO
 
 import numpy as np
 from PIL import Image
@@ -71,16 +72,39 @@ class Chip:
         return CLASS_TO_TERRAIN[self.classes]
 
 
-def read_label_png(path: Path) -> tuple[np.ndarray, np.ndarray]:
-    """Read one label PNG; return (classes (H, W) uint8, ignore mask (H, W) bool).
+# Pixels of a label image that are decoded at most: 12k x 12k, above the largest DroneDeploy scene; PIL refuses more
+# than twice its own limit (179M) as a decompression bomb, and a 15k x 15k PNG of one colour is only ~0.2 MB.
+MAX_LABEL_PIXELS = 12_000 * 12_000
 
-    Fails with the file and the offending colour if a pixel has a colour that is not in the table.
+
+def read_label_png(path: Path | BinaryIO, name: str | None = None,
+                   max_pixels: int = MAX_LABEL_PIXELS) -> tuple[np.ndarray, np.ndarray]:
+    """Read one label PNG (a file, or an open binary stream named `name` in errors); return (classes (H, W) uint8,
+    ignore mask (H, W) bool).
+
+    Fails with the file and the offending colour if a pixel has a colour that is not in the table, and before
+    decoding an image of more than `max_pixels` pixels.
     """
+    import warnings
+
+    name = str(path) if name is None else name
+    too_big = f"{name}: more than {max_pixels:,} pixels, expected a DroneDeploy label PNG of at most that many"
     try:
-        with Image.open(path) as image:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)  # the size is checked below
+            image = Image.open(path)
+        with image:
+            if image.format != "PNG":
+                raise InputError(f"{name}: a {image.format} image, expected a DroneDeploy label PNG")
+            if image.width * image.height > max_pixels:
+                raise InputError(f"{too_big} (found {image.width} x {image.height})")
             rgb = np.asarray(image.convert("RGB"))
+    except Image.DecompressionBombError:
+        raise InputError(too_big) from None
+    except InputError:
+        raise
     except (OSError, ValueError) as err:  # PIL: UnidentifiedImageError (an OSError), truncated or bad data
-        raise InputError(f"{path}: not a readable image, expected a DroneDeploy label PNG ({err})") from None
+        raise InputError(f"{name}: not a readable image, expected a DroneDeploy label PNG ({err})") from None
     codes = _colour_code(rgb)  # (H, W)
     ignore = codes == _IGNORE_CODE
     order = np.argsort(_CLASS_CODES)
@@ -90,23 +114,26 @@ def read_label_png(path: Path) -> tuple[np.ndarray, np.ndarray]:
     if unknown.any():
         row, col = np.argwhere(unknown)[0]
         colour = tuple(int(v) for v in rgb[row, col])
-        raise InputError(f"{path}: pixel (row {row}, col {col}) has colour {colour}, "
+        raise InputError(f"{name}: pixel (row {row}, col {col}) has colour {colour}, "
                          f"expected one of the DroneDeploy label colours {CLASS_COLOURS_RGB} "
                          f"or IGNORE {IGNORE_COLOUR_RGB}")
     return classes.astype(np.uint8), ignore
 
 
-def chips_in_file(path: Path, chip_size: int = CHIP_SIZE) -> Iterator[Chip]:
-    """Yield the chips of one label PNG: chip_size x chip_size windows at stride chip_size (row-major),
-    skipping windows that hold any IGNORE pixel. Chip ids are "<file stem>-<window index, 6 digits>"."""
-    classes, ignore = read_label_png(path)
+def chips_in_file(path: Path | BinaryIO, chip_size: int = CHIP_SIZE, name: str | None = None,
+                  max_pixels: int = MAX_LABEL_PIXELS) -> Iterator[Chip]:
+    """Yield the chips of one label PNG (a file, or a binary stream named `name`): chip_size x chip_size windows
+    at stride chip_size (row-major), skipping windows that hold any IGNORE pixel. Chip ids are "<file stem>-<window
+    index, 6 digits>"."""
+    name = str(path) if name is None else name
+    classes, ignore = read_label_png(path, name, max_pixels)
     height, width = classes.shape
     window = 0
     for top in range(0, height - chip_size + 1, chip_size):
         for left in range(0, width - chip_size + 1, chip_size):
             rows, cols = slice(top, top + chip_size), slice(left, left + chip_size)
             if not ignore[rows, cols].any():
-                yield Chip(f"{Path(path).stem}-{window:06d}", str(path), classes[rows, cols].copy())
+                yield Chip(f"{Path(name).stem}-{window:06d}", name, classes[rows, cols].copy())
             window += 1
 
 

@@ -12,10 +12,18 @@ from __future__ import annotations
 
 import argparse
 import json
+import time
+from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from robocompose.arguments import input_file, non_negative_int, positive_int
 from robocompose.io.errors import InputError
+
+if TYPE_CHECKING:
+    from robocompose.teams.chips import Chip
+    from robocompose.teams.decompose import DecomposeConfig
+    from robocompose.teams.ergodic import CoverageConfig
 
 SHIPPED_MODEL = Path(__file__).resolve().parent / "pretrained" / "generator.pt"  # the default profile's, shipped
 
@@ -54,47 +62,102 @@ def _ship(args: argparse.Namespace) -> None:
     print(json.dumps({"shipped": str(SHIPPED_MODEL), "from": str(args.source), "bytes": SHIPPED_MODEL.stat().st_size}))
 
 
-def _compose(args: argparse.Namespace) -> None:
-    import time
+@dataclass
+class TeamsComposer:
+    """A trained teams generator kept warm: `query` is what `compose teams` prints and what the service
+    (robocompose.serve) answers, one function for both."""
 
+    path: Path
+    info: dict  # the generator file's info: K, the settings it was trained with, metrics, provenance
+    generator: Any
+    coverage: CoverageConfig
+    decompose: DecomposeConfig
+
+    @classmethod
+    def load(cls, path: Path | None) -> TeamsComposer:
+        """The generator at `path` (default: the shipped one), with the decomposition and coverage settings it was
+        trained with."""
+        from robocompose.eggan.learners import LEARNERS
+        from robocompose.teams.chips import synthetic_chip
+        from robocompose.teams.decompose import DecomposeConfig, decompose_chip
+        from robocompose.teams.eggan_problem import TeamsProblem
+        from robocompose.teams.ergodic import CoverageConfig
+        from robocompose.teams.generative import teams_generator_info
+
+        path = Path(path or SHIPPED_MODEL)
+        saved = teams_generator_info(path)
+        coverage = CoverageConfig(**saved["params"]["coverage"])
+        decompose = DecomposeConfig(**{**saved["params"]["decompose"], "n_regions": saved["n_regions"]})
+        chip = synthetic_chip(0)  # any chip: the network's sizes are K x 4 -> K + 1 x species, K fixed by the file
+        generator, _ = LEARNERS["teams"]["eggan"].load(
+            path, TeamsProblem([(chip, decompose_chip(chip, decompose))], coverage))
+        return cls(path, saved, generator, coverage, decompose)
+
+    @property
+    def bank(self) -> int:
+        """Robots of the bank: the largest deployment budget."""
+        return self.coverage.robots_per_species * 3
+
+    def query(self, chip: Chip, budget: int | None = None, seed: int = 0, measure: bool = True) -> dict:
+        """The chip's decomposition and the generator's answer for it: with `measure`, the front (both objectives
+        measured by the ergodic optimiser, robots' starts seeded by `seed`) or, with `budget`, its best allocation
+        within the budget; without, the distinct allocations drawn (within `budget`, if given), costs not measured."""
+        import numpy as np
+
+        from robocompose.eggan.learners import LEARNERS
+        from robocompose.teams.decompose import decompose_chip
+        from robocompose.teams.eggan_problem import TeamsProblem
+        from robocompose.teams.generative import draw_allocations, query_front
+        from robocompose.teams.species import deployment_cost
+
+        if budget is not None and not 1 <= budget <= self.bank:
+            raise InputError(f"budget: {budget}: expected a number of robots in 1..{self.bank} (the bank)")
+        started = time.perf_counter()
+        decomposition = decompose_chip(chip, self.decompose)
+        decomposition_ms = 1000 * (time.perf_counter() - started)
+        problem = TeamsProblem([(chip, decomposition)], self.coverage)  # the task: the chip's K x 4 features
+        draws = LEARNERS["teams"]["eggan"].answer(self.generator, self.info["params"]["eggan"]["samples"])
+        out = {"chip": chip.chip_id, "regions": decomposition.n_regions,
+               "centres": np.round(decomposition.centres[:, :2], 6).tolist(),
+               "shares": np.round(problem.features[0], 6).tolist(), "measured": measure}
+        if measure:
+            query = query_front(draws, chip, decomposition, self.coverage, seed, problem=problem)
+            front = [{"deployment_cost": int(deploy), "coverage_cost": float(cost), "counts": counts.tolist()}
+                     for (cost, deploy), counts in zip(query.front, query.counts, strict=True)]
+            out.update({"hypervolume": query.hypervolume, "distinct": query.distinct})
+            generator_seconds = query.generator_seconds
+            if budget is None:
+                out["front"] = front
+            else:
+                out.update({"budget": budget, **best_within(front, budget)})
+        else:
+            distinct, generator_seconds = draw_allocations(draws, problem, seed)
+            costs = deployment_cost(distinct)
+            order = np.argsort(costs, kind="stable")
+            allocations = [{"deployment_cost": int(costs[i]), "counts": distinct[i].tolist()} for i in order
+                           if budget is None or costs[i] <= budget]
+            out.update({"distinct": len(distinct), "allocations": allocations, "budget": budget})
+        return {**out, "generator_ms": round(1000 * generator_seconds, 3),
+                "decomposition_ms": round(decomposition_ms, 1)}
+
+
+def _compose(args: argparse.Namespace) -> None:
     import torch
 
-    from robocompose.eggan.learners import LEARNERS
     from robocompose.teams.cli import first_chip
-    from robocompose.teams.decompose import DecomposeConfig, decompose_chip
-    from robocompose.teams.eggan_problem import TeamsProblem
-    from robocompose.teams.ergodic import CoverageConfig
-    from robocompose.teams.generative import query_front, teams_generator_info
 
     torch.set_num_threads(1)
-    path = args.model or SHIPPED_MODEL
-    saved = teams_generator_info(path)
-    k = saved["n_regions"]
+    composer = TeamsComposer.load(args.model)
+    k = composer.decompose.n_regions
     if args.regions is not None and args.regions != k:
         raise InputError(f"--regions {args.regions}: the generator was trained for K = {k} regions (its task "
                          f"is the K x 4 feature matrix); use --regions {k} or another --model")
-    coverage = CoverageConfig(**saved["params"]["coverage"])
-    bank = coverage.robots_per_species * 3
-    if args.budget is not None and not 1 <= args.budget <= bank:
-        raise InputError(f"--budget {args.budget}: expected a number of robots in 1..{bank} (the bank)")
-    chip = first_chip(args.chip)
-    started = time.perf_counter()
-    decomposition = decompose_chip(chip, DecomposeConfig(**{**saved["params"]["decompose"], "n_regions": k}))
-    decomposition_ms = 1000 * (time.perf_counter() - started)
-    learner = LEARNERS["teams"]["eggan"]
-    generator, _ = learner.load(path, TeamsProblem([(chip, decomposition)], coverage))  # K, species: the chip's
-    query = query_front(learner.answer(generator, saved["params"]["eggan"]["samples"]), chip, decomposition,
-                        coverage, args.seed)
-    front = [{"deployment_cost": int(deploy), "coverage_cost": float(cost), "counts": counts.tolist()}
-             for (cost, deploy), counts in zip(query.front, query.counts, strict=True)]
-    out = {"chip": chip.chip_id, "regions": k, "hypervolume": query.hypervolume,
-           "generator_ms": round(1000 * query.generator_seconds, 3), "decomposition_ms": round(decomposition_ms, 1)}
-    if args.budget is None:
-        out["front"] = front
-    else:
-        out["budget"] = args.budget
-        out.update(best_within(front, args.budget))
-    print(json.dumps(out))
+    if args.budget is not None and not 1 <= args.budget <= composer.bank:
+        raise InputError(f"--budget {args.budget}: expected a number of robots in 1..{composer.bank} (the bank)")
+    answer = composer.query(first_chip(args.chip), args.budget, args.seed)
+    for drawn in ("centres", "shares", "measured", "distinct"):  # the service draws them; the command prints the answer
+        answer.pop(drawn)
+    print(json.dumps(answer))
 
 
 def best_within(front: list[dict], budget: int) -> dict:

@@ -146,15 +146,22 @@ class QueryFront:
     distinct: int  # distinct allocations among the draws
 
 
-def query_front(draws: Draws, chip: Chip, decomposition: Decomposition, coverage: CoverageConfig, seed: int,
-                evaluator: AllocationEvaluator | None = None) -> QueryFront:
-    """The front of one query: a teams learner's draws (seeded by `seed`) -> allocations -> objectives measured
-    by the ergodic optimiser (robots' starts seeded by `seed`) -> the non-dominated set."""
-    problem = TeamsProblem([(chip, decomposition)], coverage)  # the task: this chip's features
+def draw_allocations(draws: Draws, problem: TeamsProblem, seed: int) -> tuple[np.ndarray, float]:
+    """The distinct (D, K, O) allocations a teams learner draws (seeded by `seed`) for `problem`'s first chip, and
+    the wall time of the learner's part (noise, forward pass, rounding)."""
     started = time.perf_counter()
-    counts = allocation_to_counts(np.stack(draws(problem, 0, seed)), coverage.robots_per_species)  # (S, K, O)
+    counts = allocation_to_counts(np.stack(draws(problem, 0, seed)), problem.coverage.robots_per_species)  # (S, K, O)
     seconds = time.perf_counter() - started
-    distinct = np.unique(counts.reshape(len(counts), -1), axis=0).reshape(-1, *counts.shape[1:])
+    return np.unique(counts.reshape(len(counts), -1), axis=0).reshape(-1, *counts.shape[1:]), seconds
+
+
+def query_front(draws: Draws, chip: Chip, decomposition: Decomposition, coverage: CoverageConfig, seed: int,
+                evaluator: AllocationEvaluator | None = None, problem: TeamsProblem | None = None) -> QueryFront:
+    """The front of one query: a teams learner's draws (seeded by `seed`) -> allocations -> objectives measured
+    by the ergodic optimiser (robots' starts seeded by `seed`) -> the non-dominated set. `problem`: the chip's
+    task, if already built."""
+    problem = problem or TeamsProblem([(chip, decomposition)], coverage)  # the task: this chip's features
+    distinct, seconds = draw_allocations(draws, problem, seed)
     evaluate = evaluator or AllocationEvaluator(chip_coverage(chip, decomposition, coverage), chip.chip_id, seed)
     objectives = evaluate(distinct)
     keep = non_dominated(objectives)
