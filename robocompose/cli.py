@@ -9,7 +9,7 @@ import sys
 
 COMMAND_MODULES = ("robocompose.grammar.cli", "robocompose.sim.cli", "robocompose.dataset.cli",
                    "robocompose.teams.cli", "robocompose.evaluation.cli", "robocompose.modular.cli",
-                   "robocompose.latent.cli", "robocompose.glso.cli")
+                   "robocompose.latent.cli", "robocompose.glso.cli", "robocompose.serve.cli")
 # `robocompose compose PROBLEM ...`: real-time composition with a trained EG-GAN generator, one module per problem
 COMPOSE_MODULES = ("robocompose.modular.compose", "robocompose.teams.compose")
 

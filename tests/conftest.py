@@ -106,8 +106,9 @@ def _cdp(ws_url: str, page_url: str, expression: str) -> dict:
     return json.loads(result["result"]["value"])
 
 
-def check_in_browser(page: Path, expression: str, profile: Path) -> dict:
-    """The JSON value of `expression` (a JS promise of a JSON string) on local `page` in headless Chromium."""
+def check_in_browser(page: Path | str, expression: str, profile: Path) -> dict:
+    """The JSON value of `expression` (a JS promise of a JSON string) on `page` (a local file or a loopback URL) in
+    headless Chromium."""
     import json
     import socket
     import subprocess
@@ -133,7 +134,7 @@ def check_in_browser(page: Path, expression: str, profile: Path) -> dict:
                 pass
             assert time.monotonic() < deadline and browser.poll() is None, "chromium did not start"
             time.sleep(0.2)
-        return _cdp(pages[0]["webSocketDebuggerUrl"], page.as_uri(), expression)
+        return _cdp(pages[0]["webSocketDebuggerUrl"], page if isinstance(page, str) else page.as_uri(), expression)
     finally:
         browser.terminate()
         browser.wait(timeout=30)
@@ -141,7 +142,8 @@ def check_in_browser(page: Path, expression: str, profile: Path) -> dict:
 
 @pytest.fixture
 def in_browser(tmp_path):
-    """`in_browser(page, expression)`: what `expression` evaluates to on local `page` in headless Chromium."""
+    """`in_browser(page, expression)`: what `expression` evaluates to on `page` (a local file or a loopback URL) in
+    headless Chromium."""
     return lambda page, expression: check_in_browser(page, expression, tmp_path / "browser-profile")
 @pytest.fixture
 def cli_error(capsys):
@@ -222,3 +224,49 @@ def copy_of_project(root: Path, params: dict, commit: bool = False) -> Path:
 def copy_project():
     """copy_project(root, params, commit=False): a tiny copy of the project (see copy_of_project)."""
     return copy_of_project
+
+
+# --- tiny trained generators (the compose commands and the service) ---
+
+
+@pytest.fixture(scope="session")
+def tiny_teams_model(tmp_path_factory):
+    """A generator file from a two-iteration training on two small chips (K = 3)."""
+    import dataclasses
+
+    from robocompose.eggan.networks import NetworkConfig
+    from robocompose.eggan.train import TrainConfig, train
+    from robocompose.teams.chips import synthetic_chip
+    from robocompose.teams.decompose import DecomposeConfig, decompose_chip
+    from robocompose.teams.eggan_problem import TeamsProblem
+    from robocompose.teams.ergodic import CoverageConfig
+    from robocompose.teams.generative import save_teams_generator
+    from robocompose.teams.params import EgganConfig
+
+    coverage, decompose = CoverageConfig(iterations=3, n_observations=5), DecomposeConfig(n_regions=3)
+    chips = [synthetic_chip(4, index, size=40) for index in range(2)]
+    problem = TeamsProblem([(chip, decompose_chip(chip, decompose)) for chip in chips], coverage)
+    trained = train(problem, NetworkConfig(latent=4, hidden=16),
+                    TrainConfig(iterations=2, batch=8, tasks=2, evolution="nsga2", log_every=1, checkpoint_every=2))
+    params = {"coverage": dataclasses.asdict(coverage), "decompose": dataclasses.asdict(decompose),
+              "eggan": dataclasses.asdict(EgganConfig(samples=16))}
+    path = tmp_path_factory.mktemp("model") / "teams.pt"
+    save_teams_generator(trained, problem, params, {}, path)
+    return path
+
+
+@pytest.fixture(scope="session")
+def tiny_modular_model(tmp_path_factory):
+    """An untrained small modular generator file (seeded): valid answers, fast to load."""
+    import torch
+
+    from robocompose.eggan.networks import Generator, NetworkConfig
+    from robocompose.eggan.query import save_generator
+    from robocompose.modular.eggan_problem import FitnessConfig, ModularEgganProblem
+    from robocompose.modular.evaluate import EvalSettings, FitnessRule
+    from robocompose.modular.params import ExperimentsConfig, ModularParams
+
+    torch.manual_seed(0)
+    problem = ModularEgganProblem(ModularParams(EvalSettings(), FitnessRule(), ExperimentsConfig()), FitnessConfig())
+    generator = Generator(problem.task_shape, problem.design_shape, NetworkConfig(latent=8, hidden=16)).eval()
+    return save_generator(generator, problem, tmp_path_factory.mktemp("modular") / "g.pt", {"run_key": "test"})

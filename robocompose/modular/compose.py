@@ -61,13 +61,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     ship.set_defaults(handler=_ship)
 
 
-def parse_caps(text: str) -> dict[str, int]:
-    """'leg=2,wheel=0' -> {'l': 2, 'w': 0}; a clear error naming the flag otherwise."""
+def parse_caps(text: str, label: str = "--max") -> dict[str, int]:
+    """'leg=2,wheel=0' -> {'l': 2, 'w': 0}; a clear error naming `label` (the flag or field) otherwise."""
     caps: dict[str, int] = {}
     for part in filter(None, (p.strip() for p in text.split(","))):
         name, _, value = part.partition("=")
         if name.strip().lower() not in MODULE_NAMES or not value.strip().isdigit():
-            raise InputError(f"--max {text!r}: expected NAME=COUNT pairs with NAME in "
+            raise InputError(f"{label} {text!r}: expected NAME=COUNT pairs with NAME in "
                              f"{sorted(set(MODULE_NAMES) - {'leg-wheel', 'leg_wheel'})} and COUNT >= 0")
         caps[MODULE_NAMES[name.strip().lower()]] = int(value)
     return caps

@@ -121,11 +121,12 @@ def read_label_png(path: Path | BinaryIO, name: str | None = None,
 
 
 def chips_in_file(path: Path | BinaryIO, chip_size: int = CHIP_SIZE, name: str | None = None,
-                  max_pixels: int = MAX_LABEL_PIXELS) -> Iterator[Chip]:
-    """Yield the chips of one label PNG (a file, or a binary stream named `name`): chip_size x chip_size windows
-    at stride chip_size (row-major), skipping windows that hold any IGNORE pixel. Chip ids are "<file stem>-<window
-    index, 6 digits>"."""
+                  max_pixels: int = MAX_LABEL_PIXELS, stem: str | None = None) -> Iterator[Chip]:
+    """Yield the chips of one label PNG (a file, or a binary stream named `name` in errors): chip_size x chip_size
+    windows at stride chip_size (row-major), skipping windows that hold any IGNORE pixel. Chip ids are "<stem>-<window
+    index, 6 digits>", the stem of the file's name unless `stem` is given."""
     name = str(path) if name is None else name
+    stem = Path(name).stem if stem is None else stem
     classes, ignore = read_label_png(path, name, max_pixels)
     height, width = classes.shape
     window = 0
@@ -133,7 +134,7 @@ def chips_in_file(path: Path | BinaryIO, chip_size: int = CHIP_SIZE, name: str |
         for left in range(0, width - chip_size + 1, chip_size):
             rows, cols = slice(top, top + chip_size), slice(left, left + chip_size)
             if not ignore[rows, cols].any():
-                yield Chip(f"{Path(name).stem}-{window:06d}", name, classes[rows, cols].copy())
+                yield Chip(f"{stem}-{window:06d}", name, classes[rows, cols].copy())
             window += 1
 
 
@@ -148,14 +149,20 @@ def load_chips(directory: Path, chip_size: int = CHIP_SIZE) -> Iterator[Chip]:
         yield from chips_in_file(path, chip_size)
 
 
+def label_png_bytes(classes: np.ndarray) -> bytes:
+    """(H, W) class ids as an RGB label PNG in the benchmark's colours."""
+    import io
+
+    buffer = io.BytesIO()
+    Image.fromarray(np.array(CLASS_COLOURS_RGB, dtype=np.uint8)[classes], mode="RGB").save(buffer, format="PNG")
+    return buffer.getvalue()
+
+
 def write_label_png(classes: np.ndarray, path: Path) -> None:
     """Write (H, W) class ids as an RGB label PNG in the benchmark's colours."""
-    rgb = np.array(CLASS_COLOURS_RGB, dtype=np.uint8)[classes]
     Path(path).parent.mkdir(parents=True, exist_ok=True)
-    Image.fromarray(rgb, mode="RGB").save(path, format="PNG")
+    Path(path).write_bytes(label_png_bytes(classes))
 
-
-# ---- synthetic chips ------------------------------------------------------------------------------
 
 def _smooth_noise(rng: np.random.Generator, size: int, scale: float) -> np.ndarray:
     """(size, size) Gaussian-smoothed noise with features of about `scale` pixels, standardised."""

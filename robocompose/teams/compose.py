@@ -124,11 +124,9 @@ class TeamsComposer:
             query = query_front(draws, chip, decomposition, self.coverage, seed, problem=problem)
             front = [{"deployment_cost": int(deploy), "coverage_cost": float(cost), "counts": counts.tolist()}
                      for (cost, deploy), counts in zip(query.front, query.counts, strict=True)]
-            out.update({"hypervolume": query.hypervolume, "distinct": query.distinct})
+            out.update({"hypervolume": query.hypervolume, "distinct": query.distinct, "front": front})
             generator_seconds = query.generator_seconds
-            if budget is None:
-                out["front"] = front
-            else:
+            if budget is not None:
                 out.update({"budget": budget, **best_within(front, budget)})
         else:
             distinct, generator_seconds = draw_allocations(draws, problem, seed)
@@ -155,9 +153,8 @@ def _compose(args: argparse.Namespace) -> None:
     if args.budget is not None and not 1 <= args.budget <= composer.bank:
         raise InputError(f"--budget {args.budget}: expected a number of robots in 1..{composer.bank} (the bank)")
     answer = composer.query(first_chip(args.chip), args.budget, args.seed)
-    for drawn in ("centres", "shares", "measured", "distinct"):  # the service draws them; the command prints the answer
-        answer.pop(drawn)
-    print(json.dumps(answer))
+    drawn = ("centres", "shares", "measured", "distinct") + (("front",) if args.budget is not None else ())
+    print(json.dumps({k: v for k, v in answer.items() if k not in drawn}))  # the page draws those, the command not
 
 
 def best_within(front: list[dict], budget: int) -> dict:

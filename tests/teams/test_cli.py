@@ -61,36 +61,10 @@ def test_chip_that_is_not_an_image_is_named(tmp_path, cli_error):
     cli_error(["teams", "nsga2", "--chip", str(tmp_path / "notes.txt")],
               f"{tmp_path / 'notes.txt'}: not a readable image, expected a DroneDeploy label PNG")
     cli_error(["teams", "nsga2", "--chip", str(tmp_path / "none.png")], "argument --chip", "none.png: no such file")
-@pytest.fixture(scope="module")
-def tiny_model(tmp_path_factory):
-    """A generator file from a two-iteration training on two small chips (K = 3)."""
-    import dataclasses
-
-    from robocompose.eggan.networks import NetworkConfig
-    from robocompose.eggan.train import TrainConfig, train
-    from robocompose.teams.chips import synthetic_chip
-    from robocompose.teams.decompose import DecomposeConfig, decompose_chip
-    from robocompose.teams.eggan_problem import TeamsProblem
-    from robocompose.teams.ergodic import CoverageConfig
-    from robocompose.teams.generative import save_teams_generator
-    from robocompose.teams.params import EgganConfig
-
-    coverage, decompose = CoverageConfig(iterations=3, n_observations=5), DecomposeConfig(n_regions=3)
-    chips = [synthetic_chip(4, index, size=40) for index in range(2)]
-    problem = TeamsProblem([(chip, decompose_chip(chip, decompose)) for chip in chips], coverage)
-    trained = train(problem, NetworkConfig(latent=4, hidden=16),
-                    TrainConfig(iterations=2, batch=8, tasks=2, evolution="nsga2", log_every=1, checkpoint_every=2))
-    params = {"coverage": dataclasses.asdict(coverage), "decompose": dataclasses.asdict(decompose),
-              "eggan": dataclasses.asdict(EgganConfig(samples=16))}
-    path = tmp_path_factory.mktemp("model") / "teams.pt"
-    save_teams_generator(trained, problem, params, {}, path)
-    return path
-
-
-def test_compose_teams_prints_the_measured_front_and_the_best_within_a_budget(tmp_path, tiny_model, capsys):
+def test_compose_teams_prints_the_measured_front_and_the_best_within_a_budget(tmp_path, tiny_teams_model, capsys):
     chip = tmp_path / "chip.png"
     write_label_png(np.random.default_rng(0).choice([2, 3, 4], size=(300, 300)).astype(np.uint8), chip)
-    out = run(["compose", "teams", "--chip", str(chip), "--model", str(tiny_model)], capsys)
+    out = run(["compose", "teams", "--chip", str(chip), "--model", str(tiny_teams_model)], capsys)
     front = out["front"]
     points = np.array([[p["coverage_cost"], p["deployment_cost"]] for p in front])
     assert out["regions"] == 3 and out["hypervolume"] == pytest.approx(team_hypervolume(points))
@@ -98,7 +72,7 @@ def test_compose_teams_prints_the_measured_front_and_the_best_within_a_budget(tm
     assert front and all(np.array(p["counts"]).shape == (3, 3) for p in front)
     assert all(sum(map(sum, p["counts"])) == p["deployment_cost"] for p in front)
     budget = front[-1]["deployment_cost"]
-    best = run(["compose", "teams", "--chip", str(chip), "--model", str(tiny_model), "--budget", str(budget)],
+    best = run(["compose", "teams", "--chip", str(chip), "--model", str(tiny_teams_model), "--budget", str(budget)],
                capsys)["allocation"]
     assert best["coverage_cost"] == min(p["coverage_cost"] for p in front if p["deployment_cost"] <= budget)
 
@@ -120,39 +94,39 @@ def test_a_budget_answer_lies_inside_the_box_or_says_none_does():
     (["--budget", "61"], "--budget 61: expected a number of robots in 1..60"),
     (["--regions", "5"], "--regions 5: the generator was trained for K = 3"),
 ])
-def test_compose_teams_rejects_bad_flags_with_exit_code_2(tmp_path, tiny_model, capsys, extra, message):
+def test_compose_teams_rejects_bad_flags_with_exit_code_2(tmp_path, tiny_teams_model, capsys, extra, message):
     from robocompose.cli import main
 
     chip = tmp_path / "chip.png"
     write_label_png(np.full((300, 300), 4, dtype=np.uint8), chip)
-    assert main(["compose", "teams", "--chip", str(chip), "--model", str(tiny_model), *extra]) == 2
+    assert main(["compose", "teams", "--chip", str(chip), "--model", str(tiny_teams_model), *extra]) == 2
     assert message in capsys.readouterr().err
 
 
-def test_compose_teams_rejects_a_chip_in_the_wrong_format(tmp_path, tiny_model, capsys):
+def test_compose_teams_rejects_a_chip_in_the_wrong_format(tmp_path, tiny_teams_model, capsys):
     from PIL import Image
 
     from robocompose.cli import main
 
     Image.fromarray(np.full((300, 300, 3), 7, dtype=np.uint8)).save(tmp_path / "photo.png")
-    assert main(["compose", "teams", "--chip", str(tmp_path / "photo.png"), "--model", str(tiny_model)]) == 2
+    assert main(["compose", "teams", "--chip", str(tmp_path / "photo.png"), "--model", str(tiny_teams_model)]) == 2
     assert "photo.png: pixel (row 0, col 0)" in capsys.readouterr().err  # not a label colour
     write_label_png(np.full((100, 100), 4, dtype=np.uint8), tmp_path / "small.png")
-    assert main(["compose", "teams", "--chip", str(tmp_path / "small.png"), "--model", str(tiny_model)]) == 2
+    assert main(["compose", "teams", "--chip", str(tmp_path / "small.png"), "--model", str(tiny_teams_model)]) == 2
     assert "no 300 x 300 window" in capsys.readouterr().err
 
 
-def test_ship_teams_copies_a_checked_generator_and_writes_its_info_beside(tmp_path, tiny_model, capsys,
+def test_ship_teams_copies_a_checked_generator_and_writes_its_info_beside(tmp_path, tiny_teams_model, capsys,
                                                                           monkeypatch):
     import robocompose.teams.compose as compose
 
     monkeypatch.setattr(compose, "SHIPPED_MODEL", tmp_path / "shipped" / "generator.pt")
     (tmp_path / "shipped").mkdir()
-    out = run(["compose", "ship-teams", "--from", str(tiny_model)], capsys)
-    assert out["bytes"] == tiny_model.stat().st_size
-    assert (tmp_path / "shipped" / "generator.pt").read_bytes() == tiny_model.read_bytes()
+    out = run(["compose", "ship-teams", "--from", str(tiny_teams_model)], capsys)
+    assert out["bytes"] == tiny_teams_model.stat().st_size
+    assert (tmp_path / "shipped" / "generator.pt").read_bytes() == tiny_teams_model.read_bytes()
     assert json.loads((tmp_path / "shipped" / "generator.json").read_text()) == json.loads(
-        tiny_model.with_suffix(".json").read_text())
+        tiny_teams_model.with_suffix(".json").read_text())
 
 def test_nsga2_on_a_dask_cluster_gives_the_local_front(capsys, dask_address):
     argv = ["teams", "nsga2", "--synthetic-seed", "1", "--regions", "3", "--pop", "6", "--generations", "2"]
