@@ -304,7 +304,7 @@ def create_app(models: Models) -> FastAPI:
         else:
             raise ServiceError(415, f"body: content type {kind or 'none'!r}, expected application/json or "
                                     "application/x-npy (a .npy height map)")
-        return _json(await run_in_threadpool(call) if slow else call(), started)
+        return _json(await run_in_threadpool(call) if slow else call(), started)  # a few ms: no thread hop
 
     @app.post("/compose/teams")
     async def compose_teams(request: Request) -> Response:

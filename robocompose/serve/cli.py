@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import json
 import re
+import socket
 from pathlib import Path
 
 from robocompose.arguments import int_at_least
@@ -71,8 +72,23 @@ def load_models(modular: list[str], teams: list[str], params_file: Path | None):
                   f"{params_source(params_file)}.eval")
 
 
+def listen(host: str, port: int) -> socket.socket:
+    """A listening TCP socket at (host, port) for the server; InputError naming the flags if it cannot be had."""
+    listener = socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET, socket.SOCK_STREAM)
+    listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    # inherited by every connection: an answer's header and body go out at once, not 40 ms apart (Nagle's algorithm
+    # holding the body until the client's delayed ACK of the header)
+    listener.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+    try:
+        listener.bind((host, port))
+        listener.listen(2048)  # connections wait in the backlog from now on: the server is reachable once this returns
+    except OSError as err:
+        listener.close()
+        raise InputError(f"--host {host} --port {port}: cannot listen there ({err.strerror})") from None
+    return listener
+
+
 def _serve(args: argparse.Namespace) -> None:
-    import socket
     import sys
 
     import uvicorn
@@ -81,14 +97,7 @@ def _serve(args: argparse.Namespace) -> None:
 
     app = create_app(load_models(args.modular_model, args.teams_model, args.params))
     sys.setswitchinterval(0.001)  # a slow query in a thread yields the interpreter to fast ones every millisecond
-    family = socket.AF_INET6 if ":" in args.host else socket.AF_INET
-    listener = socket.socket(family, socket.SOCK_STREAM)
-    listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-    try:
-        listener.bind((args.host, args.port))
-        listener.listen(2048)  # connections wait in the backlog from now on, so the line below is true when printed
-    except OSError as err:
-        raise InputError(f"--host {args.host} --port {args.port}: cannot listen there ({err.strerror})") from None
+    listener = listen(args.host, args.port)
     host, port = listener.getsockname()[:2]
     print(json.dumps({"serving": f"http://{host}:{port}/", "models": {w: sorted(m) for w, m in
                                                                        (("modular", app.state.models.modular),

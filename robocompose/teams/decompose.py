@@ -25,7 +25,6 @@ in its most common terrain) measures how well regions follow the terrain.
 
 from __future__ import annotations
 
-import functools
 import hashlib
 from dataclasses import dataclass
 
@@ -67,24 +66,18 @@ def pixel_centres(height: int, width: int) -> np.ndarray:
     return np.stack([cols, rows], axis=-1)
 
 
-@functools.lru_cache(maxsize=8)
-def _pixel_columns(height: int, width: int) -> tuple[np.ndarray, np.ndarray]:
-    """pixel_centres as two read-only (H*W, 1) columns, x and y, kept per chip size (every query needs them)."""
-    points = pixel_centres(height, width).reshape(-1, 2)
-    x, y = points[:, :1].copy(), points[:, 1:].copy()
-    x.flags.writeable = y.flags.writeable = False
-    return x, y
-
-
 def _squared_distances(centres: np.ndarray, terrain: np.ndarray, terrain_weight: float) -> np.ndarray:
-    """(H*W, K) joint-space squared distance of every pixel of an (H, W) terrain map to (K, 6) centres."""
-    x, y = _pixel_columns(*terrain.shape)  # (P, 1) each
-    # dx^2 + dy^2, the two-term sum of numpy's reduction written out: the same bits, 4x faster (no size-2 axis)
-    planar = (x - centres[:, 0]) ** 2 + (y - centres[:, 1]) ** 2  # (P, K)
+    """(H*W, K) joint-space squared distance of every pixel of an (H, W) terrain map to (K, 6) centres:
+    (x - cx)^2 + (y - cy)^2 + w^2 |onehot(t) - s|^2, each term as pixel_centres' coordinates give it."""
+    height, width = terrain.shape
+    xs, ys = (np.arange(width) + 0.5) / width, (np.arange(height) + 0.5) / height  # pixel_centres' columns, rows
+    dx2 = (xs[:, None] - centres[:, 0]) ** 2  # (W, K)
+    dy2 = (ys[:, None] - centres[:, 1]) ** 2  # (H, K)
     shares = centres[:, 2:]  # (K, 4)
-    # |onehot(t) - s|^2 = 1 - 2 s_t + |s|^2
-    mismatch = 1.0 - 2.0 * shares.T[terrain.ravel()] + (shares**2).sum(1)[None, :]  # (P, K)
-    return planar + terrain_weight**2 * mismatch
+    # |onehot(t) - s|^2 = 1 - 2 s_t + |s|^2 depends on the pixel's terrain t only: a (4, K) table
+    mismatch = 1.0 - 2.0 * shares.T + (shares**2).sum(1)[None, :]
+    # the same sums of the same terms as per pixel, in the same order: the same bits, ~5x faster
+    return (dx2[None, :, :] + dy2[:, None, :] + (terrain_weight**2 * mismatch)[terrain]).reshape(height * width, -1)
 
 
 @dataclass(frozen=True)

@@ -6,7 +6,6 @@ from __future__ import annotations
 import io
 import json
 import re
-import socket
 import threading
 import time
 import urllib.error
@@ -19,7 +18,7 @@ from PIL import Image
 
 from robocompose.cli import main
 from robocompose.serve.app import MAX_BODY_BYTES, create_app
-from robocompose.serve.cli import load_models
+from robocompose.serve.cli import listen, load_models
 from robocompose.teams.chips import CLASS_COLOURS_RGB, label_png_bytes, synthetic_chip
 
 
@@ -29,8 +28,7 @@ def server(tiny_modular_model, tiny_teams_model):
     import uvicorn
 
     app = create_app(load_models([f"tiny={tiny_modular_model}"], [f"tiny={tiny_teams_model}"], None))
-    listener = socket.socket()
-    listener.bind(("127.0.0.1", 0))
+    listener = listen("127.0.0.1", 0)
     server = uvicorn.Server(uvicorn.Config(app, log_level="warning", access_log=False))
     thread = threading.Thread(target=server.run, kwargs={"sockets": [listener]}, daemon=True)
     thread.start()

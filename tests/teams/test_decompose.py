@@ -39,6 +39,21 @@ def test_raster_assigns_each_pixel_to_the_centre_nearest_in_position_and_terrain
     assert Decomposition(centres, 0.4).raster(terrain)[12, 20] == 2  # w > 0: the water centre takes it
 
 
+def test_the_distances_are_bit_for_bit_the_per_pixel_formula():
+    """The distances are computed per column, row and terrain class for speed; every pixel's value must be exactly
+    the per-pixel formula's (the decompositions of committed runs depend on these bits)."""
+    from robocompose.teams.decompose import _squared_distances
+
+    rng = np.random.default_rng(3)
+    terrain = rng.integers(0, 4, (37, 53)).astype(np.uint8)
+    centres = np.concatenate([rng.random((7, 2)), rng.dirichlet(np.ones(4), 7)], axis=1)  # (K, 6)
+    points = pixel_centres(37, 53).reshape(-1, 2)  # (P, 2)
+    planar = ((points[:, None, :] - centres[None, :, :2]) ** 2).sum(-1)  # (P, K)
+    shares = centres[:, 2:]
+    mismatch = 1.0 - 2.0 * shares.T[terrain.ravel()] + (shares**2).sum(1)[None, :]
+    assert np.array_equal(_squared_distances(centres, terrain, 0.3), planar + 0.3**2 * mismatch)
+
+
 def test_lloyd_steps_even_out_region_areas_of_the_plain_voronoi():
     terrain = np.full((60, 60), 2, dtype=np.uint8)
     raw = decompose(terrain, np.random.default_rng(4), 6, 0.0, 0).raster(terrain)
