@@ -1,6 +1,6 @@
 """Benchmark: the composition service under load, beside the command line's wall time for the same query.
 
-A real `robocompose serve` process (shipped generators) on loopback; CLIENTS closed-loop clients (each sends its next
+A real `robocompose serve --workers 2` (shipped generators) on loopback; CLIENTS closed-loop clients (each sends its next
 request when the last is answered, keep-alive connections) in this process; latency is the client's wait, send to
 last byte. Figures (milliseconds, over REQUESTS requests after WARMUP):
 serve.modular_p50_ms / _p99_ms: `POST /compose/modular` by terrain seed, seeds cycling through SEED_POOL terrains
@@ -33,6 +33,7 @@ import numpy as np
 from robocompose.teams.chips import label_png_bytes, synthetic_chip
 
 CLIENTS = 8
+WORKERS = 2  # server processes: one per core
 REQUESTS = 500
 WARMUP = 16
 SEED_POOL = 64
@@ -41,7 +42,8 @@ CLI_RUNS = 3
 
 
 def start_server() -> tuple[subprocess.Popen, str]:
-    process = subprocess.Popen([sys.executable, "-m", "robocompose.cli", "serve", "--port", "0"],
+    process = subprocess.Popen([sys.executable, "-m", "robocompose.cli", "serve", "--port", "0", "--workers",
+                                str(WORKERS)],
                                stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
     started = json.loads(process.stdout.readline())
     return process, started["serving"].removeprefix("http://").rstrip("/")
@@ -109,6 +111,7 @@ def run() -> dict[str, float]:
         figures[f"serve.{name}_p50_ms"] = float(np.percentile(values, 50))
         figures[f"serve.{name}_p99_ms"] = float(np.percentile(values, 99))
     return {**figures, "serve.requests_per_endpoint": float(REQUESTS), "serve.clients": float(CLIENTS),
+            "serve.workers": float(WORKERS),
             "cli.compose_modular_wall_ms": modular_cli, "cli.compose_teams_wall_ms": teams_cli,
             "serve.modular_speedup_vs_cli": modular_cli / figures["serve.modular_p50_ms"],
             "serve.teams_measured_speedup_vs_cli": teams_cli / figures["serve.teams_measured_p50_ms"]}

@@ -25,7 +25,7 @@ class ReportParams:
 
 
 def build_report(params: ReportParams, reports_dir: Path = Path("reports"), data_dir: Path = Path("data")) -> Path:
-    from robocompose.report import dataset, eggan, evaluation, fidelity, glso, latent, metadata, modular, teams
+    from robocompose.report import dataset, eggan, evaluation, fidelity, glso, latent, metadata, modular, serve, teams
 
     sections = [
         "# robocompose report",
@@ -40,6 +40,7 @@ def build_report(params: ReportParams, reports_dir: Path = Path("reports"), data
         modular.section(reports_dir, data_dir, params.modular),
         eggan.section(reports_dir, data_dir),
         teams.section(reports_dir, data_dir),
+        serve.section(reports_dir),
         metadata.section(reports_dir),
     ]
     text = "\n\n".join(s.strip() for s in sections) + "\n"

@@ -23,6 +23,7 @@ from __future__ import annotations
 import base64
 import io
 import json
+import os
 import re
 import threading
 import time
@@ -282,7 +283,7 @@ def create_app(models: Models) -> FastAPI:
 
     @app.get("/health")
     async def health() -> dict:
-        return {"status": "ok", "models": models.provenance,
+        return {"status": "ok", "worker": os.getpid(), "models": models.provenance,
                 "limits": {"body_bytes": MAX_BODY_BYTES, "chip_pixels": MAX_CHIP_PIXELS, "k": MAX_K,
                            "samples": MAX_SAMPLES}}
 

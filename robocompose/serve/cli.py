@@ -28,6 +28,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                        help="a modular generator file answering as model NAME (repeatable)")
     serve.add_argument("--teams-model", action="append", default=[], metavar="NAME=PATH",
                        help="a teams generator file answering as model NAME (repeatable)")
+    serve.add_argument("--workers", type=int_at_least(1), default=1, help="server processes sharing the port, each "
+                       "with its own copy of the models (default 1; 2 on a 2-core machine answers more at once)")
     serve.add_argument("--params", type=Path, default=None, help="params file with a modular: section (default: "
                        "params.yaml if there is one, else the defaults); a file named here must exist")
     serve.set_defaults(handler=_serve)
@@ -88,14 +90,31 @@ def listen(host: str, port: int) -> socket.socket:
     return listener
 
 
+WORKER_MODELS = "ROBOCOMPOSE_SERVE_MODELS"  # the models a worker process loads, as JSON from `robocompose serve`
+
+
+def worker_app():
+    """The app of one worker process of `robocompose serve --workers N` (uvicorn imports and calls it): the models the
+    parent named and checked, loaded again in this process."""
+    import os
+    import sys
+
+    from robocompose.serve.app import create_app
+
+    named = json.loads(os.environ[WORKER_MODELS])
+    sys.setswitchinterval(0.001)
+    return create_app(load_models(named["modular"], named["teams"], named["params"] and Path(named["params"])))
+
+
 def _serve(args: argparse.Namespace) -> None:
+    import os
     import sys
 
     import uvicorn
 
     from robocompose.serve.app import create_app
 
-    app = create_app(load_models(args.modular_model, args.teams_model, args.params))
+    app = create_app(load_models(args.modular_model, args.teams_model, args.params))  # checked before listening
     sys.setswitchinterval(0.001)  # a slow query in a thread yields the interpreter to fast ones every millisecond
     listener = listen(args.host, args.port)
     host, port = listener.getsockname()[:2]
@@ -103,4 +122,13 @@ def _serve(args: argparse.Namespace) -> None:
                                                                        (("modular", app.state.models.modular),
                                                                         ("teams", app.state.models.teams))}}),
           flush=True)
-    uvicorn.Server(uvicorn.Config(app, log_level="warning", access_log=False)).run(sockets=[listener])
+    if args.workers == 1:
+        uvicorn.Server(uvicorn.Config(app, log_level="warning", access_log=False)).run(sockets=[listener])
+        return
+    from uvicorn.supervisors import Multiprocess
+
+    os.environ[WORKER_MODELS] = json.dumps({"modular": args.modular_model, "teams": args.teams_model,
+                                            "params": args.params and str(args.params)})
+    config = uvicorn.Config("robocompose.serve.cli:worker_app", factory=True, workers=args.workers,
+                            log_level="warning", access_log=False)
+    Multiprocess(config, sockets=[listener]).run()  # restarts a worker that dies

@@ -17,6 +17,7 @@ stores them in the benchmark's PNG format, so the loader reads both the same way
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -66,7 +67,7 @@ class Chip:
     source: str  # the label PNG it was cut from
     classes: np.ndarray  # (H, W) uint8 class ids
 
-    @property
+    @functools.cached_property  # read by the decomposition, the features and the raster of every query
     def terrain(self) -> np.ndarray:
         """(H, W) uint8 terrain ids (0 Water, 1 Mountain, 2 Plain, 3 City)."""
         return CLASS_TO_TERRAIN[self.classes]

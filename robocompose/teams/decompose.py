@@ -76,8 +76,10 @@ def _squared_distances(centres: np.ndarray, terrain: np.ndarray, terrain_weight:
     shares = centres[:, 2:]  # (K, 4)
     # |onehot(t) - s|^2 = 1 - 2 s_t + |s|^2 depends on the pixel's terrain t only: a (4, K) table
     mismatch = 1.0 - 2.0 * shares.T + (shares**2).sum(1)[None, :]
-    # the same sums of the same terms as per pixel, in the same order: the same bits, ~5x faster
-    return (dx2[None, :, :] + dy2[:, None, :] + (terrain_weight**2 * mismatch)[terrain]).reshape(height * width, -1)
+    # the same sums of the same terms as per pixel, in the same order: the same bits, ~6x faster
+    distances = dx2[None, :, :] + dy2[:, None, :]  # (H, W, K)
+    distances += np.take(terrain_weight**2 * mismatch, terrain, axis=0)
+    return distances.reshape(height * width, -1)
 
 
 @dataclass(frozen=True)
