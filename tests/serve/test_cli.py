@@ -7,6 +7,9 @@ import socket
 import subprocess
 import sys
 import urllib.request
+from concurrent.futures import ThreadPoolExecutor
+
+import pytest
 
 from robocompose.serve.cli import named_models
 
@@ -43,3 +46,27 @@ def test_bad_model_flags_and_ports_exit_2_before_listening(tmp_path, cli_error):
         taken.listen()
         used = taken.getsockname()[1]
         cli_error(["serve", "--port", str(used)], f"--host 127.0.0.1 --port {used}: cannot listen there")
+
+
+@pytest.mark.slow  # two worker processes start (~15 s)
+def test_workers_share_the_port_and_each_answers(tiny_modular_model):
+    process = subprocess.Popen([sys.executable, "-m", "robocompose.cli", "serve", "--port", "0", "--workers", "2"],
+                               stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    try:
+        url = json.loads(process.stdout.readline())["serving"]
+        urllib.request.urlopen(url + "health", timeout=120).close()  # the workers are up
+
+        def worker_of_a_query(seed: int) -> int:  # a query holds its worker's event loop: the other accepts
+            request = urllib.request.Request(url + "compose/modular", json.dumps({"terrain_seed": seed}).encode(),
+                                             {"Content-Type": "application/json"})
+            with urllib.request.urlopen(request, timeout=60) as response:
+                json.load(response)
+            with urllib.request.urlopen(url + "health", timeout=60) as response:
+                return json.load(response)["worker"]
+
+        with ThreadPoolExecutor(8) as pool:
+            pids = set(pool.map(worker_of_a_query, range(200)))
+        assert len(pids) == 2 and process.pid not in pids
+    finally:
+        process.terminate()
+        process.wait(timeout=30)
