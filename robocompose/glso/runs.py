@@ -270,7 +270,7 @@ def run_job(job: RunJob) -> tuple[str, float]:
     out = Path(job.out_dir)
     table = out / "runs" / f"{job.spec.name}.parquet"
     started = time.perf_counter()
-    run_search(job.spec, job.config, job.evaluation, checkpoint=out / "checkpoints" / f"{job.spec.name}.pkl",
+    run_search(job.spec, job.config, job.evaluation, checkpoint=out / "checkpoints" / f"{job.spec.name}.ckpt",
                table=table, cache=EvaluationCache(job.cache or None))
     return str(table), time.perf_counter() - started
 

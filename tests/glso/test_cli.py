@@ -89,7 +89,7 @@ class Marker:
 def test_a_crafted_pickle_as_checkpoint_does_not_run_and_gives_one_line(params, tmp_path, capsys):
     import pickle
 
-    marker, crafted = tmp_path / "marker", tmp_path / "run.pkl"
+    marker, crafted = tmp_path / "marker", tmp_path / "run.ckpt"
     crafted.write_bytes(pickle.dumps({"key": "whatever", "state": pickle.dumps(Marker(marker))}))
     assert main(_search_argv(params, "--checkpoint", str(crafted))) == 2
     captured = capsys.readouterr()
@@ -99,14 +99,14 @@ def test_a_crafted_pickle_as_checkpoint_does_not_run_and_gives_one_line(params, 
 
 @pytest.mark.parametrize("kind", ["text", "directory", "under_a_file", "other_run"])
 def test_a_checkpoint_that_is_not_this_runs_gives_one_line(kind, params, tmp_path, capsys):
-    path = tmp_path / "run.pkl"
+    path = tmp_path / "run.ckpt"
     if kind == "text":
         path.write_text("not a checkpoint\n")
     elif kind == "directory":
         path.mkdir()
     elif kind == "under_a_file":
         path.write_text("a file")
-        path = path / "run.pkl"
+        path = path / "run.ckpt"
     else:  # the checkpoint of seed 1 named for seed 0: refused, not overwritten
         assert main(_search_argv(params, "--seed", "1", "--checkpoint", str(path))) == 0
         capsys.readouterr()
@@ -118,7 +118,7 @@ def test_a_checkpoint_that_is_not_this_runs_gives_one_line(kind, params, tmp_pat
 
 
 def test_a_run_resumes_from_its_own_checkpoint(params, tmp_path, capsys):
-    checkpoint = tmp_path / "run.pkl"
+    checkpoint = tmp_path / "run.ckpt"
     assert main(_search_argv(params, "--checkpoint", str(checkpoint))) == 0
     first = capsys.readouterr().out
     assert main(_search_argv(params, "--checkpoint", str(checkpoint))) == 0  # finished: nothing left to run

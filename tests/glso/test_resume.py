@@ -40,7 +40,7 @@ def stop_at(step: int):
 def test_a_stopped_run_resumes_to_the_same_table(method, kill_at, small_config, tmp_path):
     spec = RunSpec("flat", method, 0)
     whole = run_search(spec, small_config, EVALUATION, objective_fn=fake_objective)
-    checkpoint = tmp_path / "run.pkl"
+    checkpoint = tmp_path / "run.ckpt"
     with pytest.raises(Killed):
         run_search(spec, small_config, EVALUATION, objective_fn=fake_objective, checkpoint=checkpoint,
                    on_step=stop_at(kill_at))
@@ -52,7 +52,7 @@ def test_a_stopped_run_resumes_to_the_same_table(method, kill_at, small_config, 
 def test_a_checkpoint_of_other_settings_is_started_over(small_config, tmp_path):
     import dataclasses
 
-    spec, checkpoint = RunSpec("flat", "mcts", 0), tmp_path / "run.pkl"
+    spec, checkpoint = RunSpec("flat", "mcts", 0), tmp_path / "run.ckpt"
     run_search(spec, small_config, EVALUATION, objective_fn=fake_objective, checkpoint=checkpoint)
     other = dataclasses.replace(small_config, mcts=dataclasses.replace(small_config.mcts, amaf_threshold=3.0))
     resumed = run_search(spec, other, EVALUATION, objective_fn=fake_objective, checkpoint=checkpoint)
@@ -83,7 +83,7 @@ run_search(RunSpec("flat", {method!r}, 0), config, EvaluationConfig(), objective
 
 @pytest.mark.parametrize("method", ["glso", "mcts", "ghs"])
 def test_a_killed_process_resumes_to_the_same_table(method, small_config, tmp_path):
-    checkpoint = tmp_path / "run.pkl"
+    checkpoint = tmp_path / "run.ckpt"
     script = textwrap.dedent(SCRIPT.format(models=small_config.models, method=method, checkpoint=str(checkpoint)))
     process = subprocess.Popen([sys.executable, "-c", script], cwd=ROOT,
                                env={**os.environ, "PYTHONPATH": str(ROOT)}, start_new_session=True)
