@@ -1,3 +1,4 @@
+import dataclasses
 import json
 
 import pytest
@@ -95,6 +96,50 @@ def test_a_crafted_pickle_as_checkpoint_does_not_run_and_gives_one_line(params, 
     captured = capsys.readouterr()
     assert not marker.exists() and captured.out == ""
     assert f"{crafted}: not a robocompose checkpoint" in captured.err and len(captured.err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("kind", ["pickle", "json", "torch"])
+def test_a_forged_checkpoint_with_this_runs_key_runs_nothing_and_gives_one_line(kind, params, tmp_path, capsys):
+    """Issue 43: the key is no secret. Handed another run's checkpoint, the command names this run's key; it is
+    also what run_key computes. A pickle with a command in its __reduce__, behind a header with that key and the
+    payload's true hash (as the former pickle format, or claiming a torch or JSON payload), must not run from
+    the loader, from a run it is named for, or from the command line: one line naming the file each time."""
+    import hashlib
+    import pickle
+    import re
+
+    from robocompose.evaluation.evaluate import EvaluationConfig
+    from robocompose.glso.runs import GLSOConfig, RunSpec, run_key, run_search
+    from robocompose.io import InputError
+    from robocompose.io.checkpoint import load_checkpoint, save_checkpoint
+    from robocompose.params import load_section
+
+    marker, forged = tmp_path / "marker", tmp_path / "run.ckpt"
+    argv = ["glso", "--task", "flat", "--method", "random", "--budget", "1", "--params", params,
+            "--checkpoint", str(forged)]
+    save_checkpoint(forged, "0" * 16, [], kind="json")  # another run's checkpoint
+    assert main(argv) == 2
+    key = re.search(r"this run's key ([0-9a-f]+)", capsys.readouterr().err).group(1)
+    config = load_section(GLSOConfig, "glso", params)
+    spec, config = RunSpec("flat", "random", 0), dataclasses.replace(config, budget=1)
+    evaluation = load_section(EvaluationConfig, "evaluation", params)
+    assert run_key(spec, config, evaluation, None) == key
+
+    payload = pickle.dumps(Marker(marker))
+    forged.write_bytes(f"robocompose-checkpoint {kind} {key} {hashlib.sha256(payload).hexdigest()}\n".encode()
+                       + payload)
+    with pytest.raises(InputError) as loaded:
+        load_checkpoint(forged, key, named=True)
+    with pytest.raises(InputError) as ran:
+        run_search(spec, config, evaluation, objective_fn=lambda tree: pytest.fail("evaluated"), checkpoint=forged,
+                   named_checkpoint=True)
+    assert main(argv) == 2
+    captured = capsys.readouterr()
+    assert not marker.exists() and captured.out == ""
+    for line in (str(loaded.value), str(ran.value), captured.err.strip()):
+        assert f"{forged}: " in line and "\n" not in line
+    pickle.loads(payload)  # the control: unpickled, this payload does run its command
+    assert marker.exists()
 
 
 @pytest.mark.parametrize("kind", ["text", "directory", "under_a_file", "other_run"])
