@@ -39,6 +39,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import math
 import time
 import warnings
 from collections.abc import Callable
@@ -176,7 +177,7 @@ def replay(method: SearchMethod, rows: Any, env: SearchEnv, budget: int) -> list
         score = row.get("score") if isinstance(row, dict) else None
         if not (isinstance(row, dict) and set(row) == columns and row["step"] == step
                 and isinstance(row["design_id"], str) and isinstance(score, (int, float))
-                and not isinstance(score, bool)):
+                and not isinstance(score, bool) and math.isfinite(score)):  # as every score told in a run
             raise ReplayMismatch(f"step {step} is not a step row of this run")
         proposal = method.propose(env)
         if proposal.tree.design_id != row["design_id"]:

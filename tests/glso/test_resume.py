@@ -99,6 +99,7 @@ def test_a_stopped_run_resumes_by_replay_to_the_same_table(method, kill_at, smal
 @pytest.mark.parametrize("tamper, reason", [
     ("design", "step 2 recorded design not-this-design, replaying it proposes "),
     ("score", "step 2 is not a step row of this run"),
+    ("nan_score", "step 2 is not a step row of this run"),
     ("column", "step 2 is not a step row of this run"),
     ("too_long", "not a list of at most 9 step rows"),
 ])
@@ -116,6 +117,8 @@ def test_a_checkpoint_the_replay_does_not_reproduce_is_refused_when_named_else_s
         rows[2]["design_id"] = "not-this-design"
     elif tamper == "score":
         rows[2]["score"] = "4.5"
+    elif tamper == "nan_score":
+        rows[2]["score"] = float("nan")
     elif tamper == "column":
         del rows[2]["best_so_far"]
     else:
