@@ -3,10 +3,9 @@
 params (compute, glso, evaluation) + models/vae_{full,nopred,nogram}.pt -> data/glso/steps.parquet (all step
 tables), data/glso/runs/ (per run; persistent), data/glso/rollouts/<task>.{mcap,gif,png} (each task's best design
 replayed, and its picture at rest),
-reports/metrics/glso.json. Each run's checkpoint, data/glso/checkpoints/<run>.pkl, is not a DVC output: it only
-saves time (its key covers the run, the settings and the code) and a pickled method state (torch modules) is
-not byte-identical across processes, so a killed stage resumes every run where it stopped and dvc.lock stays
-the same from run to run.
+reports/metrics/glso.json. Each run's checkpoint, data/glso/checkpoints/<run>.ckpt (its step rows as JSON; the
+run replays them to resume), is not a DVC output: it only saves time (its key covers the run, the settings and
+the code): a killed stage resumes every run where it stopped.
 """
 
 from pathlib import Path

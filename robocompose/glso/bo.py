@@ -12,7 +12,8 @@ The loop, one objective call per step:
   eta 0.9) shrinks the bounds, exactly the call `maximize()` makes: set_bounds(transformer.transform(space)).
 Random points are drawn inside the current (reduced) bounds, as in the original. The best so far is taken
 from the whole history by the run, not from `optimizer.max`, which only sees points inside the current
-bounds. The whole optimiser is pickled with the run's checkpoint: bayes_opt's own `load_state`
+bounds. A resumed run rebuilds the optimiser by replaying its steps (`runs.replay`: the seeded optimiser
+suggests the recorded points again and registers their scores), not with bayes_opt's own `load_state`, which
 re-initialises the domain-reduction transformer from the reduced bounds, so a resumed run would diverge.
 """
 

@@ -142,7 +142,7 @@ def campaign_jobs(config: CampaignConfig, glso: GLSOConfig, evaluation: Evaluati
     hashes = {task: at_rung.settings_hash(task) for task in config.tasks}
     claim_directory(config.directory, {"rung": rung, "settings_hash": hashes})
     checkpoints = Path(config.checkpoints)
-    return [CampaignJob(spec, settings, at_rung, str(run_path(config, spec)), str(checkpoints / f"{spec.name}.pkl"),
+    return [CampaignJob(spec, settings, at_rung, str(run_path(config, spec)), str(checkpoints / f"{spec.name}.ckpt"),
                         str(checkpoints / CACHE_FILE)) for spec in run_specs(config)]
 
 

@@ -59,7 +59,7 @@ def run_searches(config: FidelityConfig, glso: Any, checkpoints: str | Path) -> 
         table.parent.mkdir(parents=True, exist_ok=True)
         run_search(RunSpec(task, method, config.seed), settings,
                    EvaluationConfig(mppi=rung_config(rung), seed=config.seed),
-                   checkpoint=Path(checkpoints) / f"{table.stem}.pkl", table=table)
+                   checkpoint=Path(checkpoints) / f"{table.stem}.ckpt", table=table)
     return tables
 
 

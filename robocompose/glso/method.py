@@ -7,9 +7,11 @@ params.yaml's `glso:`). The run makes it, then asks and tells once per objective
     proposal = method.propose(env)                  # one complete design to evaluate
     method.tell(proposal, score)                    # its score (an invalid design's score included)
 
-Its state is the object itself: the run pickles it whole into the run's checkpoint after every call and
-resumes a killed run from there, so a method keeps every random generator, tree, network and optimiser it
-uses as attributes (none global) and holds no reference to `env` (the task and the VAE are not its state).
+Its state is the object itself, and it must follow from the seed and what it was told: the run's checkpoint
+keeps only the step rows, and a killed run resumes by making the method afresh and replaying them (each
+recorded step proposed again and told its recorded score). So a method draws every random number from
+generators it keeps as attributes, seeded by `seed` (never a global RNG, the clock or an unseeded source),
+and holds no reference to `env` (the task and the VAE are not its state).
 """
 
 from __future__ import annotations
@@ -38,7 +40,7 @@ class Proposal:
 
 @dataclass
 class SearchEnv:
-    """What a method reads but does not own (never pickled with it): the task and the VAE (latent methods)."""
+    """What a method reads but does not own (not part of its state): the task and the VAE (latent methods)."""
 
     task: str
     model: Any = None

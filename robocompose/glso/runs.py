@@ -19,12 +19,18 @@ never counts as a result.
 
 Methods: `registry.METHODS` names them; each is a `method.SearchMethod` with its settings in `glso.<section>`.
 
-Resumption: after every call the run's method (its RNG, search tree, network, optimiser: the object, pickled
-whole) and its rows are written atomically to the checkpoint (`robocompose.io.checkpoint`), then its step
-table. A run killed at any point resumes from the last checkpoint and ends with the same table as an
-uninterrupted run. The tables hold no wall times (`run_job` returns a run's seconds; the stage keeps them in
-reports/timings.json). The checkpoint key covers the run, the budget, the method's settings, the evaluator's
-settings hash, the VAE file and the code; the stage starts a stale checkpoint over, a checkpoint file the
+Resumption: after every call the run's rows (plain data, JSON) are written atomically to the checkpoint
+(`robocompose.io.checkpoint`), then its step table. The method object (its RNG, search tree, network,
+optimiser) is not saved: objects of other libraries could only be stored by pickle, and unpickling a file a
+user can name or hand over runs whatever code it says. A resumed run rebuilds it by replay instead: a fresh
+method (`make_method`) proposes each recorded step again, must propose the recorded design, and is told the
+recorded score, without a call to the objective. Every method draws from generators of its own, seeded by
+the run, so after the replay it is in the state it had when the checkpoint was written, and a run killed at
+any point ends with the same table as an uninterrupted run. Replaying costs the method's own work again
+(GP fits, network steps), not the simulations. The tables hold no wall times (`run_job` returns a run's
+seconds; the stage keeps them in reports/timings.json). The checkpoint key covers the run, the budget, the
+method's settings, the evaluator's settings hash, the VAE file and the code; the stage starts a stale
+checkpoint (or one whose replay proposes other designs) over with one warning line, a checkpoint file the
 user names (`robocompose glso --checkpoint`) must hold this run or be new.
 """
 
@@ -33,6 +39,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import math
 import time
 import warnings
 from collections.abc import Callable
@@ -50,9 +57,9 @@ from robocompose.glso import best_designs
 from robocompose.glso.method import Proposal, SearchEnv, SearchMethod
 from robocompose.glso.registry import METHODS, settings_sections
 from robocompose.grammar.tree import DesignTree
-from robocompose.io import read_table, write_table
+from robocompose.io import get_schema, read_table, write_table
 from robocompose.io.checkpoint import load_checkpoint, save_checkpoint
-from robocompose.io.errors import ArtifactError, check_field
+from robocompose.io.errors import ArtifactError, InputError, check_field
 from robocompose.io.provenance import code_digest
 from robocompose.params import build_config
 from robocompose.tasks.terrains import get_task
@@ -109,7 +116,8 @@ class RunSpec:
 
 
 def make_method(spec: RunSpec, config: GLSOConfig, env: SearchEnv) -> SearchMethod:
-    """The method object of a run, fresh (its state is everything the checkpoint pickles)."""
+    """The method object of a run, fresh: every random stream from the run's seed, so that replaying a
+    checkpoint's steps brings it back to the state it had when the checkpoint was written."""
     return METHODS[spec.method].cls(config.settings(spec.method), spec.seed, config.budget, env)
 
 
@@ -150,6 +158,35 @@ def step_row(spec: RunSpec, step: int, proposal: Proposal, result: dict, score: 
             "rejected": int(proposal.rejected), "best_so_far": best}
 
 
+class ReplayMismatch(Exception):
+    """A checkpoint's rows that the run's method does not reproduce: the message says at which step."""
+
+
+def replay(method: SearchMethod, rows: Any, env: SearchEnv, budget: int) -> list[dict]:
+    """Bring a fresh `method` to the state after the checkpoint's `rows` (a run's step rows, as loaded) by
+    proposing each step again and telling it the recorded score; the rows. ReplayMismatch if they are not
+    step rows of at most `budget` steps or the method proposes another design than a step recorded (the
+    checkpoint was written by other code, or by hand).
+
+    The design is compared, not every bit of the step (a latent point's last digits may differ on another
+    CPU): a run resumed elsewhere continues that machine's search from the recorded history."""
+    if not isinstance(rows, list) or len(rows) > budget:
+        raise ReplayMismatch(f"not a list of at most {budget} step rows")
+    columns = set(get_schema("glso_steps").names)  # the values' types are checked when the table is written
+    for step, row in enumerate(rows):
+        score = row.get("score") if isinstance(row, dict) else None
+        if not (isinstance(row, dict) and set(row) == columns and row["step"] == step
+                and isinstance(row["design_id"], str) and isinstance(score, (int, float))
+                and not isinstance(score, bool) and math.isfinite(score)):  # as every score told in a run
+            raise ReplayMismatch(f"step {step} is not a step row of this run")
+        proposal = method.propose(env)
+        if proposal.tree.design_id != row["design_id"]:
+            raise ReplayMismatch(f"step {step} recorded design {row['design_id']}, replaying it proposes "
+                                 f"{proposal.tree.design_id} (the checkpoint does not match this code or run)")
+        method.tell(proposal, score)
+    return rows
+
+
 def run_search(spec: RunSpec, config: GLSOConfig, evaluation: EvaluationConfig,
                objective_fn: Callable[[DesignTree], dict] | None = None, checkpoint: Path | None = None,
                table: Path | None = None, on_step: Callable[[dict], None] | None = None,
@@ -181,8 +218,16 @@ def run_search(spec: RunSpec, config: GLSOConfig, evaluation: EvaluationConfig,
 
         env.model = load_model(model_path)
     key = run_key(spec, config, evaluation, model_path)
-    saved = load_checkpoint(checkpoint, key, named=named_checkpoint)  # the key is checked before unpickling
-    method, rows = saved if saved is not None else (make_method(spec, config, env), [])
+    saved = load_checkpoint(checkpoint, key, named=named_checkpoint)
+    method, rows = make_method(spec, config, env), []
+    if saved is not None:
+        try:
+            rows = replay(method, saved, env, config.budget)
+        except ReplayMismatch as mismatch:
+            if named_checkpoint:
+                raise InputError(f"{checkpoint}: {mismatch}; name a checkpoint of this run or a new file") from None
+            warnings.warn(f"{checkpoint}: {mismatch}: starting afresh", stacklevel=2)
+            method = make_method(spec, config, env)  # the replay left the first one part-way
     if objective_fn is None:
         objective_fn = Objective(env.task, evaluation, cache)
     seen = {row["design_id"] for row in rows}
@@ -199,7 +244,7 @@ def run_search(spec: RunSpec, config: GLSOConfig, evaluation: EvaluationConfig,
         seen.add(proposal.tree.design_id)
         rows.append(step_row(spec, step, proposal, result, score, repeat, best))
         if checkpoint is not None:
-            save_checkpoint(checkpoint, key, (method, rows), pickled=True)
+            save_checkpoint(checkpoint, key, rows, kind="json")
         if table is not None:
             write_table(pd.DataFrame(rows), table, "glso_steps")
         if on_step is not None:
@@ -226,7 +271,7 @@ def run_job(job: RunJob) -> tuple[str, float]:
     out = Path(job.out_dir)
     table = out / "runs" / f"{job.spec.name}.parquet"
     started = time.perf_counter()
-    run_search(job.spec, job.config, job.evaluation, checkpoint=out / "checkpoints" / f"{job.spec.name}.pkl",
+    run_search(job.spec, job.config, job.evaluation, checkpoint=out / "checkpoints" / f"{job.spec.name}.ckpt",
                table=table, cache=EvaluationCache(job.cache or None))
     return str(table), time.perf_counter() - started
 

@@ -1,3 +1,4 @@
+import dataclasses
 import json
 
 import pytest
@@ -89,7 +90,7 @@ class Marker:
 def test_a_crafted_pickle_as_checkpoint_does_not_run_and_gives_one_line(params, tmp_path, capsys):
     import pickle
 
-    marker, crafted = tmp_path / "marker", tmp_path / "run.pkl"
+    marker, crafted = tmp_path / "marker", tmp_path / "run.ckpt"
     crafted.write_bytes(pickle.dumps({"key": "whatever", "state": pickle.dumps(Marker(marker))}))
     assert main(_search_argv(params, "--checkpoint", str(crafted))) == 2
     captured = capsys.readouterr()
@@ -97,16 +98,60 @@ def test_a_crafted_pickle_as_checkpoint_does_not_run_and_gives_one_line(params, 
     assert f"{crafted}: not a robocompose checkpoint" in captured.err and len(captured.err.strip().splitlines()) == 1
 
 
+@pytest.mark.parametrize("kind", ["pickle", "json", "torch"])
+def test_a_forged_checkpoint_with_this_runs_key_runs_nothing_and_gives_one_line(kind, params, tmp_path, capsys):
+    """Issue 43: the key is no secret. Handed another run's checkpoint, the command names this run's key; it is
+    also what run_key computes. A pickle with a command in its __reduce__, behind a header with that key and the
+    payload's true hash (as the former pickle format, or claiming a torch or JSON payload), must not run from
+    the loader, from a run it is named for, or from the command line: one line naming the file each time."""
+    import hashlib
+    import pickle
+    import re
+
+    from robocompose.evaluation.evaluate import EvaluationConfig
+    from robocompose.glso.runs import GLSOConfig, RunSpec, run_key, run_search
+    from robocompose.io import InputError
+    from robocompose.io.checkpoint import load_checkpoint, save_checkpoint
+    from robocompose.params import load_section
+
+    marker, forged = tmp_path / "marker", tmp_path / "run.ckpt"
+    argv = ["glso", "--task", "flat", "--method", "random", "--budget", "1", "--params", params,
+            "--checkpoint", str(forged)]
+    save_checkpoint(forged, "0" * 16, [], kind="json")  # another run's checkpoint
+    assert main(argv) == 2
+    key = re.search(r"this run's key ([0-9a-f]+)", capsys.readouterr().err).group(1)
+    config = load_section(GLSOConfig, "glso", params)
+    spec, config = RunSpec("flat", "random", 0), dataclasses.replace(config, budget=1)
+    evaluation = load_section(EvaluationConfig, "evaluation", params)
+    assert run_key(spec, config, evaluation, None) == key
+
+    payload = pickle.dumps(Marker(marker))
+    forged.write_bytes(f"robocompose-checkpoint {kind} {key} {hashlib.sha256(payload).hexdigest()}\n".encode()
+                       + payload)
+    with pytest.raises(InputError) as loaded:
+        load_checkpoint(forged, key, named=True)
+    with pytest.raises(InputError) as ran:
+        run_search(spec, config, evaluation, objective_fn=lambda tree: pytest.fail("evaluated"), checkpoint=forged,
+                   named_checkpoint=True)
+    assert main(argv) == 2
+    captured = capsys.readouterr()
+    assert not marker.exists() and captured.out == ""
+    for line in (str(loaded.value), str(ran.value), captured.err.strip()):
+        assert f"{forged}: " in line and "\n" not in line
+    pickle.loads(payload)  # the control: unpickled, this payload does run its command
+    assert marker.exists()
+
+
 @pytest.mark.parametrize("kind", ["text", "directory", "under_a_file", "other_run"])
 def test_a_checkpoint_that_is_not_this_runs_gives_one_line(kind, params, tmp_path, capsys):
-    path = tmp_path / "run.pkl"
+    path = tmp_path / "run.ckpt"
     if kind == "text":
         path.write_text("not a checkpoint\n")
     elif kind == "directory":
         path.mkdir()
     elif kind == "under_a_file":
         path.write_text("a file")
-        path = path / "run.pkl"
+        path = path / "run.ckpt"
     else:  # the checkpoint of seed 1 named for seed 0: refused, not overwritten
         assert main(_search_argv(params, "--seed", "1", "--checkpoint", str(path))) == 0
         capsys.readouterr()
@@ -118,7 +163,7 @@ def test_a_checkpoint_that_is_not_this_runs_gives_one_line(kind, params, tmp_pat
 
 
 def test_a_run_resumes_from_its_own_checkpoint(params, tmp_path, capsys):
-    checkpoint = tmp_path / "run.pkl"
+    checkpoint = tmp_path / "run.ckpt"
     assert main(_search_argv(params, "--checkpoint", str(checkpoint))) == 0
     first = capsys.readouterr().out
     assert main(_search_argv(params, "--checkpoint", str(checkpoint))) == 0  # finished: nothing left to run

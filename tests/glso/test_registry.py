@@ -59,7 +59,7 @@ class FirstDesigns:
 def test_a_new_method_is_one_registry_line(monkeypatch, small_config, tmp_path):
     monkeypatch.setitem(METHODS, "first", Method(FirstDesigns, RandomConfig, "random"))
     config = dataclasses.replace(small_config, methods=["first"], budget=4)
-    checkpoint = tmp_path / "run.pkl"
+    checkpoint = tmp_path / "run.ckpt"
     steps = run_search(RunSpec("flat", "first", 0), config, EvaluationConfig(), objective_fn=fake_objective,
                        checkpoint=checkpoint)
     assert list(steps["method"]) == ["first"] * 4 and steps["design_id"].nunique() == 4

@@ -1,6 +1,8 @@
 import hashlib
+import math
 import os
 import pickle
+import warnings
 
 import pytest
 import torch
@@ -21,11 +23,6 @@ class Marker:
         return os.system, (f"touch {self.path}",)
 
 
-class Counter:  # a plain object a pickled checkpoint may hold (torch would refuse it as data)
-    def __init__(self, n):
-        self.n = n
-
-
 def test_a_checkpoint_round_trips_and_its_bytes_depend_only_on_key_and_state(tmp_path):
     state = {"step": 3, "model": {"w": torch.arange(4.0)}, "rows": [{"step": 3, "loss": 0.5}]}
     a, b = save_checkpoint(tmp_path / "a.pt", KEY, state), save_checkpoint(tmp_path / "other_name.pt", KEY, state)
@@ -33,9 +30,19 @@ def test_a_checkpoint_round_trips_and_its_bytes_depend_only_on_key_and_state(tmp
     assert a.read_bytes().startswith(b"robocompose-checkpoint torch " + KEY.encode() + b" ")
     loaded = load_checkpoint(a, KEY)
     assert torch.equal(loaded["model"]["w"], state["model"]["w"]) and loaded["rows"] == state["rows"]
-    pickled = save_checkpoint(tmp_path / "p.pkl", KEY, (Counter(7), [1, 2]), pickled=True)
-    counter, rows = load_checkpoint(pickled, KEY)
-    assert counter.n == 7 and rows == [1, 2]
+
+
+def test_a_json_checkpoint_round_trips_plain_rows_exactly(tmp_path):
+    rows = [{"step": 0, "design_id": "ab12", "latent": [0.1, -2.5e-17, 1 / 3], "reward": None, "repeat": False,
+             "best_so_far": float("nan"), "score": -2}, {"step": 1, "rules": [3, 1], "score": 4.000000000000001}]
+    a, b = (save_checkpoint(tmp_path / name, KEY, rows, kind="json") for name in ("a.ckpt", "b.ckpt"))
+    assert a.read_bytes() == b.read_bytes()
+    assert a.read_bytes().startswith(b"robocompose-checkpoint json " + KEY.encode() + b" ")
+    loaded = load_checkpoint(a, KEY)
+    assert math.isnan(loaded[0].pop("best_so_far")) and math.isnan(rows[0].pop("best_so_far"))
+    assert loaded == rows and type(loaded[0]["score"]) is int and loaded[0]["latent"][2] == 1 / 3  # floats exact
+    with pytest.raises(ValueError, match="checkpoint format 'pickle'"):
+        save_checkpoint(tmp_path / "p.ckpt", KEY, rows, kind="pickle")
 
 
 def test_no_file_means_no_checkpoint(tmp_path):
@@ -69,20 +76,35 @@ def test_a_directory_is_one_clear_line(tmp_path):
 
 
 def test_a_crafted_pickle_never_runs(tmp_path):
-    """A pickle whose __reduce__ runs a command: as a bare file, behind a header of another key, behind a header
-    claiming a torch payload with the right key, and behind a right header with a forged payload hash."""
+    """A pickle whose __reduce__ runs a command: as a bare file, behind a header of another key, behind a right
+    header with a forged payload hash, and (issue 43: the key is no secret) behind a header with the right key
+    and the right hash, as the former pickle format or claiming a torch or JSON payload. Named, each is one line
+    naming the file; as the project's own checkpoint, each is set aside, ignored or refused; none is run."""
     marker = tmp_path / "marker"
     payload = pickle.dumps(Marker(marker))
     digest = hashlib.sha256(payload).hexdigest()
-    files = {"bare": payload,
-             "other_key": f"robocompose-checkpoint pickle fedcba9876543210 {digest}\n".encode() + payload,
-             "torch_claimed": f"robocompose-checkpoint torch {KEY} {digest}\n".encode() + payload,
-             "bad_hash": f"robocompose-checkpoint pickle {KEY} {'0' * 64}\n".encode() + payload}
-    for name, data in files.items():
-        path = tmp_path / f"{name}.pt"
+    files = {"bare": (payload, "not a robocompose checkpoint"),
+             "other_key": (f"robocompose-checkpoint json fedcba9876543210 {digest}\n".encode() + payload,
+                           "a checkpoint of another run"),
+             "bad_hash": (f"robocompose-checkpoint json {KEY} {'0' * 64}\n".encode() + payload, "checksum mismatch"),
+             "pickle_format": (f"robocompose-checkpoint pickle {KEY} {digest}\n".encode() + payload,
+                               "a checkpoint in the pickle format, which is not read"),
+             "torch_claimed": (f"robocompose-checkpoint torch {KEY} {digest}\n".encode() + payload,
+                               "holds Python objects other than tensors"),
+             "json_claimed": (f"robocompose-checkpoint json {KEY} {digest}\n".encode() + payload,
+                              "JSON payload does not parse")}
+    for name, (data, reason) in files.items():
+        path = tmp_path / f"{name}.ckpt"
         path.write_bytes(data)
-        with pytest.raises(InputError):  # ArtifactError is an InputError: one line naming the file
+        with pytest.raises(InputError) as error:  # ArtifactError is an InputError: one line naming the file
             load_checkpoint(path, KEY, named=True)
+        assert str(error.value).startswith(f"{path}: ") and reason in str(error.value), name
+        assert "\n" not in str(error.value)
+        try:
+            with warnings.catch_warnings(record=True):
+                assert load_checkpoint(path, KEY) is None
+        except ArtifactError as unloadable:  # the right key and hash, a payload that is not plain data
+            assert name in ("torch_claimed", "json_claimed") and reason in str(unloadable)
         assert not marker.exists(), name
     pickle.loads(payload)  # the control: this payload does run its command when unpickled
     assert marker.exists()
