@@ -1,10 +1,10 @@
 """Benchmark: the composition service under load, beside the command line's wall time for the same query.
 
-A real `robocompose serve --workers 2` (shipped generators) on loopback; CLIENTS closed-loop clients (each sends its next
-request when the last is answered, keep-alive connections) in this process; latency is the client's wait, send to
-last byte. Figures (milliseconds, over REQUESTS requests after WARMUP):
+A real `robocompose serve --workers 2` (shipped generators) on loopback, measured once every worker answers; CLIENTS
+closed-loop clients (each sends its next request when the last is answered, keep-alive connections) in this process;
+latency is the client's wait, send to last byte. Figures (milliseconds, over REQUESTS requests after WARMUP):
 serve.modular_p50_ms / _p99_ms: `POST /compose/modular` by terrain seed, seeds cycling through SEED_POOL terrains
-    (the service keeps the height maps of recent terrains; the first query of a seed generates its blocks).
+    (the service keeps the height maps of recent terrains; measured after WARMUP_POOL queries, so warm).
 serve.modular_new_terrain_p50_ms: every request a terrain seed never asked before (blocks generated per query).
 serve.modular_heightmap_p50_ms: a 50 x 20 height map as JSON.
 serve.teams_p50_ms / _p99_ms: `POST /compose/teams` without measured costs (decomposition, generator, the distinct
@@ -35,22 +35,41 @@ from robocompose.teams.chips import label_png_bytes, synthetic_chip
 CLIENTS = 8
 WORKERS = 2  # server processes: one per core
 REQUESTS = 500
-WARMUP = 16
+WARMUP = 16  # requests before the measured ones, per endpoint
 SEED_POOL = 64
+WARMUP_POOL = 4 * SEED_POOL  # a warm service: every worker has met the pool's seeds before the measured requests
 CHIPS = 16
 CLI_RUNS = 3
 
 
 def start_server() -> tuple[subprocess.Popen, str]:
+    """`robocompose serve --workers WORKERS` on a free port, once every worker answers (a client's keep-alive
+    connection stays with the worker that accepted it, so a worker still loading would leave the other all of them)."""
     process = subprocess.Popen([sys.executable, "-m", "robocompose.cli", "serve", "--port", "0", "--workers",
-                                str(WORKERS)],
-                               stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
-    started = json.loads(process.stdout.readline())
-    return process, started["serving"].removeprefix("http://").rstrip("/")
+                                str(WORKERS)], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    address = json.loads(process.stdout.readline())["serving"].removeprefix("http://").rstrip("/")
+
+    def worker(_: int) -> int:
+        connection = http.client.HTTPConnection(address, timeout=120)
+        connection.request("POST", "/compose/modular", json.dumps({"terrain_seed": 0}).encode(),
+                           {"Content-Type": "application/json"})  # holds the worker's loop: others accept meanwhile
+        connection.getresponse().read()
+        connection.request("GET", "/health")
+        pid = json.loads(connection.getresponse().read())["worker"]
+        connection.close()
+        return pid
+
+    deadline = time.monotonic() + 300
+    with ThreadPoolExecutor(CLIENTS) as pool:
+        while len(set(pool.map(worker, range(4 * CLIENTS)))) < WORKERS:
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"fewer than {WORKERS} workers answered within 300 s")
+    return process, address
 
 
-def load(address: str, requests: list[tuple[str, bytes, str]]) -> np.ndarray:
-    """Latencies (ms) of `requests` sent by CLIENTS closed-loop clients; every answer must be 200."""
+def load(address: str, requests: list[tuple[str, bytes, str]], warmup: int = WARMUP) -> np.ndarray:
+    """Latencies (ms) of `requests` after the first `warmup`, sent by CLIENTS closed-loop clients; every answer must
+    be 200."""
     local = threading.local()
 
     def send(request: tuple[str, bytes, str]) -> float:
@@ -67,8 +86,8 @@ def load(address: str, requests: list[tuple[str, bytes, str]]) -> np.ndarray:
         return waited
 
     with ThreadPoolExecutor(CLIENTS) as pool:
-        list(pool.map(send, requests[:WARMUP]))
-        return np.array(list(pool.map(send, requests[WARMUP:])))
+        list(pool.map(send, requests[:warmup]))
+        return np.array(list(pool.map(send, requests[warmup:])))
 
 
 def cli_wall_ms(argv: list[str]) -> float:
@@ -84,7 +103,7 @@ def run() -> dict[str, float]:
     n = WARMUP + REQUESTS
     modular = "application/json"
     pooled = [("/compose/modular", json.dumps({"terrain_seed": 1000 + i % SEED_POOL}).encode(), modular)
-              for i in range(n)]
+              for i in range(n - WARMUP + WARMUP_POOL)]
     new = [("/compose/modular", json.dumps({"terrain_seed": 500_000 + i}).encode(), modular) for i in range(n)]
     maps = np.random.default_rng(0).uniform(0, 0.2, (8, 50, 20)).round(3)
     heightmaps = [("/compose/modular", json.dumps({"heightmap": maps[i % 8].tolist()}).encode(), modular)
@@ -95,9 +114,10 @@ def run() -> dict[str, float]:
                 for i in range(n)]
     process, address = start_server()
     try:
-        latencies = {name: load(address, requests) for name, requests in (
-            ("modular", pooled), ("modular_new_terrain", new), ("modular_heightmap", heightmaps), ("teams", teams),
-            ("teams_measured", measured))}
+        latencies = {"modular": load(address, pooled, WARMUP_POOL)}
+        latencies.update({name: load(address, requests) for name, requests in (
+            ("modular_new_terrain", new), ("modular_heightmap", heightmaps), ("teams", teams),
+            ("teams_measured", measured))})
     finally:
         process.terminate()
         process.wait(timeout=60)

@@ -120,6 +120,7 @@ def decompose(terrain: np.ndarray, rng: np.random.Generator, n_regions: int, ter
     centres = np.concatenate([start, onehot[start_pixel]], axis=1)  # (K, 6)
     if n_regions > len(features):
         raise InputError(f"n_regions: {n_regions} regions cannot split a {height} x {width} chip")
+    columns = [np.ascontiguousarray(features[:, d]) for d in range(6)]  # bincount's weights, copied once
     steps, restarts = 0, 0
     while True:
         distances = _squared_distances(centres, terrain, terrain_weight)  # (P, K)
@@ -134,7 +135,7 @@ def decompose(terrain: np.ndarray, rng: np.random.Generator, n_regions: int, ter
             continue
         if steps == lloyd_iterations:
             break
-        sums = np.stack([np.bincount(labels, features[:, d], minlength=n_regions) for d in range(6)], -1)
+        sums = np.stack([np.bincount(labels, column, minlength=n_regions) for column in columns], -1)  # (K, 6)
         centres = np.where(counts[:, None] > 0, sums / np.maximum(counts, 1)[:, None], centres)
         steps += 1
     return Decomposition(centres, terrain_weight)
