@@ -41,5 +41,14 @@ def error_line(program: str, error: InputError) -> str:
 
 
 def interrupted_line(program: str) -> str:
-    """The one line a command stopped by Ctrl-C prints (exit code INTERRUPTED_EXIT)."""
+    """The one line a command stopped by Ctrl-C prints (exit code INTERRUPTED_EXIT), on a line of its own: the
+    progress bars still open (tqdm's, on stderr) are closed first, so none is redrawn after it."""
+    import sys
+
+    tqdm = sys.modules.get("tqdm")
+    for bar in list(getattr(getattr(tqdm, "tqdm", None), "_instances", ())):
+        try:
+            bar.close()
+        except Exception:  # a bar half torn down by the interrupt: its line is not worth a traceback
+            pass
     return f"{program}: interrupted"
