@@ -49,7 +49,8 @@ def png(path: Path, width: int, height: int, colour: tuple[int, int, int] = (255
 # --- files a command reads, where it writes, and the error line itself (one line, no usage block, no banner) ---
 OUTPUTS_AND_LINES = [
     Case("compose teams: a 15000 x 15000 label PNG", ("chip.png: more than 144,000,000 pixels",),
-         argv=("compose", "teams", "--chip", "{tmp}/chip.png"), setup=lambda tmp: png(tmp / "chip.png", 15000, 15000)),
+         argv=("compose", "teams", "--chip", "{tmp}/chip.png"), setup=lambda tmp: png(tmp / "chip.png", 15000, 15000),
+         slow=True),
     Case("compose modular: a pickled height map", ("--heightmap {tmp}/map.npy: not a .npy array file",),
          argv=("compose", "modular", "--heightmap", "{tmp}/map.npy"),
          setup=lambda tmp: (tmp / "map.npy").write_bytes(b"\x80\x04\x95\x00")),

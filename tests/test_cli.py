@@ -93,6 +93,7 @@ def test_pybullet_loads_quietly_and_output_still_works(tmp_path):
     assert done.returncode == 0 and done.stdout == "out\nTrue\n" and done.stderr == "err\nfd2\n", done
 
 
+@pytest.mark.slow  # a real command is interrupted after 4 s
 def test_ctrl_c_is_one_line_exit_130_and_leaves_the_output_as_it_was(tmp_path):
     """A Ctrl-C (SIGINT to the process group: the command and its workers) while enumerate works: exit code 130,
     `robocompose: interrupted` as the last line, no traceback (the progress bars before it are the command's own),
