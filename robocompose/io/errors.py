@@ -3,7 +3,8 @@
 Every check of what a user hands in (a flag, a params field, a file, a rule sequence) raises `InputError`
 with a message that names the flag, field or file and says what was expected. The entries (`robocompose`,
 `robocompose.stage.run_stage`) print it as one line and exit with code 2, the code argparse uses for a bad
-command line; anything else that escapes is a bug and keeps its traceback.
+command line (a message over LINE_LIMIT characters cut, its start kept); Ctrl-C is one line too,
+`PROGRAM: interrupted`, exit code 130. Anything else that escapes is a bug and keeps its traceback.
 """
 
 from __future__ import annotations
