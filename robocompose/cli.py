@@ -22,7 +22,9 @@ def _profile(args: argparse.Namespace) -> int:
 
 
 def parser() -> argparse.ArgumentParser:
-    top = argparse.ArgumentParser(prog="robocompose", description="Robot composition learning (GLSO, EG-GAN).")
+    from robocompose.arguments import Parser  # one-line errors, for every sub-parser too (add_subparsers)
+
+    top = Parser(prog="robocompose", description="Robot composition learning (GLSO, EG-GAN).")
     commands = top.add_subparsers(dest="command", required=True)
     profile = commands.add_parser("profile", help="switch params.yaml to a profile (default, paper, smoke); every "
                                   "section is checked before params.yaml is written")
@@ -38,15 +40,19 @@ def parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run one command. Bad input (the project's InputError) prints one line and returns 2, as argparse does."""
-    from robocompose.io.errors import INPUT_ERROR_EXIT, InputError, error_line
+    """Run one command. Bad input (the project's InputError) prints one line and returns 2, as argparse does;
+    Ctrl-C prints one line and returns 130 (outputs are written atomically: each is whole or absent)."""
+    from robocompose.io.errors import INPUT_ERROR_EXIT, INTERRUPTED_EXIT, InputError, error_line, interrupted_line
 
-    args = parser().parse_args(argv)
     try:
+        args = parser().parse_args(argv)
         return int(args.handler(args) or 0)
     except InputError as err:
         print(error_line("robocompose", err), file=sys.stderr)
         return INPUT_ERROR_EXIT
+    except KeyboardInterrupt:
+        print(interrupted_line("robocompose"), file=sys.stderr)
+        return INTERRUPTED_EXIT
 
 
 def run() -> int:

@@ -8,7 +8,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from robocompose.io.dispatch import pin_dispatch
-from robocompose.io.errors import INPUT_ERROR_EXIT, InputError, error_line
+from robocompose.io.errors import INPUT_ERROR_EXIT, INTERRUPTED_EXIT, InputError, error_line, interrupted_line
 
 _VALUED_OPTIONS = ("-W", "-X", "--check-hash-based-pycs")  # interpreter options whose value is the next argument
 
@@ -34,7 +34,8 @@ def run_stage(main: Callable[[], None]) -> None:
 
     A process started for the stage script first re-executes itself with the pinned CPU dispatch (io.dispatch)
     unless it has it, so `dvc repro` and `python stages/x.py` give the same bytes on every machine.
-    Exit code 2 as for the `robocompose` command; any other exception is a bug and keeps its traceback.
+    Exit code 2 as for the `robocompose` command; Ctrl-C prints `stage NAME: interrupted` and exits 130 (outputs
+    are written atomically); any other exception is a bug and keeps its traceback.
     """
     if process_script() == Path(inspect.getsourcefile(main) or "").resolve():
         pin_dispatch()
@@ -43,3 +44,6 @@ def run_stage(main: Callable[[], None]) -> None:
     except InputError as err:
         print(error_line(f"stage {Path(sys.argv[0]).stem}", err), file=sys.stderr)
         sys.exit(INPUT_ERROR_EXIT)
+    except KeyboardInterrupt:
+        print(interrupted_line(f"stage {Path(sys.argv[0]).stem}"), file=sys.stderr)
+        sys.exit(INTERRUPTED_EXIT)

@@ -147,9 +147,9 @@ def in_browser(tmp_path):
     return lambda page, expression: check_in_browser(page, expression, tmp_path / "browser-profile")
 @pytest.fixture
 def cli_error(capsys):
-    """cli_error(argv, *fragments): run `robocompose argv` in-process; assert it exits 2 with one error line (after
-    argparse's usage line, if argparse caught it) that holds every fragment, no traceback, nothing on stdout.
-    Returns the error line."""
+    """cli_error(argv, *fragments): run `robocompose argv` in-process; assert it exits 2 with exactly one line on
+    stderr, `robocompose: error: ...` (argparse's errors too: no usage block), that holds every fragment, no
+    traceback, nothing on stdout. Returns the error line."""
     from robocompose.cli import main
 
     def run(argv: list[str], *fragments: str) -> str:
@@ -161,9 +161,9 @@ def cli_error(capsys):
         lines = err.strip().splitlines()
         assert code == 2, f"exit code {code}, stderr {err!r}"
         assert out == "" and "Traceback" not in err, err
-        assert lines and (len(lines) == 1 or lines[0].startswith("usage:")), err
-        line = lines[-1]
-        assert ": error: " in line and all(f in line for f in fragments), line
+        assert len(lines) == 1 and lines[0].startswith("robocompose: error: "), err
+        line = lines[0]
+        assert all(f in line for f in fragments), line
         return line
 
     return run

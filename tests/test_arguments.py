@@ -1,9 +1,12 @@
 import argparse
+from pathlib import Path
 
 import pytest
 
 from robocompose.arguments import (
+    ATOMIC_EXTRA,
     check_output_file,
+    check_writable,
     input_file,
     int_at_least,
     non_negative_int,
@@ -53,3 +56,29 @@ def test_output_directory_may_be_new_but_not_a_file(tmp_path):
     for text in (tmp_path / "file", tmp_path / "file" / "sub"):
         with pytest.raises(argparse.ArgumentTypeError, match="file is a file, expected a directory"):
             output_directory(str(text))
+
+
+def test_an_output_location_is_proven_writable_and_nothing_is_left_behind(tmp_path):
+    (tmp_path / "old.png").write_bytes(b"kept")
+    assert check_output_file(tmp_path / "old.png", ".png", "PNG") == tmp_path / "old.png"  # replaced later: fine
+    assert check_writable(tmp_path / "new" / "deeper" / "x.png") == tmp_path / "new" / "deeper" / "x.png"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["old.png"] and (tmp_path / "old.png").read_bytes() == b"kept"
+    for folder in ("/proc", "/sys"):  # root may write anywhere else; no file can be created in these
+        with pytest.raises(InputError, match=f"{folder}/x.png: cannot create files in {folder}"):
+            check_output_file(Path(folder) / "x.png", ".png", "PNG")
+    with pytest.raises(argparse.ArgumentTypeError, match="/proc/tables: cannot create files in /proc"):
+        output_directory("/proc/tables")
+
+
+def test_names_must_fit_the_file_system_with_room_for_the_temporary_name(tmp_path):
+    fits = "a" * (255 - ATOMIC_EXTRA - 4) + ".png"
+    assert check_output_file(tmp_path / fits, ".png", "PNG") == tmp_path / fits
+    with pytest.raises(InputError, match=f"a name of 256 bytes, expected at most {255 - ATOMIC_EXTRA}"):
+        check_output_file(tmp_path / ("a" * 252 + ".png"), ".png", "PNG")
+    with pytest.raises(InputError, match="a name of 300 bytes, expected at most 255 \\(the file system's limit\\)"):
+        check_output_file(tmp_path / ("d" * 300) / "x.png", ".png", "PNG")
+    with pytest.raises(InputError, match="a name of 236 bytes"):  # the companion <stem>_criterion.csv
+        check_output_file(tmp_path / ("p" * 222 + ".csv"), ".csv", "CSV", beside=("_criterion.csv",))
+    with pytest.raises(argparse.ArgumentTypeError, match="a name of 300 bytes"):
+        output_directory(str(tmp_path / ("e" * 300)))
+    assert list(tmp_path.iterdir()) == []

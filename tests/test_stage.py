@@ -30,6 +30,17 @@ def test_input_error_is_one_line_and_exit_2(monkeypatch, capsys):
     assert capsys.readouterr().err == "stage some_stage: error: params.yaml: x.y: expected 1; found 2\n"
 
 
+def test_ctrl_c_is_one_line_and_exit_130(monkeypatch, capsys):
+    monkeypatch.setattr(sys, "argv", ["stages/some_stage.py"])
+
+    def main() -> None:
+        raise KeyboardInterrupt
+
+    with pytest.raises(SystemExit) as exit_:
+        run_stage(main)
+    assert exit_.value.code == 130 and capsys.readouterr().err == "stage some_stage: interrupted\n"
+
+
 def test_a_bug_keeps_its_traceback():
     def main() -> None:
         raise ZeroDivisionError("a bug, not bad input")

@@ -94,26 +94,47 @@ def _remote_search(job: tuple) -> object:
 
 
 def check_checkpoint_path(path: Path) -> Path:
-    """`path` if a checkpoint can be read or written there (a file or a new name); else InputError.
+    """`path` if a checkpoint can be read or written there (a file or a new name, in a location this process can
+    write in); else InputError.
 
     Whether an existing file holds this run's checkpoint is checked by its header when the run starts."""
+    import os
+
+    from robocompose.arguments import check_names, check_writable
     from robocompose.io.errors import InputError
 
-    if path.is_dir():
+    try:
+        check_names(path)
+    except InputError as err:
+        raise InputError(f"--checkpoint {err}") from None
+    if os.path.isdir(path):
         raise InputError(f"--checkpoint {path}: is a directory, expected a checkpoint file name")
     blocking = next((p for p in path.parents if p.exists() and not p.is_dir()), None)
     if blocking is not None:
         raise InputError(f"--checkpoint {path}: {blocking} is a file, expected a directory")
-    return path
+    try:
+        return check_writable(path)
+    except InputError as err:
+        raise InputError(f"--checkpoint {err}") from None
+
+
+def check_table_path(path: Path) -> Path:
+    """`path` if the step table (parquet) can be written there; else InputError naming --out."""
+    from robocompose.arguments import check_output_file
+    from robocompose.io.errors import InputError
+
+    try:
+        return check_output_file(path, ".parquet", "a parquet step table")
+    except InputError as err:
+        raise InputError(f"--out {err}") from None
 
 
 def _glso(args: argparse.Namespace) -> int:
     import dataclasses
 
-    from robocompose.arguments import check_output_file
     from robocompose.io.errors import InputError
 
-    out = None if args.out is None else check_output_file(Path(args.out), ".parquet", "a parquet step table")
+    out = None if args.out is None else check_table_path(Path(args.out))
     checkpoint = None if args.checkpoint is None else check_checkpoint_path(Path(args.checkpoint))
 
     from robocompose.evaluation.evaluate import EvaluationConfig

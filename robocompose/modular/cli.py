@@ -65,7 +65,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                        help="YAML mapping: distribution name -> overrides of the params' eval.terrain fields")
     probe.add_argument("--terrain-seed", type=non_negative_int, nargs="+", required=True,
                        help="the terrain seeds, probed in this order")
-    probe.add_argument("--out", type=output_file(".csv", "CSV"), required=True,
+    probe.add_argument("--out", type=output_file(".csv", "CSV", beside=("_criterion.csv",)), required=True,
                        help="the probe's rows; the criterion per candidate goes beside it (<name>_criterion.csv)")
     probe.add_argument("--designs", nargs="+", default=None,
                        help="port strings to probe (default: terrain_study.PROBE_DESIGNS, 20 designs)")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import pybullet as pb
+from robocompose.sim.bullet import pb
 
 
 @dataclass(frozen=True)
