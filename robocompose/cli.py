@@ -43,7 +43,9 @@ def main(argv: list[str] | None = None) -> int:
     """Run one command. Bad input (the project's InputError) prints one line and returns 2, as argparse does;
     Ctrl-C prints one line and returns 130 (outputs are written atomically: each is whole or absent)."""
     from robocompose.io.errors import INPUT_ERROR_EXIT, INTERRUPTED_EXIT, InputError, error_line, interrupted_line
+    from robocompose.io.quiet import quiet_pybullet
 
+    quiet_pybullet()  # before any command imports it: nothing may come before a command's one error line
     try:
         args = parser().parse_args(argv)
         return int(args.handler(args) or 0)

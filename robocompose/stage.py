@@ -9,6 +9,7 @@ from pathlib import Path
 
 from robocompose.io.dispatch import pin_dispatch
 from robocompose.io.errors import INPUT_ERROR_EXIT, INTERRUPTED_EXIT, InputError, error_line, interrupted_line
+from robocompose.io.quiet import quiet_pybullet
 
 _VALUED_OPTIONS = ("-W", "-X", "--check-hash-based-pycs")  # interpreter options whose value is the next argument
 
@@ -39,6 +40,7 @@ def run_stage(main: Callable[[], None]) -> None:
     """
     if process_script() == Path(inspect.getsourcefile(main) or "").resolve():
         pin_dispatch()
+    quiet_pybullet()  # before the stage imports it: nothing may come before a stage's one error line
     try:
         main()
     except InputError as err:

@@ -86,8 +86,8 @@ def test_the_pybullet_banner_does_not_come_before_the_error_line(tmp_path):
 
 
 def test_pybullet_loads_quietly_and_output_still_works(tmp_path):
-    code = ("import os, sys; from robocompose.sim.bullet import pb; print('out'); print('err', file=sys.stderr); "
-            "os.write(2, b'fd2\\n'); print(pb.DIRECT == pb.DIRECT)")
+    code = ("import os, sys; from robocompose.io.quiet import quiet_pybullet; quiet_pybullet(); import pybullet as pb; "
+            "print('out'); print('err', file=sys.stderr); os.write(2, b'fd2\\n'); print(pb.DIRECT == pb.DIRECT)")
     environment = {**os.environ, "PYTHONPATH": str(ROOT)}
     done = subprocess.run([sys.executable, "-c", code], env=environment, capture_output=True, text=True, timeout=120)
     assert done.returncode == 0 and done.stdout == "out\nTrue\n" and done.stderr == "err\nfd2\n", done

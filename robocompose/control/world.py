@@ -19,9 +19,10 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+import pybullet as pb
+
 from robocompose.grammar.tree import DesignTree
 from robocompose.sim.builder import KD, KP, MAX_TORQUE, BuiltRobot, build_at_rest
-from robocompose.sim.bullet import pb
 from robocompose.sim.physics import PhysicsSettings, connect
 from robocompose.tasks.terrains import START_X, Task, build_terrain
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pybullet as pb
 
 from robocompose.io import (
     McapWriter,
@@ -26,7 +27,6 @@ from robocompose.io import (
     scene_entity,
 )
 from robocompose.sim.builder import BODY_COLOR, LIMB_COLOR
-from robocompose.sim.bullet import pb
 from robocompose.sim.render import camera_image
 
 _Z_TO_X = (0.0, np.sqrt(0.5), 0.0, np.sqrt(0.5))  # rotates a primitive's z axis onto the link's x axis

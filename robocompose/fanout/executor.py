@@ -30,6 +30,7 @@ from typing import Any
 
 from robocompose.fanout.cache import CacheKey, EvaluationCache
 from robocompose.io.errors import InputError
+from robocompose.io.quiet import quiet_pybullet
 
 CONNECT_TIMEOUT = 5  # seconds to wait for a Dask scheduler to answer
 ADDRESS_EXAMPLE = "tcp://host:8786"
@@ -92,7 +93,8 @@ class Executor:
         if self.workers == 1:
             return (fn(item) for item in items)
         if self._pool is None:
-            self._pool = ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("forkserver"))
+            self._pool = ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("forkserver"),
+                                             initializer=quiet_pybullet)  # no banner from each worker
         return self._pool.map(fn, items)
 
     def map(self, fn: Callable[[Any], Any], items: Iterable[Any]) -> list[Any]:

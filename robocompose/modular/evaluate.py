@@ -127,7 +127,8 @@ def rollouts(designs: Sequence[str], terrain: Terrain, settings: EvalSettings, v
     gives a fresh client's bytes. Keeping the terrain and removing the last robot (removeBody) does not: one
     design in 30 moved 1.2 mm differently on terrain 1000. A result's `seconds` counts its own reset and episode.
     """
-    from robocompose.sim.bullet import pb
+    import pybullet as pb
+
     from robocompose.sim.physics import configure
 
     client = pb.connect(pb.DIRECT)
@@ -147,7 +148,7 @@ def rollouts(designs: Sequence[str], terrain: Terrain, settings: EvalSettings, v
 def _episode(design: str, client: int, settings: EvalSettings, visual: bool,
              on_step: StepCallback | None) -> tuple[float | None, str, int]:
     """(distance, status, sim steps) of one episode of `design` in `client`, whose world holds only the terrain."""
-    from robocompose.sim.bullet import pb
+    import pybullet as pb
 
     robot = build_robot(design, client, position=(0.0, 0.0, START_HEIGHT), visual=visual)
     controller = make_controller(settings.controller)
@@ -179,7 +180,7 @@ def _episode(design: str, client: int, settings: EvalSettings, visual: bool,
 
 
 def _state(robot: ModularRobot, t: float) -> RobotState:
-    from robocompose.sim.bullet import pb
+    import pybullet as pb
 
     position, orientation = pb.getBasePositionAndOrientation(robot.body, physicsClientId=robot.client)
     linear, angular = pb.getBaseVelocity(robot.body, physicsClientId=robot.client)

@@ -44,9 +44,10 @@ def plot_terrains(summary: pd.DataFrame, params: ModularParams, path: Path) -> P
 
 def design_picture(design: str, terrain: Terrain) -> np.ndarray:
     """An RGB image of `design` at its start pose on `terrain`, from the front-left and above."""
+    import pybullet as pb
+
     from robocompose.modular.robot import build_robot
     from robocompose.modular.terrain import add_terrain
-    from robocompose.sim.bullet import pb
     from robocompose.sim.physics import connect
     from robocompose.sim.render import camera_image
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pybullet as pb
 
 from robocompose.io import (
     McapWriter,
@@ -24,7 +25,6 @@ from robocompose.io import (
 from robocompose.modular.evaluate import EvalSettings, Result, rollout, up_z
 from robocompose.modular.robot import ModularRobot
 from robocompose.modular.terrain import Terrain, generate_terrain
-from robocompose.sim.bullet import pb
 
 GIF_EVERY = 5  # control steps per GIF frame (12 frames per simulated second at 20 sim steps / control step)
 GIF_SIZE = (320, 240)

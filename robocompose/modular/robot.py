@@ -33,9 +33,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import pybullet as pb
 
 from robocompose.io.errors import InputError
-from robocompose.sim.bullet import pb
 
 MODULE_LETTERS = "nlwb"  # none, leg, wheel, leg-wheel (both)
 N_PORTS = 6

@@ -143,7 +143,8 @@ def add_terrain(client: int, terrain: Terrain, visual: bool = False) -> tuple[in
 
     Returns (ground id, block body ids).
     """
-    from robocompose.sim.bullet import pb
+    import pybullet as pb
+
     from robocompose.sim.physics import add_floor
 
     ground = add_floor(client, half_extents=(40.0, 10.0), friction=terrain.config.ground_friction)

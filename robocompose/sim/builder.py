@@ -12,9 +12,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import pybullet as pb
 
 from robocompose.grammar.tree import DesignTree
-from robocompose.sim.bullet import pb
 
 # Robot (Y-up) -> world (Z-up) rotation: x -> -X, y -> Z, z -> Y.
 ROBOT_TO_WORLD = np.array([[-1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])

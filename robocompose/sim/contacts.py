@@ -26,10 +26,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import pybullet as pb
 
 from robocompose.grammar.tree import DesignTree
 from robocompose.sim.builder import SELF_PENETRATION_TOLERANCE, build_at_rest
-from robocompose.sim.bullet import pb
 from robocompose.sim.physics import PhysicsSettings, add_floor, configure
 from robocompose.sim.self_collision import capsule_self_penetrating
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from robocompose.sim.bullet import pb
+import pybullet as pb
 
 
 @dataclass(frozen=True)

@@ -5,9 +5,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pybullet as pb
 
 from robocompose.io.atomic import atomic_path
-from robocompose.sim.bullet import pb
 
 WIDTH, HEIGHT = 480, 360
 

@@ -16,11 +16,11 @@ from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
+import pybullet as pb
 
 from robocompose.grammar.tree import DesignTree
 from robocompose.io import atomic_write_text
 from robocompose.sim.builder import KD, KP, MAX_TORQUE, ROBOT_TO_WORLD, _child_orientation
-from robocompose.sim.bullet import pb
 
 _CYLINDER_ALONG_X = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])  # Ry(90 deg): URDF's are along z
 

@@ -19,9 +19,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import pybullet as pb
 
 from robocompose.io.errors import InputError
-from robocompose.sim.bullet import pb
 from robocompose.sim.physics import add_floor
 
 START_X = 0.0  # the robot's front starts here
