@@ -32,7 +32,7 @@ def _evaluate(args: argparse.Namespace) -> int:
     from robocompose.sim.physics import PhysicsSettings
     from robocompose.tasks.terrains import get_task
 
-    tree = derive(parse_rules(args.rules)).tree  # the command line first: no params file needed to reject it
+    tree = derive(parse_rules(args.rules, "--rules")).tree  # the command line first: no params file needed to reject it
     task = get_task(args.task).name
     config = load_section(EvaluationConfig, "evaluation", args.params)
     seed = config.seed if args.seed is None else args.seed

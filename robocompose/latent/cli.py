@@ -74,7 +74,7 @@ def _encode(args: argparse.Namespace) -> int:
     from robocompose.latent.train import load_model
 
     model = load_model(args.model)
-    tree = derive(parse_rules(args.rules)).tree
+    tree = derive(parse_rules(args.rules, "--rules")).tree
     with torch.no_grad():
         mean, _ = model.encoder(collate([replay(tree, model.config.constraints, model.config.max_nodes)],
                                         np.zeros((1, 16))))
