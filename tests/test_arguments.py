@@ -1,4 +1,5 @@
 import argparse
+import re
 
 import pytest
 
@@ -6,6 +7,7 @@ from robocompose.arguments import (
     check_output_file,
     input_file,
     int_at_least,
+    int_between,
     non_negative_int,
     output_directory,
     output_file,
@@ -53,3 +55,12 @@ def test_output_directory_may_be_new_but_not_a_file(tmp_path):
     for text in (tmp_path / "file", tmp_path / "file" / "sub"):
         with pytest.raises(argparse.ArgumentTypeError, match="file is a file, expected a directory"):
             output_directory(str(text))
+
+
+def test_a_bounded_integer_states_its_limit():
+    parse = int_between(1, 100_000, "about 2 GB")
+    assert parse("1") == 1 and parse("100000") == 100_000
+    for text, message in [("0", "expected an integer >= 1, found 0"), ("x", "expected an integer, found 'x'"),
+                          ("100001", "expected an integer from 1 to 100,000 (about 2 GB), found 100001")]:
+        with pytest.raises(argparse.ArgumentTypeError, match=re.escape(message)):
+            parse(text)
