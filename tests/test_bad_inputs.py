@@ -187,6 +187,9 @@ BOUNDS = [
     Case("enumerate: min_links no design reaches", ("enumerate.min_links: 100 links", "no new valid design among "
                                                     "the last 5,000 candidates"),
          stage="enumerate", change="doc['enumerate']['min_links'] = 100", slow=True),
+    Case("enumerate: max_depth no derivation completes in", ("enumerate.max_depth: 2 rules, expected enough for "
+                                                             "derivations to complete",),
+         stage="enumerate", change="doc['enumerate']['max_depth'] = 2", slow=True),
     # Dask addresses that are no scheduler: one line within 10 s (the connect timeout is 5 s)
     Case("enumerate: an HTTP server as the Dask address", ("no Dask scheduler answered at 'tcp://127.0.0.1:",
                                                            "within 5 s"),

@@ -168,10 +168,14 @@ def enumerate_designs(config: EnumerateConfig, executor: Executor | None = None,
     """`config.n` distinct valid grammar designs with their contact features, and run statistics
     (`executor` None: in this process)."""
     def give_up(stats: EnumerateStats, most_links: int) -> str:
-        return (f"enumerate.min_links: {config.min_links} links, expected a size the grammar's derivations of at most "
-                f"enumerate.max_depth={config.max_depth} rules reach; no new valid design among the last "
-                f"{MAX_BARREN:,} candidates (the most links of a rejected one: {most_links}; kept so far: "
-                f"{stats.kept})")
+        found = (f"no new valid design among the last {MAX_BARREN:,} candidates (kept so far: {stats.kept}; "
+                 f"rejected: {dict(stats.rejected.most_common(3))})")
+        if stats.rejected["depth_limit"] > stats.rejected["too_few_links"]:
+            return (f"enumerate.max_depth: {config.max_depth} rules, expected enough for derivations to complete "
+                    f"(the default is {MAX_DEPTH}); {found}")
+        return (f"enumerate.min_links: {config.min_links} links, expected a size the grammar's derivations of at "
+                f"most enumerate.max_depth={config.max_depth} rules reach (the most links of a rejected one: "
+                f"{most_links}); {found}")
 
     return collect(candidate, config.n, config.seed, (config.min_links, config.max_depth),
                    executor or Executor(workers=1), config.chunk, progress, give_up)
