@@ -175,6 +175,9 @@ BOUNDS = [
          argv=("derive", "--rules", _BOUNDS_RULES)),
     Case("evaluate: 10,001 rules", ("--rules: rule sequence of 10001 rules, expected at most 200",),
          argv=("evaluate", "--rules", _BOUNDS_RULES, "--task", "flat")),
+    Case("encode: 10,001 rules", ("--rules: rule sequence of 10001 rules, expected at most 200",),
+         argv=("encode", "--rules", _BOUNDS_RULES, "--model", "{tmp}/vae.pt"),
+         setup=lambda tmp: _bounds_vae(tmp / "vae.pt")),
     # an empty list is not "all of them"
     Case("evaluator-fidelity: empty --rungs", ("--rungs '': expected one or more comma-separated ladder rungs",),
          argv=("evaluator-fidelity", "measure", "--rungs", "")),

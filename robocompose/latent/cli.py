@@ -73,8 +73,8 @@ def _encode(args: argparse.Namespace) -> int:
     from robocompose.latent.constraints import replay
     from robocompose.latent.train import load_model
 
+    tree = derive(parse_rules(args.rules, "--rules")).tree  # the flag first: no model is loaded to reject it
     model = load_model(args.model)
-    tree = derive(parse_rules(args.rules, "--rules")).tree
     with torch.no_grad():
         mean, _ = model.encoder(collate([replay(tree, model.config.constraints, model.config.max_nodes)],
                                         np.zeros((1, 16))))
