@@ -45,6 +45,22 @@ def int_at_least(minimum: int) -> Callable[[str], int]:
     return parse
 
 
+def int_between(minimum: int, maximum: int, why: str = "") -> Callable[[str], int]:
+    """argparse type of an integer in [minimum, maximum]; `why` (e.g. "about 2 GB") says what the limit guards."""
+    at_least = int_at_least(minimum)
+
+    def parse(text: str) -> int:
+        value = at_least(text)
+        if value > maximum:
+            reason = f" ({why})" if why else ""
+            raise argparse.ArgumentTypeError(f"expected an integer from {minimum} to {maximum:,}{reason}, "
+                                             f"found {value}")
+        return value
+
+    parse.__name__ = f"integer in [{minimum}, {maximum}]"
+    return parse
+
+
 non_negative_int = int_at_least(0)  # seeds, counts that may be zero
 positive_int = int_at_least(1)
 

@@ -1,4 +1,5 @@
 import argparse
+import re
 from pathlib import Path
 
 import pytest
@@ -9,6 +10,7 @@ from robocompose.arguments import (
     check_writable,
     input_file,
     int_at_least,
+    int_between,
     non_negative_int,
     output_directory,
     output_file,
@@ -82,3 +84,12 @@ def test_names_must_fit_the_file_system_with_room_for_the_temporary_name(tmp_pat
     with pytest.raises(argparse.ArgumentTypeError, match="a name of 300 bytes"):
         output_directory(str(tmp_path / ("e" * 300)))
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_bounded_integer_states_its_limit():
+    parse = int_between(1, 100_000, "about 2 GB")
+    assert parse("1") == 1 and parse("100000") == 100_000
+    for text, message in [("0", "expected an integer >= 1, found 0"), ("x", "expected an integer, found 'x'"),
+                          ("100001", "expected an integer from 1 to 100,000 (about 2 GB), found 100001")]:
+        with pytest.raises(argparse.ArgumentTypeError, match=re.escape(message)):
+            parse(text)

@@ -181,9 +181,188 @@ PARAMS = [
 ]
 
 # --- sizes and bounds: counts, lengths, pixels, addresses, committed records ---
+def _bounds_png_header(path: Path, width: int, height: int) -> None:
+    """A PNG that declares width x height pixels and holds none: the size check must refuse it unread (instant)."""
+    import struct
+    import zlib
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0))
+                     + chunk(b"IDAT", zlib.compress(b"")) + chunk(b"IEND", b""))
+
+
+def _bounds_committed(folder: Path, change: Callable[[dict], object]) -> None:
+    """reports/modular/exhaustive/ of `folder`: the committed table of terrain 1000 and its record after `change`."""
+    import json
+    import shutil
+
+    source = ROOT / "reports" / "modular" / "exhaustive" / "blocks-1000.parquet"
+    target = folder / "reports" / "modular" / "exhaustive"
+    target.mkdir(parents=True)
+    shutil.copy(source, target / source.name)
+    record = json.loads(source.with_suffix(".json").read_text())
+    changed = change(record)
+    (target / "blocks-1000.json").write_text(json.dumps(record if changed is None else changed))
+
+
+_BOUNDS_LISTENERS: list = []  # kept open for the session: a listener closed early would refuse, not stall
+
+
+def _bounds_listener(folder: Path, kind: str) -> None:
+    """An HTTP server or a socket that accepts and never answers, on loopback; params.yaml's compute.address
+    names it (the address of a command's --address goes the same way: ComputeConfig -> Executor)."""
+    import http.server
+    import socket
+    import threading
+
+    if kind == "http":
+        server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), http.server.BaseHTTPRequestHandler)
+        server.RequestHandlerClass.log_message = lambda *args: None
+        threading.Thread(target=server.serve_forever, daemon=True).start()
+        port = server.server_address[1]
+    else:
+        server = socket.socket()
+        server.bind(("127.0.0.1", 0))
+        server.listen(8)
+        port = server.getsockname()[1]
+    _BOUNDS_LISTENERS.append(server)
+    document = yaml.safe_load((folder / "params.yaml").read_text())
+    document["compute"]["address"] = f"tcp://127.0.0.1:{port}"
+    (folder / "params.yaml").write_text(yaml.safe_dump(document))
+
+
+_BOUNDS_RULES = ",".join(["0"] * 10_001)
+_BOUNDS_ALLOCATION = ";".join(["0.1,0.1,0.1"] * 8)
+_BOUNDS_NOT_AN_OBJECT = ("reports/modular/exhaustive/blocks-1000.json: expected a JSON object", "found a list")
+_BOUNDS_UNKNOWN_KEY = ("reports/modular/exhaustive/blocks-1000.json: settings.gravity: unknown field; expected one of",)
+
+
+def _bounds_npy(path: Path, shape: tuple[int, int], height: float) -> None:
+    import numpy as np
+
+    np.save(path, np.full(shape, height))
+
+
+def _bounds_vae(path: Path) -> None:
+    """A tiny untrained graph VAE (latent 4) saved as `sample`/`decode` read it."""
+    from robocompose.latent.model import GraphVAE, VAEConfig
+    from robocompose.latent.train import save_model
+
+    save_model(GraphVAE(VAEConfig(hidden=16, latent=4, max_nodes=30)), path)
+
+
+def _bounds_gravity(record: dict) -> None:
+    record["settings"]["gravity"] = 9.81
+
+
 BOUNDS = [
     Case("compose modular: k zero", ("argument --k: expected an integer >= 1, found 0",),
          argv=("compose", "modular", "--terrain-seed", "1", "--k", "0")),
+    # generator draws and decoded designs: bounded before anything is allocated
+    Case("compose modular: samples beyond memory", ("argument --samples: expected an integer from 1 to 100,000",
+                                                    "found 999999999999"),
+         argv=("compose", "modular", "--terrain-seed", "1", "--samples", "999999999999")),
+    Case("sample: n beyond memory", ("argument --n: expected an integer from 1 to 10,000", "found 99999999999"),
+         argv=("sample", "--n", "99999999999", "--model", "{tmp}/vae.pt")),
+    Case("verify-committed: sample zero", ("argument --sample: expected an integer >= 1, found 0",),
+         argv=("modular", "verify-committed", "--sample", "0")),
+    # committed exhaustive records: one check for every reader
+    Case("modular criterion: a record that is a list", _BOUNDS_NOT_AN_OBJECT, argv=("modular", "criterion"),
+         setup=lambda tmp: _bounds_committed(tmp, lambda record: [record])),
+    Case("verify-committed: a record that is a list", _BOUNDS_NOT_AN_OBJECT, argv=("modular", "verify-committed"),
+         setup=lambda tmp: _bounds_committed(tmp, lambda record: [record])),
+    Case("modular_exhaustive: a record that is a list", _BOUNDS_NOT_AN_OBJECT, stage="modular_exhaustive",
+         setup=lambda tmp: _bounds_committed(tmp, lambda record: [record])),
+    Case("modular criterion: a record with an unknown settings key", _BOUNDS_UNKNOWN_KEY, argv=("modular", "criterion"),
+         setup=lambda tmp: _bounds_committed(tmp, _bounds_gravity)),
+    Case("verify-committed: a record with an unknown settings key", _BOUNDS_UNKNOWN_KEY,
+         argv=("modular", "verify-committed"), setup=lambda tmp: _bounds_committed(tmp, _bounds_gravity)),
+    Case("modular exhaustive: a record with an unknown settings key", _BOUNDS_UNKNOWN_KEY,
+         argv=("modular", "exhaustive", "--terrain-seed", "1000"),
+         setup=lambda tmp: _bounds_committed(tmp, _bounds_gravity)),
+    Case("modular_exhaustive: a record with an unknown settings key", _BOUNDS_UNKNOWN_KEY, stage="modular_exhaustive",
+         setup=lambda tmp: _bounds_committed(tmp, _bounds_gravity)),
+    Case("modular criterion: a record without its physics digest",
+         ("blocks-1000.json: physics_digest: missing field",), argv=("modular", "criterion"),
+         setup=lambda tmp: _bounds_committed(tmp, lambda record: {k: v for k, v in record.items()
+                                                                  if k != "physics_digest"})),
+    # rule sequences: one parser, one limit
+    Case("derive: 10,001 rules", ("--rules: rule sequence of 10001 rules, expected at most 200",),
+         argv=("derive", "--rules", _BOUNDS_RULES)),
+    Case("evaluate: 10,001 rules", ("--rules: rule sequence of 10001 rules, expected at most 200",),
+         argv=("evaluate", "--rules", _BOUNDS_RULES, "--task", "flat")),
+    Case("encode: 10,001 rules", ("--rules: rule sequence of 10001 rules, expected at most 200",),
+         argv=("encode", "--rules", _BOUNDS_RULES, "--model", "{tmp}/vae.pt"),
+         setup=lambda tmp: _bounds_vae(tmp / "vae.pt")),
+    # an empty list is not "all of them"
+    Case("evaluator-fidelity: empty --rungs", ("--rungs '': expected one or more comma-separated ladder rungs",),
+         argv=("evaluator-fidelity", "measure", "--rungs", "")),
+    Case("evaluator-fidelity: empty --tasks", ("--tasks ',': expected one or more comma-separated task names",),
+         argv=("evaluator-fidelity", "measure", "--tasks", ",")),
+    Case("evaluator-fidelity: an empty item in --designs", ("--designs 'a,,b': expected comma-separated design "
+                                                             "names, found an empty item",),
+         argv=("evaluator-fidelity", "measure", "--designs", "a,,b")),
+    # enumeration that can never finish
+    Case("enumerate: min_links no design reaches", ("enumerate.min_links: 100 links", "no new valid design among "
+                                                    "the last 5,000 candidates"),
+         stage="enumerate", change="doc['enumerate']['min_links'] = 100", slow=True),
+    Case("enumerate: max_depth no derivation completes in", ("enumerate.max_depth: 2 rules, expected enough for "
+                                                             "derivations to complete",),
+         stage="enumerate", change="doc['enumerate']['max_depth'] = 2", slow=True),
+    # Dask addresses that are no scheduler: one line within 10 s (the connect timeout is 5 s)
+    Case("enumerate: an HTTP server as the Dask address", ("no Dask scheduler answered at 'tcp://127.0.0.1:",
+                                                           "within 5 s"),
+         argv=("enumerate", "--n", "2", "--out", "{tmp}/d.parquet"), setup=lambda tmp: _bounds_listener(tmp, "http"),
+         slow=True),
+    Case("enumerate: a silent listener as the Dask address", ("no Dask scheduler answered at 'tcp://127.0.0.1:",
+                                                              "within 5 s"),
+         argv=("enumerate", "--n", "2", "--out", "{tmp}/d.parquet"), setup=lambda tmp: _bounds_listener(tmp, "tcp"),
+         slow=True),
+    Case("enumerate stage: a silent listener as compute.address", ("no Dask scheduler answered at 'tcp://127.0.0.1:",
+                                                                   "within 5 s"),
+         stage="enumerate", setup=lambda tmp: _bounds_listener(tmp, "tcp"), slow=True),
+    Case("enumerate: nothing listens at the Dask address", ("no Dask scheduler answered at 'tcp://127.0.0.1:1'",),
+         argv=("enumerate", "--n", "2", "--out", "{tmp}/d.parquet", "--address", "tcp://127.0.0.1:1"), slow=True),
+    # label PNGs over the pixel limit (15000 x 15000 > 12000 x 12000), refused before decoding
+    Case("teams coverage: a 15000 x 15000 label PNG", ("chip.png: more than 144,000,000 pixels",),
+         argv=("teams", "coverage", "--chip", "{tmp}/chip.png", "--allocation", _BOUNDS_ALLOCATION),
+         setup=lambda tmp: _bounds_png_header(tmp / "chip.png", 15000, 15000)),
+    Case("teams nsga2: a 15000 x 15000 label PNG", ("chip.png: more than 144,000,000 pixels",),
+         argv=("teams", "nsga2", "--chip", "{tmp}/chip.png"),
+         setup=lambda tmp: _bounds_png_header(tmp / "chip.png", 15000, 15000)),
+    Case("compose teams: a PNG declaring 15000 x 15000", ("chip.png: more than 144,000,000 pixels",),
+         argv=("compose", "teams", "--chip", "{tmp}/chip.png"),
+         setup=lambda tmp: _bounds_png_header(tmp / "chip.png", 15000, 15000)),
+    Case("decompose: a 15000 x 15000 label PNG in teams.chips.directory",
+         ("labels/big.png: more than 144,000,000 pixels",),
+         stage="decompose", change="doc['teams']['chips']['directory'] = 'labels'",
+         setup=lambda tmp: _bounds_png_header(tmp / "labels" / "big.png", 15000, 15000)),
+    # ported from the command tests (tests/*/test_cli.py): counts and ranges a command checks itself
+    Case("teams nsga2: regions beyond 64", ("--regions: expected an integer in 1..64, found 100000",),
+         argv=("teams", "nsga2", "--synthetic-seed", "0", "--regions", "100000")),
+    Case("teams coverage: a fraction above 1", ("--allocation: region 0, ground: expected a fraction in [0, 1], "
+                                                "found 2",),
+         argv=("teams", "coverage", "--synthetic-seed", "0", "--regions", "3", "--allocation", "2,2,2;0,0,0;0,0,0")),
+    Case("teams coverage: fractions summing above 1", ("--allocation: the ground fractions sum to 1.1",
+                                                       "expected at most 1"),
+         argv=("teams", "coverage", "--synthetic-seed", "0", "--regions", "3", "--allocation",
+               "0.5,0,0;0.6,0,0;0,0,0")),
+    Case("teams coverage: rows for other regions", ("--allocation has 2 rows, expected one per region (--regions 3)",),
+         argv=("teams", "coverage", "--synthetic-seed", "0", "--regions", "3", "--allocation", "0.1,0,0;0,0,0")),
+    Case("compose modular: heights above the params' range", ("--heightmap {tmp}/map.npy: heights expected in [0, "
+                                                              "0.4] m", "found [0.5, 0.5]"),
+         argv=("compose", "modular", "--heightmap", "{tmp}/map.npy"),
+         setup=lambda tmp: _bounds_npy(tmp / "map.npy", (50, 20), 0.5)),
+    Case("compose modular: a height map of another shape", ("--heightmap {tmp}/map.npy: expected shape (50, 20)",
+                                                            "found (49, 20)"),
+         argv=("compose", "modular", "--heightmap", "{tmp}/map.npy"),
+         setup=lambda tmp: _bounds_npy(tmp / "map.npy", (49, 20), 0.0)),
+    Case("decode: a latent of another size", ("--z: expected 4 coordinates (the model's latent space), found 2",),
+         argv=("decode", "--z", "0.1,0.2", "--model", "{tmp}/vae.pt"),
+         setup=lambda tmp: _bounds_vae(tmp / "vae.pt")),
 ]
 
 CASES = OUTPUTS_AND_LINES + PARAMS + BOUNDS

@@ -28,6 +28,10 @@ from robocompose.grammar.tree import DesignTree
 from robocompose.io.errors import InputError
 
 MIN_LINKS = 11  # the thesis keeps designs with at least 11 links
+# Candidates in a row without a kept design before an enumeration gives up: the default profile keeps ~1 in 30
+# (min_links 25: ~1 in 200); a min_links no derivation of max_depth rules reaches (40 rules make ~30 links at
+# most) would otherwise loop forever. ~10 s on two cores.
+MAX_BARREN = 5_000
 
 
 @dataclass(frozen=True)
@@ -94,7 +98,7 @@ def candidate(seed: int, k: int, min_links: int, max_depth: int) -> Outcome:
         return "depth_limit", None, 0
     tree = derivation.tree
     if tree.n_links < min_links:
-        return "too_few_links", None, 0
+        return "too_few_links", {"n_links": tree.n_links}, 0  # the links it had, for `collect`'s give-up message
     contacts = contact_features(tree, _client(), rest_self_penetrating=False)
     if not contacts.valid:
         return contacts.reason, None, 0
@@ -107,13 +111,19 @@ def _chunk(task: tuple[Callable[..., Outcome], int, int, int, tuple]) -> list[Ou
 
 
 def collect(make: Callable[..., Outcome], n: int, seed: int, args: tuple, executor: Executor, chunk: int,
-            progress: str | None = None) -> tuple[pd.DataFrame, EnumerateStats]:
+            progress: str | None = None, give_up: Callable[[EnumerateStats, int], str] | None = None,
+            max_barren: int = MAX_BARREN) -> tuple[pd.DataFrame, EnumerateStats]:
     """Run `make(seed, k, *args)` for k = 0, 1, ... through `executor`; keep the first `n` distinct
-    valid rows in index order. `make` must be a module-level function (it is pickled)."""
+    valid rows in index order. `make` must be a module-level function (it is pickled).
+
+    After `max_barren` candidates in a row without a kept row, InputError(`give_up(stats, most links seen)`):
+    settings no candidate meets end with one line instead of running forever."""
     from tqdm import tqdm
 
     stats, rows, seen = EnumerateStats(), [], set()
-    bar = tqdm(total=n, desc=progress, unit="design", disable=progress is None, mininterval=1.0)
+    barren, most_links = 0, 0
+    # no bar when stderr is no terminal (a log, a test): an error then stays the one line on stderr
+    bar = tqdm(total=n, desc=progress, unit="design", disable=True if progress is None else None, mininterval=1.0)
     per_round = 4 * executor.workers if executor.backend != "dask" else 64
 
     def submit(round_index: int):
@@ -129,16 +139,24 @@ def collect(make: Callable[..., Outcome], n: int, seed: int, args: tuple, execut
             if len(rows) == n:
                 break
             stats.candidates += 1
+            barren += 1
             if reason:
                 stats.rejected[reason] += 1
+                most_links = max(most_links, (row or {}).get("n_links", 0))
             elif row["design_id"] in seen:
                 stats.duplicates += 1
             else:
+                barren = 0
                 seen.add(row["design_id"])
                 rows.append(row)
                 stats.dropped_points += dropped
                 stats.designs_with_dropped_points += dropped > 0
                 bar.update(1)
+            if barren >= max_barren:
+                bar.close()
+                stats.kept = len(rows)
+                raise InputError(give_up(stats, most_links) if give_up is not None else
+                                 f"enumeration: no new valid design among {barren:,} candidates in a row")
         current = following
     bar.close()
     stats.kept = len(rows)
@@ -149,5 +167,15 @@ def enumerate_designs(config: EnumerateConfig, executor: Executor | None = None,
                       progress: str | None = "enumerate") -> tuple[pd.DataFrame, EnumerateStats]:
     """`config.n` distinct valid grammar designs with their contact features, and run statistics
     (`executor` None: in this process)."""
+    def give_up(stats: EnumerateStats, most_links: int) -> str:
+        found = (f"no new valid design among the last {MAX_BARREN:,} candidates (kept so far: {stats.kept}; "
+                 f"rejected: {dict(stats.rejected.most_common(3))})")
+        if stats.rejected["depth_limit"] > stats.rejected["too_few_links"]:
+            return (f"enumerate.max_depth: {config.max_depth} rules, expected enough for derivations to complete "
+                    f"(the default is {MAX_DEPTH}); {found}")
+        return (f"enumerate.min_links: {config.min_links} links, expected a size the grammar's derivations of at "
+                f"most enumerate.max_depth={config.max_depth} rules reach (the most links of a rejected one: "
+                f"{most_links}); {found}")
+
     return collect(candidate, config.n, config.seed, (config.min_links, config.max_depth),
-                   executor or Executor(workers=1), config.chunk, progress)
+                   executor or Executor(workers=1), config.chunk, progress, give_up)

@@ -32,7 +32,7 @@ def _evaluate(args: argparse.Namespace) -> int:
     from robocompose.sim.physics import PhysicsSettings
     from robocompose.tasks.terrains import get_task
 
-    tree = derive(parse_rules(args.rules)).tree  # the command line first: no params file needed to reject it
+    tree = derive(parse_rules(args.rules, "--rules")).tree  # the command line first: no params file needed to reject it
     task = get_task(args.task).name
     config = load_section(EvaluationConfig, "evaluation", args.params)
     seed = config.seed if args.seed is None else args.seed
@@ -70,6 +70,22 @@ def register_fidelity(subparsers: argparse._SubParsersAction) -> None:
     fidelity.set_defaults(handler=_fidelity)
 
 
+def name_list(text: str | None, flag: str, what: str) -> list[str] | None:
+    """A comma-separated list flag: None if not given; an empty list or an empty item is an error (an empty
+    --rungs is not "every rung")."""
+    from robocompose.io.errors import InputError
+
+    if text is None:
+        return None
+    names = [name.strip() for name in text.split(",")]
+    if not any(names):
+        raise InputError(f"{flag} {text!r}: expected one or more comma-separated {what}, found none "
+                         f"(leave {flag} out for the params' list)")
+    if not all(names):
+        raise InputError(f"{flag} {text!r}: expected comma-separated {what}, found an empty item")
+    return names
+
+
 def _fidelity(args: argparse.Namespace) -> int:
     import dataclasses
 
@@ -77,8 +93,12 @@ def _fidelity(args: argparse.Namespace) -> int:
     from robocompose.io.errors import InputError
     from robocompose.params import load_section
 
+    lists = {"tasks": name_list(args.tasks, "--tasks", "task names"),
+             "rungs": name_list(args.rungs, "--rungs", "ladder rungs"),
+             "kinds": name_list(args.kinds, "--kinds", "kinds of design"),
+             "designs": name_list(args.designs, "--designs", "design names")}  # checked before the params
     config = load_section(fidelity.FidelityConfig, "evaluator_fidelity", args.params)
-    changes = {name: getattr(args, name).split(",") for name in ("tasks", "rungs") if getattr(args, name)}
+    changes = {name: lists[name] for name in ("tasks", "rungs") if lists[name] is not None}
     config = dataclasses.replace(config, **changes)  # re-checked by __post_init__
     if args.action == "build-set":
         from robocompose.io import read_table
@@ -89,15 +109,15 @@ def _fidelity(args: argparse.Namespace) -> int:
     designs = fidelity.read_design_set(config.directory)
     if args.action == "measure":
         chosen = designs
-        if args.kinds:
-            kinds = args.kinds.split(",")
+        if lists["kinds"] is not None:
+            kinds = lists["kinds"]
             unknown = sorted(set(kinds) - set(fidelity.MEASURE_ORDER))
             if unknown:
                 raise InputError(f"--kinds: unknown kind {unknown[0]!r}; "
                                  f"expected some of {list(fidelity.MEASURE_ORDER)}")
             chosen = chosen[chosen["kind"].isin(kinds)]
-        if args.designs:
-            names = args.designs.split(",")
+        if lists["designs"] is not None:
+            names = lists["designs"]
             unknown = sorted(set(names) - set(designs["name"]))
             if unknown:
                 raise InputError(f"--designs: unknown design {unknown[0]!r}; "

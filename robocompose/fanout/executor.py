@@ -46,15 +46,62 @@ def check_address(address: str) -> str:
 
 
 def connect(address: str):
-    """A dask.distributed Client of the scheduler at `address`; InputError if none answers within the timeout."""
+    """A dask.distributed Client of the scheduler at `address`; InputError within CONNECT_TIMEOUT (+ the Client's
+    own start) if no Dask scheduler answers there: nothing listening, a silent socket, another kind of server."""
     check_address(address)
+    _probe_scheduler(address)
     from dask.distributed import Client
 
     try:
         return Client(address, timeout=CONNECT_TIMEOUT)
     except (OSError, TimeoutError) as err:
-        raise InputError(f"address: no Dask scheduler answered at {address!r} within {CONNECT_TIMEOUT} s "
-                         f"({type(err).__name__}); expected a running scheduler like {ADDRESS_EXAMPLE}") from None
+        raise _no_scheduler(address, err) from None
+
+
+def _no_scheduler(address: str, err: BaseException) -> InputError:
+    reason = "no answer" if isinstance(err, TimeoutError) else f"{type(err).__name__}"
+    return InputError(f"address: no Dask scheduler answered at {address!r} within {CONNECT_TIMEOUT} s ({reason}); "
+                      f"expected a running scheduler like {ADDRESS_EXAMPLE}")
+
+
+def _probe_scheduler(address: str) -> None:
+    """Ask whoever listens at `address` who it is (Dask's handshake, then `identity`), all within CONNECT_TIMEOUT.
+
+    dask's Client bounds each step by its timeout but retries a failed handshake and waits once more per step: a
+    silent listener held it ~80 s, an HTTP server ~5 minutes. This probe has one overall deadline, in a thread
+    of its own (an event loop of its own, whatever the caller runs)."""
+    import asyncio
+    import threading
+
+    outcome: list[BaseException | str] = []
+
+    async def ask() -> str:
+        from distributed.comm import connect as open_comm
+
+        comm = await open_comm(address, timeout=CONNECT_TIMEOUT)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            answer = await comm.read()
+        finally:
+            comm.abort()
+        return answer.get("type", "") if isinstance(answer, dict) else ""
+
+    def run() -> None:
+        try:
+            outcome.append(asyncio.run(asyncio.wait_for(ask(), CONNECT_TIMEOUT)))
+        except BaseException as err:  # noqa: BLE001 - any failure means: no scheduler there
+            outcome.append(err)
+
+    thread = threading.Thread(target=run, name="dask-probe", daemon=True)
+    thread.start()
+    thread.join(CONNECT_TIMEOUT + 2)
+    if not outcome:
+        raise _no_scheduler(address, TimeoutError())
+    if isinstance(outcome[0], BaseException):
+        raise _no_scheduler(address, outcome[0])
+    if outcome[0] != "Scheduler":
+        raise InputError(f"address: {address!r} answered as {outcome[0] or 'something else'!r}, not a Dask "
+                         f"scheduler; expected a running scheduler like {ADDRESS_EXAMPLE}")
 
 
 class Executor:

@@ -15,7 +15,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _derive(args: argparse.Namespace) -> int:
     from robocompose.grammar.derivation import derive, parse_rules
 
-    derivation = derive(parse_rules(args.rules))
+    derivation = derive(parse_rules(args.rules, "--rules"))
     tree = derivation.tree
     print(json.dumps({"design_id": tree.design_id, "complete": derivation.graph.complete,
                       "n_links": tree.n_links, "n_joints": tree.n_joints,

@@ -12,6 +12,9 @@ from robocompose.grammar.tree import DesignTree, classify_joint, classify_link, 
 from robocompose.io.errors import InputError
 
 MAX_DEPTH = 40  # rule-sequence length limit of random derivation (RoboGrammar's search depth)
+# Rules a parsed sequence may hold: 5x the enumerated designs' limit (MAX_DEPTH), above the ~100 rules of the
+# largest tree the VAE decodes (50 nodes); replaying 1,000 rules takes seconds, 10,000 minutes.
+MAX_RULES = 200
 
 
 class DerivationError(InputError):
@@ -28,14 +31,21 @@ class Derivation:
         return graph_to_tree(self.graph)
 
 
-def parse_rules(text: str) -> tuple[int, ...]:
-    """Parse "0,7,1,..." into rule indices; errors name the bad item."""
+def parse_rules(text: str, label: str = "") -> tuple[int, ...]:
+    """Parse "0,7,1,..." into rule indices (at most MAX_RULES); errors name `label` (e.g. the flag) and the bad
+    item."""
+    where = f"{label}: " if label else ""
+    count = text.count(",") + 1
+    if count > MAX_RULES:
+        raise DerivationError(f"{where}rule sequence of {count} rules, expected at most {MAX_RULES} (the grammar's "
+                              f"designs take up to ~100; enumeration stops at {MAX_DEPTH})")
     out = []
     for k, item in enumerate(x.strip() for x in text.split(",")):
         try:
             out.append(int(item))
         except ValueError:
-            raise DerivationError(f"rule sequence item {k} is {item!r}, expected an integer rule index") from None
+            raise DerivationError(f"{where}rule sequence item {k} is {item!r}, expected an integer rule "
+                                  "index") from None
     return tuple(out)
 
 

@@ -6,16 +6,18 @@ import argparse
 import json
 import math
 
-from robocompose.arguments import input_file, non_negative_int, positive_int
+from robocompose.arguments import input_file, int_between, non_negative_int
 from robocompose.io.errors import InputError
 
+MAX_SAMPLE = 10_000  # designs `sample` decodes at once, ~0.5 MB each (hidden 450, 50 nodes): about 5 GB at most
 MODEL_FILE = input_file("a trained VAE (e.g. models/vae_full.pt)")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     sample = subparsers.add_parser("sample", help="decode N designs from the prior z ~ N(0, I)")
     sample.add_argument("--model", type=MODEL_FILE, required=True, help="a trained VAE, e.g. models/vae_full.pt")
-    sample.add_argument("--n", type=positive_int, required=True)
+    sample.add_argument("--n", type=int_between(1, MAX_SAMPLE, "decoded at once, about 0.5 MB each"), required=True,
+                        help=f"designs to decode (at most {MAX_SAMPLE:,})")
     sample.add_argument("--seed", type=non_negative_int, default=0)
     sample.set_defaults(handler=_sample)
 
@@ -71,8 +73,8 @@ def _encode(args: argparse.Namespace) -> int:
     from robocompose.latent.constraints import replay
     from robocompose.latent.train import load_model
 
+    tree = derive(parse_rules(args.rules, "--rules")).tree  # the flag first: no model is loaded to reject it
     model = load_model(args.model)
-    tree = derive(parse_rules(args.rules)).tree
     with torch.no_grad():
         mean, _ = model.encoder(collate([replay(tree, model.config.constraints, model.config.max_nodes)],
                                         np.zeros((1, 16))))

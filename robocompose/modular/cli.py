@@ -13,7 +13,14 @@ import argparse
 import json
 from pathlib import Path
 
-from robocompose.arguments import add_compute_arguments, input_file, non_negative_int, output_directory, output_file
+from robocompose.arguments import (
+    add_compute_arguments,
+    input_file,
+    int_at_least,
+    non_negative_int,
+    output_directory,
+    output_file,
+)
 
 VARIANTS = ("ga20", "ga50", "crowding", "random")
 
@@ -78,7 +85,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "digest (the proof that a code change left its numbers as they were); prints JSON per table")
     verify.add_argument("--dir", type=Path, default=None,
                         help="a directory of blocks-<seed>.parquet tables (default reports/modular/exhaustive)")
-    verify.add_argument("--sample", type=non_negative_int, default=20, help="designs re-simulated per table")
+    verify.add_argument("--sample", type=int_at_least(1), default=20, help="designs re-simulated per table")
     verify.add_argument("--seed", type=non_negative_int, default=0, help="seed of the sample")
     verify.add_argument("--rekey", action="store_true", help="re-key the tables whose sample agrees exactly")
     _add_evaluation_arguments(verify)
@@ -179,10 +186,13 @@ def _exhaustive(args: argparse.Namespace) -> None:
         settings = candidate_settings(settings, {args.distribution: document[args.distribution]},
                                       str(args.candidates))[args.distribution]
     directory = args.out_dir or COMMITTED_DIR
+    # every committed record is checked before the first rollout
+    kept_seeds = {seed for seed in args.terrain_seed if read_committed(seed, settings, params.fitness, directory)
+                  is not None}
     cache = compute.open_cache()
     with compute.executor() as executor:
         for seed in args.terrain_seed:
-            kept = read_committed(seed, settings, params.fitness, directory) is not None
+            kept = seed in kept_seeds
             path = (committed_path(seed, directory) if kept
                     else measure_committed(seed, settings, params.fitness, cache, executor, directory))
             best = truth_summary(read_table(path, "modular_exhaustive"), params.experiments.near_optimal).iloc[0]
@@ -219,12 +229,14 @@ def _probe(args: argparse.Namespace) -> None:
 def _verify(args: argparse.Namespace) -> None:
     from robocompose.arguments import command_compute
     from robocompose.io.errors import InputError
-    from robocompose.modular.truth import COMMITTED_DIR, verify_committed
+    from robocompose.modular.truth import COMMITTED_DIR, read_record, verify_committed
 
     directory = args.dir or COMMITTED_DIR
     tables = sorted(Path(directory).glob("blocks-*.parquet"))
     if not tables:
         raise InputError(f"--dir {directory}: no blocks-<seed>.parquet tables there")
+    for path in tables:  # every record checked before the first rollout
+        read_record(path)
     with command_compute(args, args.params).executor() as executor:
         for path in tables:
             print(json.dumps(verify_committed(path, args.sample, args.seed, executor, args.rekey)), flush=True)

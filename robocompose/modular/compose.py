@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from robocompose.arguments import input_file, non_negative_int, positive_int
+from robocompose.arguments import input_file, int_between, non_negative_int, positive_int
 from robocompose.io.errors import InputError
 
 if TYPE_CHECKING:
@@ -30,6 +30,8 @@ if TYPE_CHECKING:
     from robocompose.modular.terrain import TerrainConfig
 
 SHIPPED_MODEL = Path(__file__).resolve().parent / "pretrained" / "eggan.pt"
+# generator draws per query at most: doubled up to 16x, 1.6 million draws of ~1 kB each (about 2 GB at the peak)
+MAX_SAMPLES = 100_000
 MODULE_NAMES = {"none": "n", "leg": "l", "wheel": "w", "legwheel": "b", "leg-wheel": "b", "leg_wheel": "b"}
 
 
@@ -45,9 +47,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                          "legwheel)")
     modular.add_argument("--model", type=input_file("an EG-GAN generator file"),
                          help=f"generator file (default: the shipped {SHIPPED_MODEL.name})")
-    modular.add_argument("--samples", type=positive_int, default=64,
-                         help="generator draws per query, doubled up to 16x while fewer than --k designs are found "
-                         "(default 64)")
+    modular.add_argument("--samples", type=int_between(1, MAX_SAMPLES, "doubled up to 16x: about 2 GB at most"),
+                         default=64, help="generator draws per query, doubled up to 16x while fewer than --k designs "
+                         f"are found (default 64, at most {MAX_SAMPLES:,})")
     modular.add_argument("--seed", type=non_negative_int, default=0, help="seed of the noise vectors")
     modular.add_argument("--simulate", action="store_true", help="also simulate each design (distance, status)")
     modular.add_argument("--params", type=Path, default=None, help="params file with a modular: section (default: "

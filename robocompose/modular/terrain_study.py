@@ -28,11 +28,10 @@ import pandas as pd
 from robocompose.fanout.cache import EvaluationCache
 from robocompose.fanout.executor import Executor
 from robocompose.io import read_table
-from robocompose.io.atomic import read_json
 from robocompose.io.errors import InputError
 from robocompose.modular.evaluate import EvalSettings, FitnessRule
 from robocompose.modular.terrain import TerrainConfig, generate_terrain
-from robocompose.modular.truth import exhaustive_terrain, terrain_criterion
+from robocompose.modular.truth import exhaustive_terrain, read_record, terrain_criterion
 
 # One port string per mirror pair (truth.canonical): legs, wheels and leg-wheels alone; the optima and the
 # best-on-average design of the committed tables (reports/modular/exhaustive, H ~ U(0, 0.2)); mixes.
@@ -104,7 +103,7 @@ def directory_criterion(directory: str | Path) -> tuple[pd.DataFrame, dict]:
         record = path.with_suffix(".json")
         if not record.exists():
             raise InputError(f"{path}: its provenance record {record.name} is missing")
-        records.append({k: read_json(record).get(k) for k in ("settings", "fitness", "physics_digest")})
+        records.append(read_record(path).provenance)
     if any(r != records[0] for r in records[1:]):
         differing = next(p for p, r in zip(paths, records, strict=True) if r != records[0])
         raise InputError(f"{differing}: measured under other settings, fitness rule or physics than {paths[0].name}")

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import asdict
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import pandas as pd
@@ -25,6 +25,7 @@ from robocompose.fanout.cache import EvaluationCache
 from robocompose.fanout.executor import Executor
 from robocompose.io import atomic_write_json, read_table, write_table
 from robocompose.io.atomic import read_json
+from robocompose.io.errors import ArtifactError, InputError
 from robocompose.io.provenance import result_digest
 from robocompose.modular import evaluate
 from robocompose.modular.evaluate import EvalSettings, FitnessRule, evaluate_designs
@@ -82,6 +83,47 @@ def write_committed(table: pd.DataFrame, settings: EvalSettings, rule: FitnessRu
     return path
 
 
+PROVENANCE_KEYS = ("settings", "fitness", "physics_digest")  # what a committed table's numbers depend on
+
+
+@dataclass(frozen=True)
+class CommittedRecord:
+    """The provenance record beside a committed table, checked (`read_record`): the JSON document as stored and
+    the settings and fitness rule it names, built as the params loader builds them."""
+
+    document: dict
+    settings: EvalSettings
+    rule: FitnessRule
+
+    @property
+    def provenance(self) -> dict:
+        return {k: self.document[k] for k in PROVENANCE_KEYS}
+
+
+def read_record(table: Path) -> CommittedRecord:
+    """The provenance record (`.json` beside `table`) every reader of a committed table goes through: a JSON
+    object whose `settings` and `fitness` load as the params' `modular.eval` and `modular.fitness` do (no unknown
+    field, the right types and ranges) and whose `physics_digest` is a string; ArtifactError naming the record,
+    the field and what was expected otherwise."""
+    from robocompose.params import build_config
+
+    path = Path(table).with_suffix(".json")
+    document = read_json(path)
+    if not isinstance(document, dict):
+        raise ArtifactError(f"{path}: expected a JSON object with fields {list(PROVENANCE_KEYS)} (a committed "
+                            f"table's provenance record), found a {type(document).__name__}")
+    missing = [k for k in PROVENANCE_KEYS if k not in document]
+    if missing:
+        raise ArtifactError(f"{path}: {missing[0]}: missing field (a committed table's provenance record holds "
+                            f"{list(PROVENANCE_KEYS)})")
+    settings = build_config(EvalSettings, document["settings"], f"{path}: settings")
+    rule = build_config(FitnessRule, document["fitness"], f"{path}: fitness")
+    digest = document["physics_digest"]
+    if not isinstance(digest, str):
+        raise ArtifactError(f"{path}: physics_digest: expected a string of hex digits, found {digest!r}")
+    return CommittedRecord(document, settings, rule)
+
+
 def read_committed(terrain_seed: int, settings: EvalSettings, rule: FitnessRule,
                    directory: Path = COMMITTED_DIR) -> pd.DataFrame | None:
     """The committed table of `terrain_seed` if it was measured with these settings, rule and physics; else None."""
@@ -89,8 +131,7 @@ def read_committed(terrain_seed: int, settings: EvalSettings, rule: FitnessRule,
     record = path.with_suffix(".json")
     if not (path.exists() and record.exists()):
         return None
-    stored = read_json(record)
-    if {k: stored.get(k) for k in ("settings", "fitness", "physics_digest")} != provenance(settings, rule):
+    if read_record(path).provenance != provenance(settings, rule):
         return None
     return read_table(path, "modular_exhaustive")
 
@@ -100,8 +141,9 @@ def truth_tables(terrain_seeds: list[int], settings: EvalSettings, rule: Fitness
                  directory: Path = COMMITTED_DIR) -> tuple[pd.DataFrame, dict[int, str]]:
     """The exhaustive table of every terrain (committed where it matches, else simulated) and each one's source."""
     frames, sources = [], {}
+    committed = {seed: read_committed(seed, settings, rule, directory) for seed in terrain_seeds}  # checked first
     for seed in terrain_seeds:
-        table = read_committed(seed, settings, rule, directory)
+        table = committed[seed]
         sources[int(seed)] = "committed" if table is not None else "simulated"
         if table is None:
             table = exhaustive_terrain(seed, settings, rule, cache, executor)
@@ -124,11 +166,15 @@ def verify_committed(path: Path, sample: int, seed: int, executor: Executor | No
     compare distance, status and sim steps exactly. With `rekey` and every row equal, the record's physics digest
     becomes the current one: the proof that a change of code (or of the digest's scheme) left the numbers as
     they were, instead of re-keying blindly. Returns the comparison (and whether the record was re-keyed)."""
+    if sample < 1:
+        raise InputError(f"sample: expected a positive number of designs to re-simulate, found {sample}")
     path = Path(path)
-    record = read_json(path.with_suffix(".json"))
-    settings, rule = EvalSettings(**record["settings"]), FitnessRule(**record["fitness"])
+    checked = read_record(path)
+    record, settings, rule = checked.document, checked.settings, checked.rule
     table = read_table(path, "modular_exhaustive")
     simulated = table[table.sim_steps > 0]
+    if simulated.empty:
+        raise ArtifactError(f"{path}: no simulated design (sim_steps > 0) to re-simulate")
     rows = simulated.sample(n=min(sample, len(simulated)), random_state=seed).sort_values("design")
     results = evaluate_designs(list(rows.design), int(rows.terrain_seed.iloc[0]), settings, rule, None, executor)
     mismatches = [row.design for row, result in zip(rows.itertuples(), results, strict=True)

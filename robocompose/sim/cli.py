@@ -23,7 +23,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _tree(rules: str):
     from robocompose.grammar.derivation import derive, parse_rules
 
-    return derive(parse_rules(rules)).tree
+    return derive(parse_rules(rules, "--rules")).tree
 
 
 def _render(args: argparse.Namespace) -> int:

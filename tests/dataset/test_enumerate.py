@@ -55,3 +55,17 @@ def test_another_seed_gives_other_designs(small_runs):
 def test_bad_config_names_the_field(field, value):
     with pytest.raises(ValueError, match=field):
         EnumerateConfig(**{"n": 10, field: value})
+
+
+def _too_small(seed: int, k: int) -> tuple:
+    return "too_few_links", {"n_links": k % 7}, 0
+
+
+def test_an_enumeration_no_candidate_can_satisfy_gives_up_with_one_line():
+    from robocompose.dataset.enumerate import collect
+    from robocompose.io.errors import InputError
+
+    with pytest.raises(InputError, match=r"^gave up after 100 candidates, most links 6, kept 0$"):
+        collect(_too_small, 3, 0, (), Executor(workers=1), chunk=8, max_barren=100,
+                give_up=lambda stats, most: f"gave up after {stats.candidates} candidates, most links {most}, "
+                                            f"kept {stats.kept}")

@@ -179,3 +179,41 @@ def test_commands_with_an_unreachable_address_fail_within_ten_seconds(argv, tmp_
         cli_error([a.format(tmp=tmp_path, root=root) for a in argv] + ["--address", address],
                   f"no Dask scheduler answered at '{address}'")
     assert time.perf_counter() - started < 10
+
+
+def _http_server():
+    import http.server
+    import threading
+
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), http.server.BaseHTTPRequestHandler)
+    server.RequestHandlerClass.log_message = lambda *args: None  # no request lines on stderr
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    return server
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("listener", ["http server", "silent listener"])
+def test_an_address_that_is_no_scheduler_fails_within_ten_seconds_with_one_line(listener):
+    """An HTTP server held the Client ~5 minutes, a socket that accepts and never answers ~80 s."""
+    server = silent = None
+    if listener == "http server":
+        server = _http_server()
+        port = server.server_address[1]
+    else:
+        silent = socket.socket()
+        silent.bind(("127.0.0.1", 0))
+        silent.listen(8)
+        port = silent.getsockname()[1]
+    address = f"tcp://127.0.0.1:{port}"
+    started = time.perf_counter()
+    try:
+        with pytest.raises(InputError, match="no Dask scheduler answered") as error:
+            Executor(address=address)
+    finally:
+        if server is not None:
+            server.shutdown()
+            server.server_close()
+        if silent is not None:
+            silent.close()
+    assert time.perf_counter() - started < 10
+    assert repr(address) in str(error.value) and "within 5 s" in str(error.value) and "\n" not in str(error.value)

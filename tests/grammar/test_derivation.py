@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from robocompose.grammar.derivation import (
+    MAX_RULES,
     DerivationError,
     applicable_rules,
     derive,
@@ -62,3 +63,10 @@ def test_random_derivation_respects_depth_limit():
 
 def test_only_make_robot_applies_to_the_start_graph():
     assert applicable_rules(START_GRAPH) == [0]
+
+
+def test_a_rule_sequence_longer_than_the_limit_is_refused_before_it_is_parsed():
+    assert parse_rules(",".join(["0"] * MAX_RULES)) == (0,) * MAX_RULES
+    with pytest.raises(DerivationError, match=f"--rules: rule sequence of {MAX_RULES + 1} rules, expected at most "
+                                              f"{MAX_RULES}"):
+        parse_rules(",".join(["x"] * (MAX_RULES + 1)), "--rules")  # refused on its length, not on item 0

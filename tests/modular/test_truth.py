@@ -1,5 +1,6 @@
 import json
 import os
+import re
 import subprocess
 import sys
 
@@ -174,3 +175,29 @@ def test_rollouts_reproduce_the_committed_tables_to_the_byte(terrain_seed, desig
     for design, (distance, status, sim_steps) in zip(designs, json.loads(out.splitlines()[-1]), strict=True):
         row = table.loc[design]
         assert (distance, status, sim_steps) == (row.distance, row.status, row.sim_steps)
+
+
+@pytest.mark.parametrize(("change", "message"), [
+    (lambda record: [record], "expected a JSON object with fields ['settings', 'fitness', 'physics_digest']"),
+    (lambda record: {**record, "settings": {**record["settings"], "gravity": 9.81}},
+     "settings.gravity: unknown field; expected one of"),
+    (lambda record: {**record, "fitness": {**record["fitness"], "invalid": "ignore"}},
+     "fitness.invalid: expected 'penalty' or 'simulate'"),
+    (lambda record: {k: v for k, v in record.items() if k != "settings"}, "settings: missing field"),
+    (lambda record: {**record, "physics_digest": 7}, "physics_digest: expected a string of hex digits, found 7"),
+])
+def test_every_reader_of_a_committed_table_refuses_a_bad_record_the_same_way(tmp_path, change, message):
+    from robocompose.io.errors import InputError
+    from robocompose.modular.terrain_study import directory_criterion
+    from robocompose.modular.truth import read_record
+
+    path = write_committed(exhaustive_terrain(1007, TINY, RULE, None, None, designs=["nnnnnn", "llllll"]), TINY,
+                          RULE, 1.0, tmp_path)
+    good = json.loads(path.with_suffix(".json").read_text())
+    assert read_record(path).settings == TINY
+    path.with_suffix(".json").write_text(json.dumps(change(good)))
+    for read in (lambda: read_record(path), lambda: read_committed(1007, TINY, RULE, tmp_path),
+                 lambda: directory_criterion(tmp_path), lambda: verify_committed(path, 1, 0),
+                 lambda: truth_tables([1007], TINY, RULE, None, None, tmp_path)):
+        with pytest.raises(InputError, match=re.escape(message)):
+            read()
