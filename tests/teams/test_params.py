@@ -58,7 +58,8 @@ def teams_yaml(**changed: str) -> str:
     (teams_yaml(eggan="{fitness: {source: surrogate}}"),
      r"teams.eggan.fitness.source: expected one of \['exact', 'model'\], found 'surrogate'"),
     (teams_yaml(eggan="{fitness: {budget: 0}}"), r"teams.eggan.fitness.budget: expected a positive integer"),
-    (teams_yaml(eggan="{validate_every: 7, fitness: {}}"), r"teams.eggan.validate_every: expected 0 or a multiple of 5"),
+    (teams_yaml(eggan="{validate_every: 7, fitness: {}}"),
+     r"teams.eggan.validate_every: expected 0 or a multiple of 5"),
 ])
 def test_bad_params_name_file_field_and_expectation(tmp_path, text, message):
     with pytest.raises(InputError, match=message) as error:
