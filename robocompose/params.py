@@ -111,7 +111,8 @@ def _matches(value: Any, expected: type) -> bool:
     return isinstance(value, expected) or (expected is float and isinstance(value, int))
 
 
-def build_config(cls: type[T], values: Any, where: str, complete: bool = False) -> T:
+def build_config(cls: type[T], values: Any, where: str, complete: bool = False,
+                 _missing: list[str] | None = None) -> T:
     """Make dataclass `cls` from a mapping; unknown keys, wrong types and invalid values name `where.field`.
 
     Types are checked from the annotations (int, float, str, bool, list[...] item types); a field whose type
@@ -119,8 +120,10 @@ def build_config(cls: type[T], values: Any, where: str, complete: bool = False) 
     by the dataclass's own __post_init__, whose InputError("field: ...") is reported as `where.field: ...`.
     A field without a default must be given; with `complete` (a params file: `load_section`, `check_params`)
     so must every section (a dataclass field), defaults or not: a deleted section is an error naming it, never
-    a silent fallback to the dataclass's defaults.
+    a silent fallback to the dataclass's defaults (reported after every given value is checked).
     """
+    outermost = complete and _missing is None
+    missing_sections: list[str] = [] if _missing is None else _missing
     fields = {f.name: f for f in dataclasses.fields(cls)}
     if not isinstance(values, dict):
         raise InputError(f"{where}: expected a mapping with fields {list(fields)}, found {shown(values)}")
@@ -129,32 +132,38 @@ def build_config(cls: type[T], values: Any, where: str, complete: bool = False) 
         key = unknown[0] if isinstance(unknown[0], str) and len(unknown[0]) <= 80 else shown(unknown[0])
         raise InputError(f"{where}.{key}: unknown field; expected one of {sorted(fields)}")
     hints = typing.get_type_hints(cls)
-    built = {name: _value(hints[name], value, f"{where}.{name}", complete) for name, value in values.items()}
-    missing = [name for name, f in fields.items() if name not in values and (
-        (f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING)
-        or (complete and dataclasses.is_dataclass(hints[name])))]  # named after the bad values of the given fields
-    if missing:
-        kind = "section" if dataclasses.is_dataclass(hints[missing[0]]) else "field"
-        raise InputError(f"{where}.{missing[0]}: missing {kind} (required; expected fields {list(fields)})")
+    built = {name: _value(hints[name], value, f"{where}.{name}", complete, missing_sections)
+             for name, value in values.items()}
+    required = [name for name, f in fields.items() if name not in values and f.default is dataclasses.MISSING
+                and f.default_factory is dataclasses.MISSING]  # named after the bad values of the given fields
+    for name in required:
+        kind = "section" if dataclasses.is_dataclass(hints[name]) else "field"
+        raise InputError(f"{where}.{name}: missing {kind} (required; expected fields {list(fields)})")
     try:
-        return cls(**built)
+        config = cls(**built)
     except (ValueError, TypeError) as err:
         message = str(err)
         joined = "." if message.split(":")[0].split(".")[0] in fields else ": "
         raise InputError(f"{where}{joined}{message}") from None
+    missing_sections += [f"{where}.{name}" for name in fields
+                         if complete and name not in values and dataclasses.is_dataclass(hints[name])]
+    if outermost and missing_sections:  # a section with defaults, too: after every given value's own checks
+        raise InputError(f"{missing_sections[0]}: missing section (a params file names every section, `{{}}` for "
+                         "its defaults)")
+    return config
 
 
-def _value(hint: Any, value: Any, where: str, complete: bool = False) -> Any:
+def _value(hint: Any, value: Any, where: str, complete: bool = False, missing: list[str] | None = None) -> Any:
     """`value` checked against annotation `hint` (nested dataclasses built); other annotations pass unchecked."""
     if dataclasses.is_dataclass(hint):
-        return build_config(hint, value, where, complete)
+        return build_config(hint, value, where, complete, missing)
     origin, args = typing.get_origin(hint), typing.get_args(hint)
     if origin in (typing.Union, types.UnionType):  # X | None: None, or an X
-        return None if value is None and type(None) in args else _value(args[0], value, where, complete)
+        return None if value is None and type(None) in args else _value(args[0], value, where, complete, missing)
     if origin is dict and len(args) == 2 and dataclasses.is_dataclass(args[1]):
         if not isinstance(value, dict):
             raise InputError(f"{where}: expected a mapping of name -> {args[1].__name__} fields, found {shown(value)}")
-        return {key: build_config(args[1], item, f"{where}.{key}", complete) for key, item in value.items()}
+        return {key: build_config(args[1], item, f"{where}.{key}", complete, missing) for key, item in value.items()}
     expected = origin or hint
     if expected in _TYPES and not _matches(value, expected):
         raise InputError(f"{where}: expected {expected.__name__}, found {shown(value)}")
