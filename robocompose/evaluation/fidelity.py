@@ -43,7 +43,7 @@ from robocompose.grammar.derivation import derive, parse_rules
 from robocompose.grammar.references import REFERENCE_DESIGNS
 from robocompose.grammar.tree import DesignTree
 from robocompose.io import atomic_write_text
-from robocompose.io.errors import ArtifactError, InputError, check_field, check_number
+from robocompose.io.errors import ArtifactError, InputError, check_field, check_number, shown
 from robocompose.tasks.terrains import TASKS
 
 THESIS = "thesis"
@@ -85,7 +85,7 @@ def rung_seed(name: str, seed: int) -> int:
 def rung_config(name: str) -> MPPIConfig:
     """The MPPI config of ladder rung `name`."""
     if base_rung(name) not in LADDER:
-        raise InputError(f"unknown fidelity rung {name!r}; known rungs: {list(LADDER) + list(REPEATS)}")
+        raise InputError(f"unknown fidelity rung {shown(name)}; known rungs: {list(LADDER) + list(REPEATS)}")
     samples, first_samples, horizon, episode = LADDER[base_rung(name)]
     return MPPIConfig(samples=samples, first_samples=first_samples, horizon=horizon, episode=episode)
 
