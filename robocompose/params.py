@@ -14,6 +14,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import importlib
+import math
 import types
 import typing
 from pathlib import Path
@@ -145,12 +146,23 @@ def build_config(cls: type[T], values: Any, where: str, complete: bool = False,
         message = str(err)
         joined = "." if message.split(":")[0].split(".")[0] in fields else ": "
         raise InputError(f"{where}{joined}{message}") from None
+    for name, value in values.items():  # after the class's own checks, which say which range they expected
+        items = value if isinstance(value, list) else value.values() if isinstance(value, dict) else [value]
+        if _holds_floats(hints[name]) and any(
+                isinstance(v, float) and not math.isfinite(v) for v in items):
+            raise InputError(f"{where}.{name}: expected finite numbers (NaN and infinity give no right answer), "
+                             f"found {shown(value)}")
     missing_sections += [f"{where}.{name}" for name in fields
                          if complete and name not in values and dataclasses.is_dataclass(hints[name])]
     if outermost and missing_sections:  # a section with defaults, too: after every given value's own checks
         raise InputError(f"{missing_sections[0]}: missing section (a params file names every section, `{{}}` for "
                          "its defaults)")
     return config
+
+
+def _holds_floats(hint: Any) -> bool:
+    """Whether annotation `hint` is float or holds floats (list[float], float | None, ...)."""
+    return hint is float or any(_holds_floats(arg) for arg in typing.get_args(hint))
 
 
 def _value(hint: Any, value: Any, where: str, complete: bool = False, missing: list[str] | None = None) -> Any:

@@ -91,6 +91,12 @@ PARAMS = [
     Case("report: mppi discount NaN", ("params.yaml: evaluation.mppi.discount: expected a finite number in (0, 1], "
                                        "found nan",),
          stage="report", change="doc['evaluation']['mppi']['discount'] = float('nan')"),
+    Case("glso: a float without its own range check is NaN", ("params.yaml: glso.bo.xi: expected finite numbers",
+                                                               "found nan"),
+         stage="glso", change="doc['glso']['bo']['xi'] = float('nan')"),
+    Case("modular: terrain friction inf", ("params.yaml: modular.eval.terrain.friction: expected finite numbers",
+                                           "found inf"),
+         stage="modular_exhaustive", change="doc['modular']['eval']['terrain']['friction'] = float('inf')"),
     Case("evaluation: mppi section deleted", ("params.yaml: evaluation.mppi: missing section",),
          stage="evaluate_references", change="del doc['evaluation']['mppi']"),
     Case("train_vae: train section deleted", ("params.yaml: train_vae.train: missing section",),

@@ -193,3 +193,14 @@ def test_profile_refuses_a_params_yaml_that_is_a_directory(tmp_path):
     with pytest.raises(InputError, match="params.yaml: not a file"):
         write_profile("default", root)
     assert (root / "params.yaml").is_dir()
+
+
+@pytest.mark.parametrize("value", [float("nan"), float("inf"), [0.0, float("-inf")]])
+def test_every_float_field_of_a_params_section_is_finite(value):
+    @dataclass
+    class C:
+        rate: float = 0.5  # no range check of its own
+        ranges: list[float] | None = None
+
+    with pytest.raises(InputError, match="expected finite numbers"):
+        build_config(C, {"ranges" if isinstance(value, list) else "rate": value}, "x")
