@@ -152,6 +152,17 @@ PARAMS = [
              'a: &a ["lol","lol","lol","lol","lol","lol","lol","lol","lol"]\n'
              + "".join(f"{n}: &{n} [{', '.join([f'*{p}'] * 9)}]\n"
                        for p, n in zip("abcdefgh", "bcdefghi", strict=True)))),
+    Case("evaluator-fidelity: --tasks unknown", ("argument --tasks: expected tasks of ['flat'", "found ['moon']"),
+         argv=("evaluator-fidelity", "summarise", "--tasks", "moon")),
+    Case("glso-campaign: --rung unknown", ("argument --rung: unknown fidelity rung 'fast'",),
+         argv=("glso-campaign", "summarise", "--rung", "fast")),
+    Case("glso-campaign: alpha NaN in --params", ("{tmp}/p.yaml: glso_campaign.alpha: expected a finite number in "
+                                                  "(0, 1), found nan",),
+         argv=("glso-campaign", "summarise", "--params", "{tmp}/p.yaml"),
+         change="doc['glso_campaign']['alpha'] = float('nan')",
+         setup=lambda tmp: (tmp / "p.yaml").write_bytes((tmp / "params.yaml").read_bytes())),
+    Case("glso-campaign: missing directory", ("nowhere: not a directory (glso_campaign.directory",),
+         argv=("glso-campaign", "summarise"), change="doc['glso_campaign']['directory'] = 'nowhere'"),
     Case("profile: params.yaml is a directory", ("params.yaml: not a file",), argv=("profile", "default"),
          setup=lambda tmp: ((tmp / "profiles").mkdir(), (tmp / "profiles" / "default.yaml").write_bytes(
              (tmp / "params.yaml").read_bytes()), (tmp / "params.yaml").unlink(), (tmp / "params.yaml").mkdir())),

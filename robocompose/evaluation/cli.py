@@ -79,7 +79,10 @@ def _fidelity(args: argparse.Namespace) -> int:
 
     config = load_section(fidelity.FidelityConfig, "evaluator_fidelity", args.params)
     changes = {name: getattr(args, name).split(",") for name in ("tasks", "rungs") if getattr(args, name)}
-    config = dataclasses.replace(config, **changes)  # re-checked by __post_init__
+    try:
+        config = dataclasses.replace(config, **changes)  # re-checked by __post_init__: "tasks: ..." or "rungs: ..."
+    except InputError as err:
+        raise InputError(f"argument --{err}") from None
     if args.action == "build-set":
         from robocompose.io import read_table
 
