@@ -113,7 +113,7 @@ def _matches(value: Any, expected: type) -> bool:
 
 
 def build_config(cls: type[T], values: Any, where: str, complete: bool = False,
-                 _missing: list[str] | None = None) -> T:
+                 _deferred: list[str] | None = None) -> T:
     """Make dataclass `cls` from a mapping; unknown keys, wrong types and invalid values name `where.field`.
 
     Types are checked from the annotations (int, float, str, bool, list[...] item types); a field whose type
@@ -121,10 +121,10 @@ def build_config(cls: type[T], values: Any, where: str, complete: bool = False,
     by the dataclass's own __post_init__, whose InputError("field: ...") is reported as `where.field: ...`.
     A field without a default must be given; with `complete` (a params file: `load_section`, `check_params`)
     so must every section (a dataclass field), defaults or not: a deleted section is an error naming it, never
-    a silent fallback to the dataclass's defaults (reported after every given value is checked).
+    a silent fallback to the dataclass's defaults. Every float must be finite. These two general rules are
+    reported after the classes' own checks (of the whole tree), which say more about what they expected.
     """
-    outermost = complete and _missing is None
-    missing_sections: list[str] = [] if _missing is None else _missing
+    deferred: list[str] = [] if _deferred is None else _deferred
     fields = {f.name: f for f in dataclasses.fields(cls)}
     if not isinstance(values, dict):
         raise InputError(f"{where}: expected a mapping with fields {list(fields)}, found {shown(values)}")
@@ -133,7 +133,7 @@ def build_config(cls: type[T], values: Any, where: str, complete: bool = False,
         key = unknown[0] if isinstance(unknown[0], str) and len(unknown[0]) <= 80 else shown(unknown[0])
         raise InputError(f"{where}.{key}: unknown field; expected one of {sorted(fields)}")
     hints = typing.get_type_hints(cls)
-    built = {name: _value(hints[name], value, f"{where}.{name}", complete, missing_sections)
+    built = {name: _value(hints[name], value, f"{where}.{name}", complete, deferred)
              for name, value in values.items()}
     required = [name for name, f in fields.items() if name not in values and f.default is dataclasses.MISSING
                 and f.default_factory is dataclasses.MISSING]  # named after the bad values of the given fields
@@ -150,13 +150,12 @@ def build_config(cls: type[T], values: Any, where: str, complete: bool = False,
         items = value if isinstance(value, list) else value.values() if isinstance(value, dict) else [value]
         if _holds_floats(hints[name]) and any(
                 isinstance(v, float) and not math.isfinite(v) for v in items):
-            raise InputError(f"{where}.{name}: expected finite numbers (NaN and infinity give no right answer), "
-                             f"found {shown(value)}")
-    missing_sections += [f"{where}.{name}" for name in fields
-                         if complete and name not in values and dataclasses.is_dataclass(hints[name])]
-    if outermost and missing_sections:  # a section with defaults, too: after every given value's own checks
-        raise InputError(f"{missing_sections[0]}: missing section (a params file names every section, `{{}}` for "
-                         "its defaults)")
+            deferred.append(f"{where}.{name}: expected finite numbers (NaN and infinity give no right answer), "
+                            f"found {shown(value)}")
+    deferred += [f"{where}.{name}: missing section (a params file names every section, `{{}}` for its defaults)"
+                 for name in fields if complete and name not in values and dataclasses.is_dataclass(hints[name])]
+    if _deferred is None and deferred:  # the outermost section: every class's own checks have passed
+        raise InputError(deferred[0])
     return config
 
 
@@ -165,17 +164,17 @@ def _holds_floats(hint: Any) -> bool:
     return hint is float or any(_holds_floats(arg) for arg in typing.get_args(hint))
 
 
-def _value(hint: Any, value: Any, where: str, complete: bool = False, missing: list[str] | None = None) -> Any:
+def _value(hint: Any, value: Any, where: str, complete: bool = False, deferred: list[str] | None = None) -> Any:
     """`value` checked against annotation `hint` (nested dataclasses built); other annotations pass unchecked."""
     if dataclasses.is_dataclass(hint):
-        return build_config(hint, value, where, complete, missing)
+        return build_config(hint, value, where, complete, deferred)
     origin, args = typing.get_origin(hint), typing.get_args(hint)
     if origin in (typing.Union, types.UnionType):  # X | None: None, or an X
-        return None if value is None and type(None) in args else _value(args[0], value, where, complete, missing)
+        return None if value is None and type(None) in args else _value(args[0], value, where, complete, deferred)
     if origin is dict and len(args) == 2 and dataclasses.is_dataclass(args[1]):
         if not isinstance(value, dict):
             raise InputError(f"{where}: expected a mapping of name -> {args[1].__name__} fields, found {shown(value)}")
-        return {key: build_config(args[1], item, f"{where}.{key}", complete, missing) for key, item in value.items()}
+        return {key: build_config(args[1], item, f"{where}.{key}", complete, deferred) for key, item in value.items()}
     expected = origin or hint
     if expected in _TYPES and not _matches(value, expected):
         raise InputError(f"{where}: expected {expected.__name__}, found {shown(value)}")

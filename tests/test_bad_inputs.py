@@ -94,7 +94,7 @@ PARAMS = [
     Case("glso: a float without its own range check is NaN", ("params.yaml: glso.bo.xi: expected finite numbers",
                                                                "found nan"),
          stage="glso", change="doc['glso']['bo']['xi'] = float('nan')"),
-    Case("modular: terrain friction inf", ("params.yaml: modular.eval.terrain.friction: expected finite numbers",
+    Case("modular: terrain friction inf", ("params.yaml: modular.eval.terrain.friction: expected a finite number > 0",
                                            "found inf"),
          stage="modular_exhaustive", change="doc['modular']['eval']['terrain']['friction'] = float('inf')"),
     Case("evaluation: mppi section deleted", ("params.yaml: evaluation.mppi: missing section",),
