@@ -204,3 +204,23 @@ def test_every_float_field_of_a_params_section_is_finite(value):
 
     with pytest.raises(InputError, match="expected finite numbers"):
         build_config(C, {"ranges" if isinstance(value, list) else "rate": value}, "x")
+
+
+def test_a_class_s_own_range_check_is_reported_before_the_general_finite_rule():
+    from dataclasses import field
+
+    from robocompose.io.errors import check_number
+
+    @dataclass
+    class Inner:
+        x: float = 1.0
+
+    @dataclass
+    class Outer:
+        inner: Inner = field(default_factory=Inner)
+
+        def __post_init__(self) -> None:  # a parent checks its section's field, as ModularParams does
+            check_number(self.inner.x, "inner.x", 0.0)
+
+    with pytest.raises(InputError, match=r"^w.inner.x: expected a finite number >= 0, found inf$"):
+        build_config(Outer, {"inner": {"x": float("inf")}}, "w", complete=True)
