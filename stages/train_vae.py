@@ -14,10 +14,10 @@ from robocompose.stage import run_stage
 
 
 def main() -> None:
+    params = load_section(TrainVaeParams, "train_vae")  # every variant's settings checked, whichever runs
     if len(sys.argv) != 2:
         raise InputError(f"usage: train_vae.py VARIANT (one of {', '.join(VARIANTS)})")
     name = sys.argv[1]
-    params = load_section(TrainVaeParams, "train_vae")
     try:
         variant, model_config, train_config, metrics_config = params.variant(name)
     except InputError as err:  # an unknown variant

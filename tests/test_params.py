@@ -145,3 +145,82 @@ def test_values_are_checked_by_type_and_by_the_dataclass(values, message):
     with pytest.raises(InputError) as error:
         build_config(EnumerateConfig, values, "x")
     assert message in str(error.value)
+
+
+LAUGHS = 'a: &a ["lol", "lol", "lol"]\n' + "".join(f"{n}: &{n} [{', '.join([f'*{p}'] * 9)}]\n"
+                                                   for p, n in zip("abcdefgh", "bcdefghi", strict=True))
+
+
+@pytest.mark.parametrize("text", [LAUGHS, "enumerate: {n: 5, seed: 0}\nnogram: &x {n: 5}\n",
+                                  "base: {n: 5}\nenumerate: {<<: *base}\n"])
+def test_a_params_file_with_anchors_or_aliases_is_refused_in_one_short_line(tmp_path, text):
+    params = tmp_path / "params.yaml"
+    params.write_text(text)
+    with pytest.raises(InputError, match="YAML anchors and aliases are not allowed") as error:
+        load_section(EnumerateConfig, "enumerate", params)
+    assert str(params) in str(error.value) and len(str(error.value)) < 300
+
+
+def test_a_written_profile_has_no_aliases_even_for_shared_values(tmp_path):
+    from robocompose.params import dump_yaml, load_yaml
+
+    shared = [1, 2]
+    assert load_yaml(dump_yaml({"a": shared, "b": shared}), "x") == {"a": [1, 2], "b": [1, 2]}
+
+
+def test_a_section_with_defaults_is_still_required_in_a_params_file(tmp_path):
+    from robocompose.evaluation.evaluate import EvaluationConfig
+
+    params = tmp_path / "params.yaml"
+    _write(params, {"evaluation": {"seed": 0}})
+    with pytest.raises(InputError, match=r"params.yaml: evaluation.mppi: missing section"):
+        load_section(EvaluationConfig, "evaluation", params)
+    assert build_config(EvaluationConfig, {"seed": 0}, "x") == EvaluationConfig()  # code may rely on defaults
+    _write(params, {"evaluation": {"seed": -1}})  # a given value's own error comes first
+    with pytest.raises(InputError, match=r"evaluation.seed: expected an integer >= 0"):
+        load_section(EvaluationConfig, "evaluation", params)
+
+
+def test_a_huge_value_is_cut_in_the_error_line():
+    with pytest.raises(InputError) as error:
+        build_config(EnumerateConfig, {"n": list(range(100_000))}, "x")
+    assert str(error.value).startswith("x.n: expected int, found [0, 1, 2") and len(str(error.value)) < 200
+
+
+def test_profile_refuses_a_params_yaml_that_is_a_directory(tmp_path):
+    root = _profiles(tmp_path)
+    (root / "params.yaml").mkdir()
+    with pytest.raises(InputError, match="params.yaml: not a file"):
+        write_profile("default", root)
+    assert (root / "params.yaml").is_dir()
+
+
+@pytest.mark.parametrize("value", [float("nan"), float("inf"), [0.0, float("-inf")]])
+def test_every_float_field_of_a_params_section_is_finite(value):
+    @dataclass
+    class C:
+        rate: float = 0.5  # no range check of its own
+        ranges: list[float] | None = None
+
+    with pytest.raises(InputError, match="expected finite numbers"):
+        build_config(C, {"ranges" if isinstance(value, list) else "rate": value}, "x")
+
+
+def test_a_class_s_own_range_check_is_reported_before_the_general_finite_rule():
+    from dataclasses import field
+
+    from robocompose.io.errors import check_number
+
+    @dataclass
+    class Inner:
+        x: float = 1.0
+
+    @dataclass
+    class Outer:
+        inner: Inner = field(default_factory=Inner)
+
+        def __post_init__(self) -> None:  # a parent checks its section's field, as ModularParams does
+            check_number(self.inner.x, "inner.x", 0.0)
+
+    with pytest.raises(InputError, match=r"^w.inner.x: expected a finite number >= 0, found inf$"):
+        build_config(Outer, {"inner": {"x": float("inf")}}, "w", complete=True)

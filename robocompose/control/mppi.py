@@ -34,7 +34,7 @@ from typing import Protocol
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-from robocompose.io.errors import InputError
+from robocompose.io.errors import check_field, check_finite_fields, check_number
 
 # 5-tap FIR low-pass applied to the sampling noise along time.
 NOISE_FILTER = np.array([0.10422766377112629, 0.3239870556899027, 0.3658903830367387,
@@ -57,12 +57,13 @@ class MPPIConfig:
 
     def __post_init__(self) -> None:
         for name in ("samples", "first_samples", "episode", "interval"):
-            if getattr(self, name) < 1:
-                raise InputError(f"mppi.{name} must be a positive integer, got {getattr(self, name)}")
-        if self.horizon < 2:
-            raise InputError(f"mppi.horizon must be >= 2 control steps, got {self.horizon}")
-        if not 0.0 < self.discount <= 1.0:
-            raise InputError(f"mppi.discount must be in (0, 1], got {self.discount}")
+            check_field(getattr(self, name) >= 1, name, "an integer >= 1", getattr(self, name))
+        check_field(self.horizon >= 2, "horizon", "an integer >= 2 (control steps)", self.horizon)
+        check_number(self.discount, "discount", 0.0, 1.0, "(]")
+        check_number(self.temperature, "temperature", 0.0, bounds="()")  # kappa: 0 or less ranks nothing
+        check_number(self.history_sigma, "history_sigma", 0.0)
+        check_number(self.warm_start_sigma, "warm_start_sigma", 0.0)
+        check_finite_fields(self)
 
     def as_dict(self) -> dict:
         return asdict(self)

@@ -99,7 +99,10 @@ def _fidelity(args: argparse.Namespace) -> int:
              "designs": name_list(args.designs, "--designs", "design names")}  # checked before the params
     config = load_section(fidelity.FidelityConfig, "evaluator_fidelity", args.params)
     changes = {name: lists[name] for name in ("tasks", "rungs") if lists[name] is not None}
-    config = dataclasses.replace(config, **changes)  # re-checked by __post_init__
+    try:
+        config = dataclasses.replace(config, **changes)  # re-checked by __post_init__: "tasks: ..." or "rungs: ..."
+    except InputError as err:
+        raise InputError(f"argument --{err}") from None
     if args.action == "build-set":
         from robocompose.io import read_table
 

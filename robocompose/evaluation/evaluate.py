@@ -37,6 +37,7 @@ from robocompose.fanout.cache import EVAL_KEY_COLUMNS, EvaluationCache
 from robocompose.fanout.executor import Executor, evaluate_many
 from robocompose.grammar.tree import DesignTree
 from robocompose.io import get_schema
+from robocompose.io.errors import check_field
 from robocompose.io.provenance import result_digest, settings_digest
 from robocompose.sim.physics import PhysicsSettings
 from robocompose.tasks.terrains import get_task
@@ -56,6 +57,9 @@ class EvaluationConfig:
 
     mppi: MPPIConfig = field(default_factory=MPPIConfig)  # controller settings (paper values by default)
     seed: int = 0  # controller seed of an evaluation (results are reproducible given design, task, seed)
+
+    def __post_init__(self) -> None:
+        check_field(self.seed >= 0, "seed", "an integer >= 0 (a controller seed)", self.seed)
 
     def settings_hash(self, task: str) -> str:
         """16 hex digits identifying everything that changes a result on `task` besides design and seed."""

@@ -43,8 +43,8 @@ from robocompose.grammar.derivation import derive, parse_rules
 from robocompose.grammar.references import REFERENCE_DESIGNS
 from robocompose.grammar.tree import DesignTree
 from robocompose.io import atomic_write_text
-from robocompose.io.errors import ArtifactError, InputError
-from robocompose.tasks.terrains import get_task
+from robocompose.io.errors import ArtifactError, InputError, check_field, check_number, shown
+from robocompose.tasks.terrains import TASKS
 
 THESIS = "thesis"
 # The ladder, by name: (samples, first_samples, horizon, episode); interval 16 and every other field as
@@ -85,7 +85,7 @@ def rung_seed(name: str, seed: int) -> int:
 def rung_config(name: str) -> MPPIConfig:
     """The MPPI config of ladder rung `name`."""
     if base_rung(name) not in LADDER:
-        raise InputError(f"unknown fidelity rung {name!r}; known rungs: {list(LADDER) + list(REPEATS)}")
+        raise InputError(f"unknown fidelity rung {shown(name)}; known rungs: {list(LADDER) + list(REPEATS)}")
     samples, first_samples, horizon, episode = LADDER[base_rung(name)]
     return MPPIConfig(samples=samples, first_samples=first_samples, horizon=horizon, episode=episode)
 
@@ -113,13 +113,24 @@ class FidelityConfig:
     ceiling_share: float = 0.8  # ... or at least this share of the noise ceiling, on every task
 
     def __post_init__(self) -> None:
-        for task in self.tasks:
-            get_task(task)
-        for rung in self.rungs + self.search_rungs:
-            rung_config(rung)
-        for name in ("n_screen", "n_screened", "top", "search_budget", "search_top"):
-            if getattr(self, name) < 1:
-                raise InputError(f"evaluator_fidelity.{name} must be >= 1, got {getattr(self, name)}")
+        check_field(bool(self.tasks), "tasks", f"at least one task of {list(TASKS)}", self.tasks)
+        unknown = [task for task in self.tasks if task not in TASKS]
+        check_field(not unknown, "tasks", f"tasks of {list(TASKS)}", unknown[:1])
+        check_field(bool(self.rungs), "rungs", f"at least one rung of {list(LADDER)}", self.rungs)
+        for name in ("rungs", "search_rungs"):
+            for rung in getattr(self, name):
+                try:
+                    rung_config(rung)
+                except InputError as err:
+                    raise InputError(f"{name}: {err}") from None
+        for name in ("n_screen", "n_screened", "top", "search_budget", "search_top", "search_init"):
+            check_field(getattr(self, name) >= 1, name, "an integer >= 1", getattr(self, name))
+        for name in ("seed", "n_random"):
+            check_field(getattr(self, name) >= 0, name, "an integer >= 0", getattr(self, name))
+        # the rule's thresholds: a Spearman of 0 or less, or a share of the noise ceiling above 1, chooses nothing
+        # right (every rung passes, or none)
+        for name in ("min_spearman", "search_spearman", "ceiling_share"):
+            check_number(getattr(self, name), name, 0.0, 1.0, "(]")
 
 
 def build_design_set(config: FidelityConfig, dataset: pd.DataFrame, where: str = "the dataset") -> pd.DataFrame:

@@ -33,6 +33,7 @@ from typing import Any
 import pandas as pd
 
 from robocompose.io import ArtifactError, get_schema, read_table, set_aside, write_table
+from robocompose.io.errors import InputError
 
 CacheKey = tuple  # values of the key columns, in order; e.g. (design_id, task, settings_hash, seed)
 DEFAULT_CACHE_PATH = Path("data/cache/eval_cache.parquet")
@@ -53,6 +54,9 @@ class EvaluationCache:
         self.key_columns = tuple(key_columns)
         self.value_columns = tuple(c for c in names if c not in key_columns)
         self._rows: dict[CacheKey, dict[str, Any]] = {}
+        if self.path is not None and self.path.exists() and not self.path.is_file():  # never set a folder aside
+            raise InputError(f"{self.path}: the evaluation cache is not a file (a directory?); expected a parquet "
+                             "file or a path not yet taken")
         if self.path is not None and self.path.exists():
             self._rows = self._read()
 

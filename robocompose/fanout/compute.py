@@ -11,10 +11,11 @@ from __future__ import annotations
 import argparse
 import dataclasses
 from dataclasses import dataclass
+from pathlib import Path
 
 from robocompose.fanout.cache import DEFAULT_CACHE_PATH, EvaluationCache
 from robocompose.fanout.executor import Executor, check_address
-from robocompose.io.errors import check_field
+from robocompose.io.errors import InputError, check_field, shown
 
 
 @dataclass(frozen=True)
@@ -29,6 +30,9 @@ class ComputeConfig:
         check_field(self.workers >= 0, "workers", "an integer >= 0 (0 = all cores)", self.workers)
         if self.address:
             check_address(self.address)
+        if self.cache and Path(self.cache).exists() and not Path(self.cache).is_file():
+            raise InputError(f'cache: expected a parquet file or a path not yet taken ("" = memory only), found '
+                             f"{shown(self.cache)}, a directory")
 
     def executor(self, progress: str | None = None) -> Executor:
         """The executor these settings name; `progress` labels a progress bar of its maps."""

@@ -44,7 +44,8 @@ from robocompose.glso.runs import GLSOConfig, RunSpec, run_search
 from robocompose.grammar.tree import DesignTree
 from robocompose.io import read_table, write_table
 from robocompose.io.atomic import read_json
-from robocompose.io.errors import InputError, check_field
+from robocompose.io.errors import InputError, check_field, check_number
+from robocompose.tasks.terrains import TASKS
 
 BASELINES = tuple(m for m in FIG_8_1 if m != "glso")  # Fig. 8.1's family of comparisons
 ABLATIONS = tuple(m for m in FIG_8_2 if m != "glso")  # Fig. 8.2's
@@ -75,11 +76,21 @@ class CampaignConfig:
     alpha: float = 0.05
 
     def __post_init__(self) -> None:
+        check_field(bool(self.tasks), "tasks", f"at least one task of {list(TASKS)}", self.tasks)
+        unknown = [t for t in self.tasks if t not in TASKS]
+        check_field(not unknown, "tasks", f"tasks of {list(TASKS)}", unknown[:1])
         unknown = [m for m in self.seeds if m not in METHODS]
         check_field(not unknown, "seeds", f"methods of {list(METHODS)}", unknown[:1])
+        for method, seeds in self.seeds.items():
+            check_field(isinstance(seeds, int) and not isinstance(seeds, bool) and seeds >= 0, f"seeds.{method}",
+                        "an integer >= 0 (run seeds 0 .. n-1)", seeds)
         check_field(self.budget > self.init >= 1, "init", f"1 .. budget - 1 = {self.budget - 1}", self.init)
         check_field(0.0 <= self.ghs_eps_end <= 1.0, "ghs_eps_end", "a probability in [0, 1]", self.ghs_eps_end)
         check_field(bool(self.rescore_seeds), "rescore_seeds", "at least one controller seed", self.rescore_seeds)
+        check_field(min(self.rescore_seeds) >= 0, "rescore_seeds", "controller seeds >= 0", self.rescore_seeds)
+        check_field(self.population >= 2, "population", "an integer >= 2 (the GA's)", self.population)
+        check_field(self.bootstrap >= 1, "bootstrap", "an integer >= 1 (resamples per interval)", self.bootstrap)
+        check_number(self.alpha, "alpha", 0.0, 1.0, "()")
         for rung in filter(None, (self.rung, self.rescore_rung)):
             rung_config(rung)
 
@@ -303,6 +314,9 @@ def compare(final: pd.DataFrame, column: str, bootstrap: int, alpha: float, seed
 
 def summarise(config: CampaignConfig) -> dict:
     """The campaign's statistics from the committed runs and re-scores (see the module docstring)."""
+    if not Path(config.directory).is_dir():  # a typo would report 0 runs
+        raise InputError(f"{config.directory}: not a directory (glso_campaign.directory: expected the folder of "
+                         "the committed runs)")
     steps = read_runs(config)
     planned = len(run_specs(config))
     if steps.empty:

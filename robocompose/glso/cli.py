@@ -65,11 +65,15 @@ def _campaign(args: argparse.Namespace) -> int:
     from robocompose.evaluation.evaluate import EvaluationConfig
     from robocompose.glso import campaign
     from robocompose.glso.runs import GLSOConfig
+    from robocompose.io.errors import InputError
     from robocompose.params import load_section
 
     config = load_section(campaign.CampaignConfig, "glso_campaign", args.params)
     if args.rung is not None:
-        config = dataclasses.replace(config, rung=args.rung)  # re-checked by __post_init__
+        try:
+            config = dataclasses.replace(config, rung=args.rung)  # re-checked by __post_init__
+        except InputError as err:
+            raise InputError(f"argument --rung: {err}") from None
     if args.action == "run":
         rung = campaign.campaign_rung(config)
         glso = load_section(GLSOConfig, "glso", args.params)

@@ -9,9 +9,13 @@ command line (a message over LINE_LIMIT characters cut, its start kept); Ctrl-C 
 
 from __future__ import annotations
 
+import dataclasses
+import math
+
 INPUT_ERROR_EXIT = 2
 INTERRUPTED_EXIT = 130  # 128 + SIGINT, as a shell reports a program stopped by Ctrl-C
 LINE_LIMIT = 300  # characters of a message on the error line; a longer one is cut (its start names the field/file)
+SHOWN_CHARACTERS = 80  # an error line shows at most this much of a value's repr
 
 
 class InputError(ValueError):
@@ -25,10 +29,44 @@ class ArtifactError(InputError):
     """
 
 
+def shown(value: object, limit: int = SHOWN_CHARACTERS) -> str:
+    """repr(value) for an error line, cut to `limit` characters (a huge list or string stays one short line)."""
+    text = repr(value)
+    return text if len(text) <= limit else f"{text[:limit]}... ({len(text) - limit} more characters)"
+
+
 def check_field(ok: bool, field: str, expected: str, found: object) -> None:
     """Raise InputError("field: expected ..., found ...") unless `ok` (a config's value checks)."""
     if not ok:
-        raise InputError(f"{field}: expected {expected}, found {found!r}")
+        raise InputError(f"{field}: expected {expected}, found {shown(found)}")
+
+
+def check_number(value: float, field: str, low: float | None = None, high: float | None = None,
+                 bounds: str = "[]") -> None:
+    """`value` is a finite number within [low, high] (`bounds` "()", "(]", "[)" or "[]" say which ends are open;
+    None: no bound): else InputError("field: expected a finite number > 0, found nan") and the like. NaN and
+    infinity never pass: a setting with no right answer is an error, never a fallback."""
+    low_open, high_open = bounds[0] == "(", bounds[1] == ")"
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    ok = ok and (low is None or (value > low if low_open else value >= low))
+    ok = ok and (high is None or (value < high if high_open else value <= high))
+    if low is not None and high is not None:
+        expected = f"a finite number in {bounds[0]}{low:g}, {high:g}{bounds[1]}"
+    elif low is not None:
+        expected = f"a finite number {'>' if low_open else '>='} {low:g}"
+    elif high is not None:
+        expected = f"a finite number {'<' if high_open else '<='} {high:g}"
+    else:
+        expected = "a finite number"
+    check_field(ok, field, expected, value)
+
+
+def check_finite_fields(config: object) -> None:
+    """Every float field of a settings dataclass is finite (a catch-all after its ranges: NaN passes no `<`)."""
+    for item in dataclasses.fields(config):  # type: ignore[arg-type]
+        value = getattr(config, item.name)
+        if isinstance(value, float) and not math.isfinite(value):
+            check_field(False, item.name, "a finite number", value)
 
 
 def error_line(program: str, error: InputError) -> str:

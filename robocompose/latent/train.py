@@ -22,7 +22,7 @@ import torch
 from robocompose.grammar.tree import DesignTree
 from robocompose.io import ArtifactError, McapWriter, read_table
 from robocompose.io.checkpoint import load_checkpoint, save_checkpoint
-from robocompose.io.errors import InputError
+from robocompose.io.errors import InputError, check_field, check_finite_fields, check_number
 from robocompose.io.provenance import code_digest, settings_digest
 from robocompose.io.torch_file import load_torch, save_torch
 from robocompose.latent.batch import collate
@@ -61,14 +61,20 @@ class TrainConfig:
     def __post_init__(self) -> None:
         for name in ("steps", "batch_size", "lr_decay_every", "beta_every", "log_every", "eval_every",
                      "eval_designs", "checkpoint_every", "threads"):
-            if getattr(self, name) < 1:
-                raise InputError(f"{name} must be a positive integer, got {getattr(self, name)}")
+            check_field(getattr(self, name) >= 1, name, "an integer >= 1", getattr(self, name))
         for name in ("eval_every", "checkpoint_every"):  # logged rows must not straddle a resume
-            if getattr(self, name) % self.log_every:
-                raise InputError(f"{name} must be a multiple of log_every ({self.log_every}), "
-                                 f"got {getattr(self, name)}")
-        if not 0 < self.holdout < 1:
-            raise InputError(f"holdout must lie in (0, 1), got {self.holdout}")
+            check_field(getattr(self, name) % self.log_every == 0, name,
+                        f"a multiple of log_every ({self.log_every})", getattr(self, name))
+        check_field(self.beta_start >= 0, "beta_start", "an integer >= 0 (a step)", self.beta_start)
+        check_field(self.seed >= 0, "seed", "an integer >= 0", self.seed)
+        check_number(self.holdout, "holdout", 0.0, 1.0, "()")
+        check_number(self.lr, "lr", 0.0, bounds="()")
+        check_number(self.lr_decay, "lr_decay", 0.0, 1.0, "(]")  # x lr_decay every lr_decay_every steps
+        check_number(self.clip_norm, "clip_norm", 0.0, bounds="()")
+        check_number(self.beta_increment, "beta_increment", 0.0)
+        check_number(self.beta_max, "beta_max", 0.0)
+        check_number(self.pred_weight, "pred_weight", 0.0)
+        check_finite_fields(self)
 
 
 @dataclass(frozen=True)

@@ -15,7 +15,7 @@ from typing import Protocol
 
 import numpy as np
 
-from robocompose.io.errors import InputError
+from robocompose.io.errors import InputError, shown
 from robocompose.modular.robot import LEFT_SIDE, ModularRobot
 
 
@@ -113,5 +113,5 @@ CONTROLLERS: dict[str, type] = {"tripod": TripodController, "tripod_reversed_whe
 
 def make_controller(name: str) -> Controller:
     if name not in CONTROLLERS:
-        raise InputError(f"controller {name!r}: unknown; expected one of {sorted(CONTROLLERS)}")
+        raise InputError(f"controller {shown(name)}: unknown; expected one of {sorted(CONTROLLERS)}")
     return CONTROLLERS[name]()

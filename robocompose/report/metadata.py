@@ -12,9 +12,8 @@ import subprocess
 import sys
 from pathlib import Path
 
-import yaml
-
 from robocompose.io.timings import TIMINGS_FILE, read_timings
+from robocompose.params import load_yaml
 
 
 def _git(*args: str, cwd: Path = Path(".")) -> str:
@@ -80,8 +79,8 @@ def params_changes(rev: str, params_file: Path, root: Path = Path(".")) -> list[
     """(param, value at `rev`, value now) for every params.yaml entry that differs, in key order (ABSENT where
     one side lacks it; a whole section added or removed is one entry)."""
     before = _show(rev, "params.yaml", root)
-    old = (yaml.safe_load(before) or {}) if before is not None else {}
-    new = (yaml.safe_load(params_file.read_text()) or {}) if params_file.exists() else {}
+    old = (load_yaml(before, f"params.yaml at {rev[:7]}") or {}) if before is not None else {}
+    new = (load_yaml(params_file.read_text(), params_file) or {}) if params_file.exists() else {}
     return _diff(old, new)
 
 

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet as pb
 
-from robocompose.io.errors import InputError
+from robocompose.io.errors import InputError, shown
 from robocompose.sim.physics import add_floor
 
 START_X = 0.0  # the robot's front starts here
@@ -53,7 +53,7 @@ def get_task(name: str) -> Task:
     try:
         return TASKS[name]
     except KeyError:
-        raise InputError(f"unknown task {name!r}; known tasks: {list(TASKS)}") from None
+        raise InputError(f"unknown task {shown(name)}; known tasks: {list(TASKS)}") from None
 
 
 def _box(client: int, half_extents, centre, friction: float) -> int:

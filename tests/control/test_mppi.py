@@ -82,7 +82,22 @@ def test_history_samples_replay_the_last_inputs_periodically_blended_in():
 
 
 def test_config_is_validated():
-    with pytest.raises(ValueError, match="mppi.horizon"):
+    with pytest.raises(ValueError, match="horizon: expected an integer >= 2"):
         MPPIConfig(horizon=1)
-    with pytest.raises(ValueError, match="mppi.samples"):
+    with pytest.raises(ValueError, match="samples: expected an integer >= 1"):
         MPPIConfig(samples=0)
+
+
+@pytest.mark.parametrize(("field", "value", "message"), [
+    ("temperature", float("nan"), "temperature: expected a finite number > 0, found nan"),
+    ("temperature", float("inf"), "temperature: expected a finite number > 0, found inf"),
+    ("temperature", -1.0, "temperature: expected a finite number > 0, found -1.0"),
+    ("temperature", 0.0, "temperature: expected a finite number > 0, found 0.0"),
+    ("warm_start_sigma", float("nan"), "warm_start_sigma: expected a finite number >= 0, found nan"),
+    ("history_sigma", float("-inf"), "history_sigma: expected a finite number >= 0, found -inf"),
+    ("discount", float("nan"), "discount: expected a finite number in (0, 1], found nan"),
+])
+def test_a_float_setting_with_no_right_answer_is_refused(field, value, message):
+    with pytest.raises(ValueError) as error:
+        MPPIConfig(**{field: value})
+    assert str(error.value) == message

@@ -33,8 +33,22 @@ def test_thesis_rung_is_robogrammars_controller():
     assert rung_config("s16_h8_e48").sim_steps() == 107264  # the default profile before the ladder
     with pytest.raises(ValueError, match="unknown fidelity rung 'fast'"):
         rung_config("fast")
-    with pytest.raises(ValueError, match="unknown task"):
+    with pytest.raises(ValueError, match=r"tasks: expected tasks of \['flat'.*found \['moon'\]"):
         FidelityConfig(tasks=["moon"])
+
+
+@pytest.mark.parametrize(("bad", "message"), [
+    ({"ceiling_share": 5.0}, r"ceiling_share: expected a finite number in \(0, 1\], found 5.0"),
+    ({"search_spearman": -1.0}, r"search_spearman: expected a finite number in \(0, 1\], found -1.0"),
+    ({"min_spearman": float("nan")}, r"min_spearman: expected a finite number in \(0, 1\], found nan"),
+    ({"rungs": []}, r"rungs: expected at least one rung"),
+    ({"tasks": []}, r"tasks: expected at least one task"),
+    ({"search_rungs": ["fast"]}, r"search_rungs: unknown fidelity rung 'fast'"),
+    ({"seed": -1}, r"seed: expected an integer >= 0, found -1"),
+])
+def test_a_rule_setting_that_would_choose_a_wrong_rung_is_refused(bad, message):
+    with pytest.raises(InputError, match=message):
+        FidelityConfig(**bad)
 
 
 def test_spearman_matches_scipy_with_ties():

@@ -31,6 +31,19 @@ def test_the_compute_section_is_built_and_checked(tmp_path):
             build_config(ComputeConfig, values, "params.yaml: compute")
 
 
+def test_a_cache_path_naming_a_directory_is_refused_never_set_aside(tmp_path):
+    from robocompose.fanout.cache import EvaluationCache
+
+    folder = tmp_path / "cache"
+    folder.mkdir()
+    with pytest.raises(InputError, match=f"cache: expected a parquet file or a path not yet taken .*found '{folder}', "
+                                         "a directory"):
+        ComputeConfig(cache=str(folder))
+    with pytest.raises(InputError, match="the evaluation cache is not a file"):
+        EvaluationCache(folder)
+    assert folder.is_dir() and not list(tmp_path.glob("*.corrupt"))
+
+
 def test_command_line_flags_override_the_section():
     parser = argparse.ArgumentParser()
     add_compute_arguments(parser)

@@ -12,7 +12,7 @@ from robocompose.glso import campaign
 from robocompose.glso.campaign import CampaignConfig, compare, holm, run_specs
 from robocompose.glso.runs import GLSOConfig
 from robocompose.grammar.tree import DesignTree
-from robocompose.io.errors import ArtifactError
+from robocompose.io.errors import ArtifactError, InputError
 
 
 def test_runs_go_seed_major_so_a_partial_campaign_compares_every_method():
@@ -24,7 +24,14 @@ def test_runs_go_seed_major_so_a_partial_campaign_compares_every_method():
 
 @pytest.mark.parametrize("bad, message", [({"seeds": {"nelder_mead": 3}}, "seeds"), ({"init": 200}, "init"),
                                           ({"rung": "fast"}, "unknown fidelity rung 'fast'"),
-                                          ({"ghs_eps_end": 1.5}, "ghs_eps_end")])
+                                          ({"ghs_eps_end": 1.5}, "ghs_eps_end"),
+                                          ({"alpha": 1.5}, r"alpha: expected a finite number in \(0, 1\), found 1.5"),
+                                          ({"alpha": float("nan")}, "alpha: expected a finite number"),
+                                          ({"seeds": {"glso": -2}}, "seeds.glso: expected an integer >= 0"),
+                                          ({"tasks": []}, "tasks: expected at least one task"),
+                                          ({"tasks": ["moon"]}, r"tasks: expected tasks of \['flat'"),
+                                          ({"bootstrap": 0}, "bootstrap: expected an integer >= 1"),
+                                          ({"rescore_seeds": [-1]}, "rescore_seeds: expected controller seeds >= 0")])
 def test_bad_campaign_settings_name_the_field(bad, message):
     with pytest.raises(ValueError, match=message):
         CampaignConfig(**bad)
@@ -162,6 +169,11 @@ def test_runs_share_one_evaluation_cache_and_give_the_same_table_from_it(tmp_pat
 
     monkeypatch.setattr(evaluate_module, "run_job", never)
     assert Path(campaign.run_job(job)).read_bytes() == first
+
+
+def test_a_missing_campaign_directory_is_an_error_not_zero_runs(tmp_path):
+    with pytest.raises(InputError, match="nowhere: not a directory"):
+        campaign.summarise(CampaignConfig(directory=str(tmp_path / "nowhere")))
 
 
 def test_the_summary_of_no_runs_says_so(tmp_path):

@@ -10,11 +10,14 @@ from robocompose.cli import main
 def params(tmp_path, tiny_models):
     import yaml
 
-    path = tmp_path / "params.yaml"
-    path.write_text(yaml.safe_dump({
+    from robocompose.io.provenance import ROOT
+    from robocompose.params import merge, read_params
+
+    path = tmp_path / "params.yaml"  # every section (a missing one is an error), these knobs changed
+    path.write_text(yaml.safe_dump(merge(read_params(ROOT / "profiles" / "default.yaml"), {
         "glso": {"tasks": ["flat"], "seeds": [0], "budget": 9, "models": tiny_models, "bo": {"init": 2}},
         "evaluation": {"mppi": {"samples": 2, "first_samples": 2, "horizon": 2, "episode": 2}},
-        "compute": {"cache": ""}}))
+        "compute": {"cache": ""}})))
     return str(path)
 
 

@@ -146,3 +146,25 @@ def test_modular_params_section(values):
 @pytest.mark.parametrize("cls", [c for c in SECTIONS if c is not EnumerateConfig], ids=lambda cls: cls.__name__)
 def test_default_sections_parse(cls):
     assert build_config(cls, {}, "params.yaml: section") == cls()
+
+
+@pytest.mark.parametrize(("value", "low", "high", "bounds", "message"), [
+    (float("nan"), 0.0, None, "()", "f: expected a finite number > 0, found nan"),
+    (float("inf"), 0.0, None, "[]", "f: expected a finite number >= 0, found inf"),
+    (1.5, 0.0, 1.0, "()", "f: expected a finite number in (0, 1), found 1.5"),
+    (0.0, 0.0, 1.0, "(]", "f: expected a finite number in (0, 1], found 0.0"),
+    (True, None, None, "[]", "f: expected a finite number, found True"),
+])
+def test_check_number_refuses_what_has_no_right_answer(value, low, high, bounds, message):
+    from robocompose.io.errors import check_number
+
+    with pytest.raises(InputError) as error:
+        check_number(value, "f", low, high, bounds)
+    assert str(error.value) == message
+
+
+def test_check_number_passes_the_ends_it_includes():
+    from robocompose.io.errors import check_number
+
+    for value in (0, 0.5, 1):
+        check_number(value, "f", 0.0, 1.0, "[]")

@@ -28,5 +28,8 @@ def test_bad_variant_and_fields_are_named(tmp_path):
     with pytest.raises(ValueError, match=r"train_vae.variants.full.size: unknown field"):
         load_section(TrainVaeParams, "train_vae", params)
     params.write_text(params.read_text().replace(", size: 3", ""))
+    with pytest.raises(ValueError, match=r"params.yaml: train_vae.metrics: missing section"):  # never the defaults
+        load_section(TrainVaeParams, "train_vae", params)
+    params.write_text(params.read_text() + "  metrics: {}\n  extra: {}\n")
     with pytest.raises(ValueError, match="no variant 'nogram'"):
         load_section(TrainVaeParams, "train_vae", params).variant("nogram")

@@ -8,7 +8,8 @@ from robocompose.io import read_mcap
 
 TINY = """
 modular:
-  eval: {control_steps: 3, settle_steps: 10}
+  eval: {control_steps: 3, settle_steps: 10, terrain: {}}
+  fitness: {}
   experiments: {generations: 2, random_designs: 3}
 compute: {workers: 1, cache: ""}
 """

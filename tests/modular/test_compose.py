@@ -22,7 +22,9 @@ from robocompose.modular.terrain import generate_terrain
 PARAMS = ModularParams(EvalSettings(), FitnessRule(), ExperimentsConfig())
 TINY = """
 modular:
-  eval: {control_steps: 3, settle_steps: 10}
+  eval: {control_steps: 3, settle_steps: 10, terrain: {}}
+  fitness: {}
+  experiments: {}
 compute: {workers: 1, cache: ""}
 """
 
@@ -71,7 +73,7 @@ def test_compose_simulate_adds_each_designs_rollout_on_the_terrain(tmp_path, mod
 ])
 def test_a_bad_heightmap_exits_2_with_a_clear_line(tmp_path, model, cli_error, heights, message):
     path, params = tmp_path / "map.npy", tmp_path / "p.yaml"
-    params.write_text("modular:\n  eval: {terrain: {max_height_range: [0.1, 0.3]}}\n")
+    params.write_text("modular:\n  eval: {terrain: {max_height_range: [0.1, 0.3]}}\n  fitness: {}\n  experiments: {}\n")
     np.save(path, heights)
     cli_error(["compose", "modular", "--heightmap", str(path), "--model", str(model), "--params", str(params)],
               f"--heightmap {path}: {message.format(params=params)}")

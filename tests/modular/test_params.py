@@ -35,7 +35,8 @@ def test_the_fastest_design_does_not_outrun_the_course_reach():
 
 def test_a_course_shorter_than_the_episode_is_rejected(tmp_path):
     path = tmp_path / "params.yaml"
-    path.write_text("modular: {eval: {control_steps: 250, terrain: {x_range: [-1.0, 9.0]}}}")
+    path.write_text("modular: {eval: {control_steps: 250, terrain: {x_range: [-1.0, 9.0]}}, fitness: {},\n"
+                    "          experiments: {}}")
     with pytest.raises(ValueError, match=r"modular\.eval\.terrain\.x_range: the course ends at x = 9"):
         load_section(ModularParams, "modular", path)
 

@@ -15,11 +15,13 @@ from robocompose.params import load_section
 STAGES = Path(__file__).resolve().parents[2] / "stages"
 TINY = """
 modular:
-  eval: {control_steps: 2, settle_steps: 5}
+  eval: {control_steps: 2, settle_steps: 5, terrain: {}}
+  fitness: {}
   experiments: {test_terrains: [1007], truth_terrains: [1007, 1008], ga_seeds: [0, 1], generations: 1,
                 random_designs: 3, ec_draws: 2}
 compute: {workers: 1, cache: data/cache.parquet}
 """
+EGGAN_REST = "network: {}, train: {}, pool_size: {}"  # eggan_modular's other sections: their defaults
 SUBSET = ["llllll", "wwwwww", "bbbbbb", "nnnnnn", "lwlwlw"]
 
 
@@ -68,8 +70,8 @@ def test_exhaustive_then_baselines_write_their_tables_and_metrics(tmp_path, monk
 def test_realtime_stops_with_one_line_naming_missing_pool_tables(tmp_path, monkeypatch, capsys, synthetic_truth):
     monkeypatch.chdir(tmp_path)
     monkeypatch.setattr("sys.argv", ["stages/modular_realtime.py"])
-    (tmp_path / "params.yaml").write_text(TINY + "eggan_modular: {fitness: {train_seed_base: 20000, train_terrains: 2}"
-                                          ", protocol: {test_terrains: [1007]}}\n")
+    (tmp_path / "params.yaml").write_text(TINY + "eggan_modular: {fitness: {train_seed_base: 20000, train_terrains: 2, "
+                                          "surrogate: {}}, protocol: {test_terrains: [1007]}, " + EGGAN_REST + "}\n")
     write_table(synthetic_truth(lambda d: float(d.count("w"))), "data/modular/exhaustive.parquet", "modular_exhaustive")
     with pytest.raises(SystemExit) as exit_:  # no data/modular/pool.parquet: the modular_pool stage has not run
         runpy.run_path(str(STAGES / "modular_realtime.py"), run_name="__main__")
@@ -83,7 +85,8 @@ def test_pool_stage_gathers_the_committed_pool_and_summarises_each_split(tmp_pat
     monkeypatch.chdir(tmp_path)
     monkeypatch.setattr("sys.argv", ["stages/modular_pool.py"])
     (tmp_path / "params.yaml").write_text(TINY + "eggan_modular: {fitness: {train_seed_base: 20000, train_terrains: 2"
-                                          ", validation_seed_base: 20002, validation_terrains: 1}}\n")
+                                          ", validation_seed_base: 20002, validation_terrains: 1, surrogate: {}}, "
+                                          "protocol: {}, " + EGGAN_REST + "}\n")
     params = load_section(ModularParams, "modular")
     for seed, module in ((20000, "w"), (20001, "l"), (20002, "b")):
         write_committed(synthetic_truth(lambda d, m=module: float(d.count(m)), seed), params.eval, params.fitness,

@@ -11,7 +11,7 @@ teams:
   coverage: {iterations: 2, n_observations: 4}
   experiments: {populations: [20, 50], generations: 1, table_5_4_chips: 1, table_5_5_chips: 1, seeds: [0],
                 budgets: [15, 30, 45]}
-  eggan: {iterations: 2, batch: 8, tasks: 2, samples: 16, checkpoint_every: 1, latent: 4}
+  eggan: {iterations: 2, batch: 8, tasks: 2, samples: 16, checkpoint_every: 1, latent: 4, fitness: {}}
 compute: {workers: 1}
 """
 

@@ -18,7 +18,7 @@ teams:
   decompose: {n_regions: 4}
   coverage: {iterations: 7, learning_rate: 1}
   experiments: {populations: [4, 6], budgets: [3]}
-  eggan: {}
+  eggan: {fitness: {}}
 """))
     assert params.chips.n_synthetic == 5 and params.chips.directory == ""
     assert params.decompose.n_regions == 4 and params.decompose.lloyd_iterations == 10
@@ -26,7 +26,7 @@ teams:
     assert params.experiments.populations == [4, 6] and params.threads == 1
 
 
-SECTIONS = {"chips": "{}", "decompose": "{}", "coverage": "{}", "experiments": "{}", "eggan": "{}"}
+SECTIONS = {"chips": "{}", "decompose": "{}", "coverage": "{}", "experiments": "{}", "eggan": "{fitness: {}}"}
 
 
 def teams_yaml(**changed: str) -> str:
@@ -46,6 +46,7 @@ def teams_yaml(**changed: str) -> str:
     (teams_yaml(decompose="{terrain_weight: -1.0}"), r"teams.decompose.terrain_weight: expected a number >= 0"),
     # a sub-section the stages need is never silently replaced by defaults
     ("teams:\n  chips: {}\n  coverage: {}\n  experiments: {}\n", r"teams.decompose: missing section"),
+    (teams_yaml(eggan="{}"), r"teams.eggan.fitness: missing section"),  # though it has defaults
     # value ranges name the field that is wrong
     (teams_yaml(decompose="{test_fraction: 1.5}"), r"teams.decompose.test_fraction: expected a share strictly "
                                                    r"between 0 and 1 .*found 1.5"),
@@ -57,7 +58,8 @@ def teams_yaml(**changed: str) -> str:
     (teams_yaml(eggan="{fitness: {source: surrogate}}"),
      r"teams.eggan.fitness.source: expected one of \['exact', 'model'\], found 'surrogate'"),
     (teams_yaml(eggan="{fitness: {budget: 0}}"), r"teams.eggan.fitness.budget: expected a positive integer"),
-    (teams_yaml(eggan="{validate_every: 7}"), r"teams.eggan.validate_every: expected 0 or a multiple of 5"),
+    (teams_yaml(eggan="{validate_every: 7, fitness: {}}"),
+     r"teams.eggan.validate_every: expected 0 or a multiple of 5"),
 ])
 def test_bad_params_name_file_field_and_expectation(tmp_path, text, message):
     with pytest.raises(InputError, match=message) as error:

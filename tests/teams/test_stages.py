@@ -16,7 +16,7 @@ teams:
   coverage: {iterations: 2, n_observations: 4}
   experiments: {populations: [4, 6], generations: 2, table_5_4_chips: 1, table_5_5_chips: 1, seeds: [0],
                 budgets: [3, 6]}
-  eggan: {iterations: 2, batch: 8, tasks: 2, samples: 16, checkpoint_every: 1, latent: 4}
+  eggan: {iterations: 2, batch: 8, tasks: 2, samples: 16, checkpoint_every: 1, latent: 4, fitness: {}}
 compute: {workers: 1}  # processes: test_experiments.py
 """
 
