@@ -160,6 +160,9 @@ class ModularComposer:
         path = Path(path or SHIPPED_MODEL)
         problem = ModularEgganProblem(params, FitnessConfig())
         generator, info = load_generator(path, problem)
+        from robocompose.modular.truth import physics_digest
+
+        physics_digest()  # the code digest, parsed once now: ast.parse in concurrent threads is not safe
         return cls(path, params, problem, generator, info)
 
     def query(self, terrain_seed: int | None = None, heights: np.ndarray | None = None, k: int = 10,

@@ -99,8 +99,10 @@ def worker_app():
     import os
     import sys
 
+    from robocompose.io.quiet import quiet_pybullet
     from robocompose.serve.app import create_app
 
+    quiet_pybullet()  # a fresh interpreter: no banner from each worker
     named = json.loads(os.environ[WORKER_MODELS])
     sys.setswitchinterval(0.001)
     return create_app(load_models(named["modular"], named["teams"], named["params"] and Path(named["params"])))

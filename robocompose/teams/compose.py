@@ -91,6 +91,7 @@ class TeamsComposer:
         chip = synthetic_chip(0)  # any chip: the network's sizes are K x 4 -> K + 1 x species, K fixed by the file
         generator, _ = LEARNERS["teams"]["eggan"].load(
             path, TeamsProblem([(chip, decompose_chip(chip, decompose))], coverage))
+        coverage.settings_hash()  # the code digest, parsed once now: ast.parse in concurrent threads is not safe
         return cls(path, saved, generator, coverage, decompose)
 
     @property
