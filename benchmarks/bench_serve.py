@@ -1,6 +1,6 @@
 """Benchmark: the composition service under load, beside the command line's wall time for the same query.
 
-A real `robocompose serve --workers 2` (shipped generators) on loopback, measured once every worker answers; CLIENTS
+A real `robocompose serve --workers 2` (two query processes; shipped generators) on loopback; CLIENTS
 closed-loop clients (each sends its next request when the last is answered, keep-alive connections) in this process;
 latency is the client's wait, send to last byte. Figures (milliseconds, over REQUESTS requests after WARMUP):
 serve.modular_p50_ms / _p99_ms: `POST /compose/modular` by terrain seed, seeds cycling through SEED_POOL terrains
@@ -33,38 +33,20 @@ import numpy as np
 from robocompose.teams.chips import label_png_bytes, synthetic_chip
 
 CLIENTS = 8
-WORKERS = 2  # server processes: one per core
+WORKERS = 2  # query processes: one per core
 REQUESTS = 500
 WARMUP = 16  # requests before the measured ones, per endpoint
 SEED_POOL = 64
-WARMUP_POOL = 4 * SEED_POOL  # a warm service: every worker has met the pool's seeds before the measured requests
+WARMUP_POOL = 4 * SEED_POOL  # a warm service: every query process has met the pool's seeds before measuring
 CHIPS = 16
 CLI_RUNS = 3
 
 
 def start_server() -> tuple[subprocess.Popen, str]:
-    """`robocompose serve --workers WORKERS` on a free port, once every worker answers (a client's keep-alive
-    connection stays with the worker that accepted it, so a worker still loading would leave the other all of them)."""
+    """`robocompose serve --workers WORKERS` on a free port; it prints its address once every query process is up."""
     process = subprocess.Popen([sys.executable, "-m", "robocompose.cli", "serve", "--port", "0", "--workers",
                                 str(WORKERS)], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
-    address = json.loads(process.stdout.readline())["serving"].removeprefix("http://").rstrip("/")
-
-    def worker(_: int) -> int:
-        connection = http.client.HTTPConnection(address, timeout=120)
-        connection.request("POST", "/compose/modular", json.dumps({"terrain_seed": 0}).encode(),
-                           {"Content-Type": "application/json"})  # holds the worker's loop: others accept meanwhile
-        connection.getresponse().read()
-        connection.request("GET", "/health")
-        pid = json.loads(connection.getresponse().read())["worker"]
-        connection.close()
-        return pid
-
-    deadline = time.monotonic() + 300
-    with ThreadPoolExecutor(CLIENTS) as pool:
-        while len(set(pool.map(worker, range(4 * CLIENTS)))) < WORKERS:
-            if time.monotonic() > deadline:
-                raise RuntimeError(f"fewer than {WORKERS} workers answered within 300 s")
-    return process, address
+    return process, json.loads(process.stdout.readline())["serving"].removeprefix("http://").rstrip("/")
 
 
 def load(address: str, requests: list[tuple[str, bytes, str]], warmup: int = WARMUP) -> np.ndarray:

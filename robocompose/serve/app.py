@@ -27,7 +27,6 @@ import os
 import re
 import threading
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
@@ -66,7 +65,48 @@ class Models:
     modular: dict[str, ModularComposer]
     teams: dict[str, TeamsComposer]
     params_source: str  # where the modular params come from, as height-map errors name it
+    spec: tuple = ((), (), None)  # (modular NAME=PATH flags, teams flags, params file): what a query process loads
     provenance: dict = field(default_factory=dict)  # world -> name -> provenance, filled by `create_app`
+
+
+@dataclass(frozen=True)
+class Query:
+    """A checked request: which world's model answers it and the arguments of its `query`; `slow` (seconds: a
+    measured front, rollouts) runs in a thread of the HTTP process, never in a query process."""
+
+    world: str  # "modular" or "teams"
+    model: str
+    arguments: dict
+    slow: bool = False
+    draw: bool = False  # teams: add the chip's drawing (in the HTTP process)
+
+    def composer(self, models: Models) -> Any:
+        return (models.modular if self.world == "modular" else models.teams)[self.model]
+
+
+_PROCESS_MODELS: Models | None = None  # a query process's own copy of the models, loaded by `start_query_process`
+
+
+def start_query_process(modular: list[str], teams: list[str], params: str | None) -> None:
+    """Initializer of a query process (`--workers N`): the HTTP process's models, loaded again here."""
+    global _PROCESS_MODELS
+    from robocompose.io.quiet import quiet_pybullet
+    from robocompose.serve.cli import load_models
+
+    quiet_pybullet()
+    _PROCESS_MODELS = load_models(modular, teams, params and Path(params))
+
+
+def answer_in_process(query: Query) -> dict:
+    """`query` answered by a query process's models."""
+    assert _PROCESS_MODELS is not None, "not a query process"
+    return query.composer(_PROCESS_MODELS).query(**query.arguments)
+
+
+def query_process_pid() -> int:
+    """This process's pid, a quarter of a second later: tasks that last let every process of a pool take some."""
+    time.sleep(0.25)
+    return os.getpid()
 
 
 def _shown(value: Any) -> str:
@@ -147,11 +187,12 @@ def _heights(value: Any, composer: ModularComposer, where: str) -> np.ndarray:
     return check_heightmap(heights, composer.params.eval.terrain, where, "heightmap")
 
 
-def modular_query(models: Models, fields: dict, heights: np.ndarray | None = None) -> tuple[Callable[[], dict], bool]:
-    """The checked query of a request (its fields; a .npy body's heights) as a call, and whether the call is slow
-    (rollouts). Every field is checked here, before any work."""
+def modular_query(models: Models, fields: dict, heights: np.ndarray | None = None) -> Query:
+    """The checked query of a request (its fields; a .npy body's heights). Every field is checked here, before any
+    work."""
     _known(fields, MODULAR_FIELDS, "field")
-    composer = _model(models.modular, fields.get("model", "shipped"))
+    name = fields.get("model", "shipped")
+    composer = _model(models.modular, name)
     seed_given = fields.get("terrain_seed") is not None
     if heights is None and fields.get("heightmap") is not None:
         heights = _heights(fields["heightmap"], composer, models.params_source)
@@ -170,7 +211,7 @@ def modular_query(models: Models, fields: dict, heights: np.ndarray | None = Non
                      caps=_caps(fields.get("max", {})),
                      samples=_integer(fields.get("samples", 64), "samples", 1, MAX_SAMPLES),
                      seed=_integer(fields.get("seed", 0), "seed", 0, MAX_SEED), distances=distances)
-    return (lambda: composer.query(**arguments)), distances == "rollout"
+    return Query("modular", name, arguments, slow=distances == "rollout")
 
 
 # --- teams ---
@@ -178,13 +219,14 @@ def modular_query(models: Models, fields: dict, heights: np.ndarray | None = Non
 TEAMS_FIELDS = ("budget", "seed", "measure", "draw", "name", "model")
 
 
-def teams_query(models: Models, fields: dict, body: bytes) -> Callable[[], dict]:
-    """The checked query of a teams request (query parameters, label PNG body) as a call. The chip is decoded here,
-    in memory, before any work."""
+def teams_query(models: Models, fields: dict, body: bytes) -> Query:
+    """The checked query of a teams request (query parameters, label PNG body). The chip is decoded here, in memory,
+    before any work."""
     from robocompose.teams.chips import chips_in_file
 
     _known(fields, TEAMS_FIELDS, "query parameter")
-    composer = _model(models.teams, fields.get("model", "shipped"))
+    model = fields.get("model", "shipped")
+    composer = _model(models.teams, model)
     budget = fields.get("budget")
     budget = None if budget in (None, "") else _integer(budget, "budget", 1, composer.bank)
     seed = _integer(fields.get("seed", 0), "seed", 0, MAX_SEED)
@@ -198,14 +240,8 @@ def teams_query(models: Models, fields: dict, body: bytes) -> Callable[[], dict]
     if chip is None:
         raise InputError("body: no 300 x 300 window without IGNORE pixels (expected a label PNG of at least "
                          "300 x 300 pixels)")
-
-    def answer() -> dict:
-        out = composer.query(chip, budget, seed, measure)
-        if draw:
-            out["drawing"] = chip_drawing(chip, composer)
-        return out
-
-    return answer
+    return Query("teams", model, {"chip": chip, "budget": budget, "seed": seed, "measure": measure}, slow=measure,
+                 draw=draw)
 
 
 def chip_drawing(chip: Any, composer: TeamsComposer) -> str:
@@ -263,14 +299,48 @@ def _json(payload: dict, started: float) -> Response:
     return Response(json.dumps(payload), media_type="application/json")
 
 
-def create_app(models: Models) -> FastAPI:
-    """The service over `models` (loaded by the caller: a model that does not load stops the start, not a request)."""
+def create_app(models: Models, query_processes: int = 0) -> FastAPI:
+    """The service over `models` (loaded by the caller: a model that does not load stops the start, not a request).
+
+    `query_processes` > 0: the fast queries are answered by that many processes, each with its own copy of the
+    models, taken request by request (a free process takes the next), so the cores share the load whichever
+    connection a request comes on; the HTTP process parses, checks and answers the slow ones in its threads.
+    0: the fast queries run on the event loop."""
+    import asyncio
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+    from contextlib import asynccontextmanager
+
     models.provenance = {"modular": {n: provenance(c.path, c.info) for n, c in models.modular.items()},
                          "teams": {n: provenance(c.path, c.info) for n, c in models.teams.items()}}
     page = PAGE.read_text()
+    pool = None
+    if query_processes:
+        pool = ProcessPoolExecutor(query_processes, mp_context=multiprocessing.get_context("spawn"),
+                                   initializer=start_query_process, initargs=models.spec)
+        ready = [pool.submit(query_process_pid) for _ in range(4 * query_processes)]
+        models.provenance["query_processes"] = sorted({f.result() for f in ready})  # every one up and loaded
+
+    @asynccontextmanager
+    async def lifespan(app: FastAPI):
+        yield
+        if pool is not None:
+            pool.shutdown(cancel_futures=True)
+
     app = FastAPI(title="robocompose", description="Robot compositions in milliseconds from trained EG-GAN generators",
-                  docs_url="/docs", redoc_url=None)
+                  docs_url="/docs", redoc_url=None, lifespan=lifespan)
     app.state.models = models
+
+    async def answer(query: Query, started: float) -> Response:
+        if query.slow:
+            out = await run_in_threadpool(query.composer(models).query, **query.arguments)
+        elif pool is not None:
+            out = await asyncio.get_running_loop().run_in_executor(pool, answer_in_process, query)
+        else:
+            out = query.composer(models).query(**query.arguments)  # a few ms: no thread hop
+        if query.draw:
+            out["drawing"] = await run_in_threadpool(chip_drawing, query.arguments["chip"], query.composer(models))
+        return _json(out, started)
 
     @app.exception_handler(InputError)
     async def bad_input(request: Request, error: InputError) -> JSONResponse:
@@ -283,7 +353,8 @@ def create_app(models: Models) -> FastAPI:
 
     @app.get("/health")
     async def health() -> dict:
-        return {"status": "ok", "worker": os.getpid(), "models": models.provenance,
+        return {"status": "ok", "worker": os.getpid(), "query_processes": models.provenance.get("query_processes", []),
+                "models": {w: models.provenance[w] for w in ("modular", "teams")},
                 "limits": {"body_bytes": MAX_BODY_BYTES, "chip_pixels": MAX_CHIP_PIXELS, "k": MAX_K,
                            "samples": MAX_SAMPLES}}
 
@@ -299,22 +370,19 @@ def create_app(models: Models) -> FastAPI:
                 raise InputError("body: not valid JSON, expected an object such as {\"terrain_seed\": 1000}") from None
             if not isinstance(fields, dict):
                 raise InputError(f"body: expected a JSON object, found {type(fields).__name__}")
-            call, slow = modular_query(models, fields)
+            query = modular_query(models, fields)
         elif kind in NPY_TYPES:
-            call, slow = modular_query(models, dict(request.query_params), load_npy(body, "body"))
+            query = modular_query(models, dict(request.query_params), load_npy(body, "body"))
         else:
             raise ServiceError(415, f"body: content type {kind or 'none'!r}, expected application/json or "
                                     "application/x-npy (a .npy height map)")
-        return _json(await run_in_threadpool(call) if slow else call(), started)  # a few ms: no thread hop
+        return await answer(query, started)
 
     @app.post("/compose/teams")
     async def compose_teams(request: Request) -> Response:
         started = time.perf_counter()
         body = await _body(request)
-        fields = dict(request.query_params)
-        call = teams_query(models, fields, body)
-        slow = _boolean(fields.get("measure", False), "measure")
-        return _json(await run_in_threadpool(call) if slow else call(), started)
+        return await answer(teams_query(models, dict(request.query_params), body), started)
 
     @app.get("/picture/modular")
     async def picture(request: Request) -> Response:

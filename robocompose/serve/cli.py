@@ -28,8 +28,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                        help="a modular generator file answering as model NAME (repeatable)")
     serve.add_argument("--teams-model", action="append", default=[], metavar="NAME=PATH",
                        help="a teams generator file answering as model NAME (repeatable)")
-    serve.add_argument("--workers", type=int_at_least(1), default=1, help="server processes sharing the port, each "
-                       "with its own copy of the models (default 1; 2 on a 2-core machine answers more at once)")
+    serve.add_argument("--workers", type=int_at_least(0), default=0, help="query processes, each with its own copy "
+                       "of the models, taking the fast queries request by request (default 0: the HTTP process "
+                       "answers them; 2 on a 2-core machine answers more at once)")
     serve.add_argument("--params", type=Path, default=None, help="params file with a modular: section (default: "
                        "params.yaml if there is one, else the defaults); a file named here must exist")
     serve.set_defaults(handler=_serve)
@@ -71,7 +72,7 @@ def load_models(modular: list[str], teams: list[str], params_file: Path | None):
     params = _params(params_file)
     return Models({name: ModularComposer.load(path, params) for name, path in modular_paths.items()},
                   {name: TeamsComposer.load(path) for name, path in teams_paths.items()},
-                  f"{params_source(params_file)}.eval")
+                  f"{params_source(params_file)}.eval", (modular, teams, params_file and str(params_file)))
 
 
 def listen(host: str, port: int) -> socket.socket:
@@ -90,47 +91,18 @@ def listen(host: str, port: int) -> socket.socket:
     return listener
 
 
-WORKER_MODELS = "ROBOCOMPOSE_SERVE_MODELS"  # the models a worker process loads, as JSON from `robocompose serve`
-
-
-def worker_app():
-    """The app of one worker process of `robocompose serve --workers N` (uvicorn imports and calls it): the models the
-    parent named and checked, loaded again in this process."""
-    import os
-    import sys
-
-    from robocompose.io.quiet import quiet_pybullet
-    from robocompose.serve.app import create_app
-
-    quiet_pybullet()  # a fresh interpreter: no banner from each worker
-    named = json.loads(os.environ[WORKER_MODELS])
-    sys.setswitchinterval(0.001)
-    return create_app(load_models(named["modular"], named["teams"], named["params"] and Path(named["params"])))
-
-
 def _serve(args: argparse.Namespace) -> None:
-    import os
     import sys
 
     import uvicorn
 
     from robocompose.serve.app import create_app
 
-    app = create_app(load_models(args.modular_model, args.teams_model, args.params))  # checked before listening
+    listener = listen(args.host, args.port)  # the address first: a taken port stops the start before models load
+    app = create_app(load_models(args.modular_model, args.teams_model, args.params), args.workers)
     sys.setswitchinterval(0.001)  # a slow query in a thread yields the interpreter to fast ones every millisecond
-    listener = listen(args.host, args.port)
     host, port = listener.getsockname()[:2]
-    print(json.dumps({"serving": f"http://{host}:{port}/", "models": {w: sorted(m) for w, m in
-                                                                       (("modular", app.state.models.modular),
-                                                                        ("teams", app.state.models.teams))}}),
-          flush=True)
-    if args.workers == 1:
-        uvicorn.Server(uvicorn.Config(app, log_level="warning", access_log=False)).run(sockets=[listener])
-        return
-    from uvicorn.supervisors import Multiprocess
-
-    os.environ[WORKER_MODELS] = json.dumps({"modular": args.modular_model, "teams": args.teams_model,
-                                            "params": args.params and str(args.params)})
-    config = uvicorn.Config("robocompose.serve.cli:worker_app", factory=True, workers=args.workers,
-                            log_level="warning", access_log=False)
-    Multiprocess(config, sockets=[listener]).run()  # restarts a worker that dies
+    print(json.dumps({"serving": f"http://{host}:{port}/", "query_processes": args.workers,
+                      "models": {w: sorted(m) for w, m in (("modular", app.state.models.modular),
+                                                           ("teams", app.state.models.teams))}}), flush=True)
+    uvicorn.Server(uvicorn.Config(app, log_level="warning", access_log=False)).run(sockets=[listener])

@@ -48,25 +48,29 @@ def test_bad_model_flags_and_ports_exit_2_before_listening(tmp_path, cli_error):
         cli_error(["serve", "--port", str(used)], f"--host 127.0.0.1 --port {used}: cannot listen there")
 
 
-@pytest.mark.slow  # two worker processes start (~15 s)
-def test_workers_share_the_port_and_each_answers(tiny_modular_model):
+@pytest.mark.slow  # two query processes start (~15 s)
+def test_query_processes_answer_as_the_http_process_does(tiny_modular_model):
     process = subprocess.Popen([sys.executable, "-m", "robocompose.cli", "serve", "--port", "0", "--workers", "2"],
                                stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
     try:
         url = json.loads(process.stdout.readline())["serving"]
-        urllib.request.urlopen(url + "health", timeout=120).close()  # the workers are up
+        with urllib.request.urlopen(url + "health", timeout=60) as response:
+            pids = json.load(response)["query_processes"]
+        assert len(set(pids)) == 2 and process.pid not in pids
 
-        def worker_of_a_query(seed: int) -> int:  # a query holds its worker's event loop: the other accepts
+        def designs(seed: int) -> list:
             request = urllib.request.Request(url + "compose/modular", json.dumps({"terrain_seed": seed}).encode(),
                                              {"Content-Type": "application/json"})
             with urllib.request.urlopen(request, timeout=60) as response:
-                json.load(response)
-            with urllib.request.urlopen(url + "health", timeout=60) as response:
-                return json.load(response)["worker"]
+                return json.load(response)["designs"]
 
         with ThreadPoolExecutor(8) as pool:
-            pids = set(pool.map(worker_of_a_query, range(200)))
-        assert len(pids) == 2 and process.pid not in pids
+            answers = list(pool.map(designs, [1000 + i % 3 for i in range(24)]))
+        from robocompose.modular.cli import _params
+        from robocompose.modular.compose import ModularComposer
+
+        composer = ModularComposer.load(None, _params(None))
+        assert all(answer == composer.query(1000 + i % 3)["designs"] for i, answer in enumerate(answers))
     finally:
         process.terminate()
         process.wait(timeout=30)
