@@ -59,8 +59,14 @@ def load(address: str, requests: list[tuple[str, bytes, str]], warmup: int = WAR
             local.connection = http.client.HTTPConnection(address, timeout=600)
         path, body, kind = request
         started = time.perf_counter()
-        local.connection.request("POST", path, body, {"Content-Type": kind})
-        response = local.connection.getresponse()
+        try:
+            local.connection.request("POST", path, body, {"Content-Type": kind})
+            response = local.connection.getresponse()
+        except (BrokenPipeError, ConnectionResetError, http.client.RemoteDisconnected):
+            # the server closed a connection idle for over its keep-alive time (5 s, uvicorn's): a client reconnects
+            local.connection.close()
+            local.connection.request("POST", path, body, {"Content-Type": kind})
+            response = local.connection.getresponse()
         data = response.read()
         waited = 1000 * (time.perf_counter() - started)
         if response.status != 200:

@@ -25,7 +25,8 @@ def section(reports_dir: Path) -> str:
     if "serve.modular_p50_ms" not in figures:
         return "\n".join(lines + ["Not benchmarked: `make bench` (benchmarks/bench_serve.py) measures it."])
     clients, requests = int(figures["serve.clients"]), int(figures["serve.requests_per_endpoint"])
-    lines += [f"`robocompose serve --workers {int(figures.get('serve.workers', 1))}` with the shipped generators, "
+    workers = int(figures.get("serve.workers", 0))
+    lines += [f"`robocompose serve --workers {workers}` (query processes) with the shipped generators, "
               f"{requests} requests per endpoint from {clients} closed-loop clients on loopback, on the benchmark's "
               f"machine ({figures.get('machine', {}).get('cores', '?')} cores, shared by server and clients); "
               "latency is a client's wait, send to last byte. The command line answers the same question in a new "
