@@ -113,3 +113,14 @@ def test_a_stage_script_runs_under_the_pinned_dispatch_whatever_its_environment(
     result = subprocess.run([sys.executable, "-u", str(script), "full"], capture_output=True, text=True, check=True,
                             env={**environment, "ATEN_CPU_CAPABILITY": "default", "OPENBLAS_CORETYPE": "Sandybridge"})
     assert json.loads(result.stdout) == {"argv": ["full"], "dispatch": PINNED}  # re-executed once, same arguments
+
+
+def test_a_stage_process_prints_its_one_error_line_and_nothing_before_it(tmp_path):
+    """A real stage process (re-executed under the pinned dispatch) that imports pybullet before it reads its
+    params: stderr is the one error line, pybullet's C banner is not in front of it."""
+    (tmp_path / "params.yaml").write_text(yaml.safe_dump(_params("doc['evaluate_references']['n_random'] = -3")))
+    done = subprocess.run([sys.executable, str(STAGES / "evaluate_references.py")], cwd=tmp_path, capture_output=True,
+                          text=True, timeout=300)
+    assert done.returncode == 2 and done.stdout == "", done
+    assert done.stderr == ("stage evaluate_references: error: params.yaml: evaluate_references.n_random: expected an "
+                           "integer >= 0, found -3\n"), done.stderr

@@ -1,1 +1,5 @@
 """Evaluating grammar designs: the robot evaluator (MPPI on a task), its references and its fidelity ladder."""
+
+from robocompose.io.quiet import quiet_pybullet
+
+quiet_pybullet()  # this package imports pybullet: its C banner to /dev/null, before any module of it runs
