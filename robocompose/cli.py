@@ -45,7 +45,7 @@ def main(argv: list[str] | None = None) -> int:
     from robocompose.io.errors import INPUT_ERROR_EXIT, INTERRUPTED_EXIT, InputError, error_line, interrupted_line
     from robocompose.io.quiet import quiet_pybullet
 
-    quiet_pybullet()  # before any command imports it: nothing may come before a command's one error line
+    quiet_pybullet()  # pybullet, when a command imports it, without its banner: nothing before the error line
     try:
         args = parser().parse_args(argv)
         return int(args.handler(args) or 0)
