@@ -69,7 +69,8 @@ def test_every_registered_method_has_a_resume_case():
     assert {method for method, _ in CASES} == set(METHODS)
 
 
-@pytest.mark.parametrize("method, kill_at", CASES)
+@pytest.mark.parametrize("method, kill_at", [  # GHS replays its own searches (~15 s a case): in `make test-slow`
+    pytest.param(*case, marks=[pytest.mark.slow] if case[0] == "ghs" else []) for case in CASES])
 def test_a_stopped_run_resumes_by_replay_to_the_same_table(method, kill_at, small_config, tmp_path):
     """kill_at + 1 steps with a checkpoint, then the rest of the budget from it: the same step table, row for row
     and byte for byte, as an uninterrupted run, and no objective call for the replayed steps. The global RNGs
