@@ -39,6 +39,7 @@ from starlette.concurrency import run_in_threadpool
 
 from robocompose.io.errors import InputError
 from robocompose.modular.compose import ModularComposer, check_heightmap, load_npy, parse_caps
+from robocompose.modular.terrain import TerrainConfig
 from robocompose.teams.compose import TeamsComposer
 
 MAX_BODY_BYTES = 8 * 1024 * 1024  # an upload: a label PNG or a height map (a 300 x 300 chip is ~10-60 kB)
@@ -268,14 +269,13 @@ _PYBULLET = threading.Lock()  # one rendering at a time: pybullet's module-level
 
 
 @lru_cache(maxsize=256)
-def design_png(design: str, terrain_seed: int | None, terrain_json: str) -> bytes:
+def design_png(design: str, terrain_seed: int | None, config: TerrainConfig) -> bytes:
     """PNG of `design` at its start pose on the block terrain of `terrain_seed` (None: flat ground)."""
     from PIL import Image
 
     from robocompose.modular.pictures import design_picture
-    from robocompose.modular.terrain import Terrain, TerrainConfig, generate_terrain
+    from robocompose.modular.terrain import Terrain, generate_terrain
 
-    config = TerrainConfig(**json.loads(terrain_json))
     terrain = (Terrain(-1, np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0), config) if terrain_seed is None
                else generate_terrain(terrain_seed, config))
     with _PYBULLET:
@@ -394,8 +394,8 @@ def create_app(models: Models, query_processes: int = 0) -> FastAPI:
         design = parse_design(fields.get("design", ""))
         seed = fields.get("terrain_seed")
         seed = None if seed in (None, "") else _integer(seed, "terrain_seed", 0, MAX_SEED)
-        terrain = json.dumps(composer.params.eval.terrain.as_dict(), sort_keys=True)
-        return Response(await run_in_threadpool(design_png, design, seed, terrain), media_type="image/png")
+        png = await run_in_threadpool(design_png, design, seed, composer.params.eval.terrain)  # frozen: a cache key
+        return Response(png, media_type="image/png")
 
     @app.get("/chips/synthetic/{seed}")
     async def synthetic(seed: str) -> Response:
