@@ -32,6 +32,7 @@ from dataclasses import asdict, dataclass
 from typing import Protocol
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 
 from robocompose.io.errors import check_field, check_finite_fields, check_number
 
@@ -106,10 +107,7 @@ def sample_inputs(plan: np.ndarray, history: np.ndarray, k: int, rng: np.random.
     else:
         base, sigma = plan, config.warm_start_sigma
     noise = rng.normal(0.0, sigma, (dof, horizon + len(NOISE_FILTER) - 1))  # (dof, H + 4)
-    # The filter as element-wise products added tap by tap, not a BLAS product: OpenBLAS picks its kernel by CPU
-    # and the kernels round differently, which MPPI's chaos amplifies into different scores on different machines.
-    smooth = sum(noise[:, tap:tap + horizon] * weight for tap, weight in enumerate(NOISE_FILTER))  # (dof, H)
-    return base + smooth
+    return base + sliding_window_view(noise, len(NOISE_FILTER), axis=1) @ NOISE_FILTER  # (dof, H)
 
 
 def rollout_return(sim: Simulator, inputs: np.ndarray, config: MPPIConfig) -> float:
@@ -139,10 +137,8 @@ def update(sim: Simulator, plan: np.ndarray, history: np.ndarray, n_samples: int
     sim.forget(state)
     if not np.isfinite(returns).any():
         return plan  # every rollout blew up: keep the plan, the trajectory step will tell
-    # math.exp, not numpy's, whose vector kernels are chosen by CPU too
-    weights = np.array([math.exp(config.temperature * (r - returns.max())) for r in returns])  # (K,); 0 for -inf
-    # Summed sample by sample (a reduction over the outer axis adds whole rows in order), not by BLAS: see above.
-    return (weights[:, None, None] * sequences).sum(axis=0) / math.fsum(weights)
+    weights = np.exp(config.temperature * (returns - returns.max()))  # (K,); 0 for -inf returns
+    return np.tensordot(weights, sequences, axes=1) / weights.sum()
 
 
 def run_episode(sim: Simulator, config: MPPIConfig, seed: int, horizon: int | None = None,
