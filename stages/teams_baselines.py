@@ -1,14 +1,14 @@
 """DVC stage `teams_baselines`: NSGA-II (Table 5.4) and coverage baselines (Table 5.5) on test chips.
 
 The runs' wall times go to reports/timings.json (not tracked by DVC), so the parquet outputs are
-byte-reproducible. data/teams/random_fronts.csv holds Table 5.4's random-allocation fronts (64 and 512
-draws). data/teams/team_costs.parquet records the team costs the NSGA-II runs optimised.
+byte-reproducible. data/teams/random_{fronts,points}.parquet hold Table 5.4's random-allocation fronts (64 and
+512 draws) and their points. data/teams/team_costs.parquet records the team costs the NSGA-II runs optimised.
 """
 
 import torch
 
 from robocompose.fanout.compute import ComputeConfig
-from robocompose.io import atomic_write_text, read_table, write_table
+from robocompose.io import read_table, write_table
 from robocompose.io.timings import timed
 from robocompose.params import load_section
 from robocompose.stage import run_stage
@@ -34,9 +34,9 @@ def main() -> None:
     with timed("teams_baselines") as timing, compute.executor("teams_baselines") as executor:
         runs, fronts, timing["nsga2_runs"] = nsga2_runs(test_chips, params.coverage, experiments, cache, executor)
         coverage = coverage_baselines(test_chips, params.coverage, experiments, executor)
-        atomic_write_text("data/teams/random_fronts.csv", random_fronts(test_chips, params.coverage, experiments,
-                                                                        executor).to_csv(index=False,
-                                                                                         float_format="%.6g"))
+        random, random_points = random_fronts(test_chips, params.coverage, experiments, executor)
+        write_table(random, "data/teams/random_fronts.parquet", "teams_random_fronts")
+        write_table(random_points, "data/teams/random_points.parquet", "teams_random_points")
         write_table(cache.frame(), "data/teams/team_costs.parquet", "teams_team_costs")
         write_table(runs, "data/teams/nsga2.parquet", "teams_nsga2")
         write_table(fronts, "data/teams/fronts.parquet", "teams_fronts")

@@ -67,6 +67,8 @@ OUTPUTS_AND_LINES = [
          argv=("modular", "ga", "--variant", "ga99", "--terrain-seed", "1")),
     Case("teams nsga2: a flag's value missing", ("argument --seed: expected one argument",),
          argv=("teams", "nsga2", "--synthetic-seed", "0", "--seed")),
+    Case("teams nsga2: an unknown genome", ("argument --genome: expected one of fractions, share_split, found 'x'",),
+         argv=("teams", "nsga2", "--synthetic-seed", "0", "--genome", "x")),
     # the error line after pybullet was imported (its banner silenced), and one cut to a readable length
     Case("evaluate: an unknown task (after pybullet is loaded)", ("unknown task 'nowhere'", "known tasks"),
          argv=("evaluate", "--rules", "0,12,7,1,12,3,10,1,3,1,12,12,1,3,10,2,16,8,1,3,12,4,1,3,2,12,18,9,18,8,5,5,1,12,"

@@ -83,24 +83,47 @@ SCHEMAS: dict[str, pa.Schema] = {
     "teams_team_costs": pa.schema([_required(n, t) for n, t in [
         ("team", pa.string()), ("chip_id", pa.string()), ("settings_hash", pa.string()),
         ("seed", pa.int64()), ("team_cost", pa.float64())]]),
-    # One NSGA-II run (Table 5.4) and the points of its final front (its wall time: reports/timings.json).
+    # One NSGA-II run (Table 5.4) and the points of its final front (its wall time: reports/timings.json);
+    # genome: a name of teams.nsga2.GENOMES.
     "teams_nsga2": pa.schema([_required(n, t) for n, t in [
-        ("chip_id", pa.string()), ("population", pa.int64()), ("seed", pa.int64()),
+        ("chip_id", pa.string()), ("genome", pa.string()), ("population", pa.int64()), ("seed", pa.int64()),
         ("generations", pa.int64()), ("hypervolume", pa.float64()), ("evaluations", pa.int64()),
         ("team_lookups", pa.int64()), ("distinct_teams", pa.int64())]]),
     "teams_fronts": pa.schema([_required(n, t) for n, t in [
-        ("chip_id", pa.string()), ("population", pa.int64()), ("seed", pa.int64()),
+        ("chip_id", pa.string()), ("genome", pa.string()), ("population", pa.int64()), ("seed", pa.int64()),
         ("coverage_cost", pa.float64()), ("deployment_cost", pa.int64()), ("counts", pa.list_(pa.int16()))]]),
+    # Table 5.4's random-allocation fronts: per chip x seed, of the first `draws` draws of NSGA-II's first-population
+    # sampler, the hypervolume, the front's size and the distinct teams those draws optimised.
+    "teams_random_fronts": pa.schema([_required(n, t) for n, t in [
+        ("chip_id", pa.string()), ("seed", pa.int64()), ("draws", pa.int64()), ("hypervolume", pa.float64()),
+        ("front_size", pa.int64()), ("distinct_teams", pa.int64())]]),
+    # The points of Table 5.4's random-allocation fronts (the non-dominated set of the first `draws` draws).
+    "teams_random_points": pa.schema([_required(n, t) for n, t in [
+        ("chip_id", pa.string()), ("seed", pa.int64()), ("draws", pa.int64()), ("coverage_cost", pa.float64()),
+        ("deployment_cost", pa.int64()), ("counts", pa.list_(pa.int16()))]]),
+    # Every front re-measured at held-out robot-start seeds (teams/heldout.py): per method x chip x search seed
+    # the hypervolume at the search seed and of the same allocations at their mean held-out cost; and Table
+    # 5.5's picks: the best point within each budget at the search seed (selected_cost; NaN for the single
+    # draws, which select nothing) and its mean and sd over the held-out seeds.
+    "teams_heldout_fronts": pa.schema([_required(n, t) for n, t in [
+        ("method", pa.string()), ("chip_id", pa.string()), ("seed", pa.int64()), ("hypervolume", pa.float64()),
+        ("heldout_hypervolume", pa.float64()), ("front_size", pa.int64()), ("distinct_teams", pa.int64())]]),
+    "teams_heldout_picks": pa.schema([
+        *[_required(n, t) for n, t in [("method", pa.string()), ("chip_id", pa.string()), ("seed", pa.int64()),
+                                       ("budget", pa.int64())]],
+        pa.field("selected_cost", pa.float64()),
+        *[_required(n, t) for n, t in [("heldout_mean", pa.float64()), ("heldout_sd", pa.float64()),
+                                       ("deployment_cost", pa.int64())]]]),
     # Coverage baselines of Table 5.5: method x chip x deployment budget x seed; empty_regions: regions
     # without robots (decomposed) or that no observation falls in (no decomposition).
     "teams_coverage": pa.schema([_required(n, t) for n, t in [
         ("method", pa.string()), ("chip_id", pa.string()), ("budget", pa.int64()), ("seed", pa.int64()),
         ("coverage_cost", pa.float64()), ("deployment_cost", pa.int64()), ("empty_regions", pa.int64())]]),
     # EG-GAN queries on held-out chips (Tables 5.4, 5.5): per chip x seed the hypervolume of the front of
-    # `samples` noise vectors, the distinct allocations among them and the front's size; and the fronts.
+    # `samples` noise vectors, the distinct allocations and teams among them and the front's size; and the fronts.
     "teams_eggan_queries": pa.schema([_required(n, t) for n, t in [
         ("chip_id", pa.string()), ("seed", pa.int64()), ("hypervolume", pa.float64()), ("distinct", pa.int64()),
-        ("front_size", pa.int64())]]),
+        ("distinct_teams", pa.int64()), ("front_size", pa.int64())]]),
     "teams_eggan_fronts": pa.schema([_required(n, t) for n, t in [
         ("chip_id", pa.string()), ("seed", pa.int64()), ("coverage_cost", pa.float64()),
         ("deployment_cost", pa.int64()), ("counts", pa.list_(pa.int16()))]]),

@@ -16,6 +16,7 @@ Algorithm 3 assigns).
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,6 +27,7 @@ from pymoo.core.population import Population
 from pymoo.core.problem import Problem
 from pymoo.core.sampling import Sampling
 from pymoo.core.selection import Selection
+from pymoo.core.termination import Termination
 from pymoo.indicators.hv import HV
 from pymoo.operators.survival.rank_and_crowding import RankAndCrowding
 from pymoo.optimize import minimize
@@ -122,13 +124,29 @@ class Front:
     evaluations: int  # objective evaluations requested by NSGA-II (cached or not)
 
 
-def run_nsga2(problem: GenomeProblem, sampling: Sampling, config: NSGA2Config) -> Front:
-    """`config.generations` generations of NSGA-II on `problem` from a first population drawn by `sampling`."""
+class GenerationsOrStop(Termination):
+    """At most `generations` generations, fewer once `stop()` says so (checked after every generation)."""
+
+    def __init__(self, generations: int, stop: Callable[[], bool] | None):
+        super().__init__()
+        self.generations, self.stop = generations, stop
+
+    def _update(self, algorithm) -> float:
+        if self.stop is not None and algorithm.n_gen is not None and self.stop():
+            return 1.0
+        return (algorithm.n_gen or 0) / self.generations
+
+
+def run_nsga2(problem: GenomeProblem, sampling: Sampling, config: NSGA2Config,
+              stop: Callable[[], bool] | None = None) -> Front:
+    """`config.generations` generations of NSGA-II on `problem` from a first population drawn by `sampling`, or
+    fewer: the run ends after the first generation at which `stop()` is true (a spend budget)."""
     algorithm = NSGA2(pop_size=config.population, sampling=sampling, selection=RankRouletteSelection(),
                       crossover=SinglePointArithmeticCrossover(config.crossover_probability),
                       mutation=UniformMutation(config.mutation_rate), eliminate_duplicates=True)
     started = time.perf_counter()
-    result = minimize(problem, algorithm, ("n_gen", config.generations), seed=config.seed, verbose=False)
+    result = minimize(problem, algorithm, GenerationsOrStop(config.generations, stop), seed=config.seed,
+                      verbose=False)
     seconds = time.perf_counter() - started
     genomes, objectives = result.pop.get("X"), result.pop.get("F")
     keep = non_dominated(objectives)

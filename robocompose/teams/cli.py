@@ -23,6 +23,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     nsga2.add_argument("--pop", type=int_at_least(2), default=50, help="population size (thesis: 20 or 50)")
     nsga2.add_argument("--generations", type=positive_int, default=50, help="generations (thesis: 50)")
     nsga2.add_argument("--seed", type=non_negative_int, default=0, help="seed of NSGA-II and of the robots' starts")
+    nsga2.add_argument("--genome", type=_genome, default="fractions",
+                       help="what NSGA-II evolves: fractions (the thesis's K x O fractions) or share_split (per "
+                       "species a deployed share and its split over the regions)")
     nsga2.add_argument("--address", type=dask_address, default=None,
                        help="a running Dask scheduler (tcp://host:8786) to run on instead of this process (default: "
                             "compute.address of params.yaml if there is one; \"\" = here)")
@@ -73,6 +76,15 @@ def _setup(args: argparse.Namespace):
     return AllocationEvaluator(coverage, chip.chip_id, args.seed)
 
 
+def _genome(name: str) -> str:
+    """argparse type: a name of robocompose.teams.nsga2.GENOMES (imported only when the flag is given)."""
+    from robocompose.teams.nsga2 import GENOMES
+
+    if name not in GENOMES:
+        raise argparse.ArgumentTypeError(f"expected one of {', '.join(GENOMES)}, found {name!r}")
+    return name
+
+
 def _nsga2(args: argparse.Namespace) -> None:
     from robocompose.arguments import command_compute
     from robocompose.fanout.executor import Executor
@@ -85,8 +97,10 @@ def _nsga2(args: argparse.Namespace) -> None:
     with Executor(workers=1, address=command_compute(args).address) as executor:
         chip, decomposition = _chip(args)
         config = NSGA2Config(population=args.pop, generations=args.generations, seed=args.seed)
-        result, _ = executor.map(_nsga2_run, [(chip, decomposition, CoverageConfig(), config, 1)])[0]
+        result, evaluator = executor.map(_nsga2_run, [(chip, decomposition, CoverageConfig(), config, args.genome, 1,
+                                                       None)])[0]
     print(json.dumps({"hypervolume": result.hypervolume, "seconds": result.seconds,
+                      "distinct_teams": len(evaluator.asked),
                       "front": [[float(c), int(d)] for c, d in result.front]}))
 
 

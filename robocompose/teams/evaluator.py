@@ -76,6 +76,12 @@ class AllocationEvaluator:
         self.optimised += len(chunk)
         return [{"team_cost": float(costs[b, region])} for b, (region, _) in enumerate(chunk)]
 
+    def distinct_teams(self, counts: np.ndarray) -> set[CacheKey]:
+        """The keys of the distinct non-empty teams of (B, K, O) counts: what scoring them spends."""
+        counts = np.asarray(counts, dtype=np.int64)
+        return {self.key((int(i), tuple(int(n) for n in allocation[i])))
+                for allocation in counts for i in np.flatnonzero(allocation.sum(1))}
+
     def team_costs(self, counts: np.ndarray, fallback: Callable[[list[Team]], np.ndarray] | None = None
                    ) -> np.ndarray:
         """(B, K) team costs of (B, K, O) integer counts (an empty region: its closed-form cost). With `fallback`,

@@ -43,46 +43,59 @@ def decomposed_chips(regions: pd.DataFrame, split: str) -> list[tuple[Chip, Deco
             for chip_id, rows in regions[regions.split == split].groupby("chip_id", sort=True)]
 
 
-def _nsga2_run(task: tuple[Chip, Decomposition, CoverageConfig, NSGA2Config, int]
+def _nsga2_run(task: tuple[Chip, Decomposition, CoverageConfig, NSGA2Config, str, int, int | None]
                ) -> tuple[NSGA2Result, AllocationEvaluator]:
-    """One NSGA-II run on one chip (an executor task), from an empty team-cost memo: its result and evaluator."""
-    chip, decomposition, coverage, nsga2, threads = task
+    """One NSGA-II run on one chip (an executor task), from an empty team-cost memo: its result and evaluator.
+    With a team budget, the run ends after the first generation at which it has optimised that many teams."""
+    chip, decomposition, coverage, nsga2, genome, threads, max_teams = task
     torch.set_num_threads(threads)
     evaluate = AllocationEvaluator(chip_coverage(chip, decomposition, coverage), chip.chip_id, nsga2.seed)
-    result = allocation_nsga2(evaluate, decomposition.n_regions, len(SPECIES), coverage.robots_per_species, nsga2)
+    stop = None if max_teams is None else (lambda: len(evaluate.asked) >= max_teams)
+    result = allocation_nsga2(evaluate, decomposition.n_regions, len(SPECIES), coverage.robots_per_species, nsga2,
+                              genome, stop)
     return result, evaluate
 
 
 def nsga2_runs(chips: list[tuple[Chip, Decomposition]], coverage: CoverageConfig, config: ExperimentsConfig,
                cache: EvaluationCache, executor: Executor | None = None
                ) -> tuple[pd.DataFrame, pd.DataFrame, list[dict]]:
-    """Run NSGA-II per chip x seed x population, each run from an empty team-cost memo (its evaluations: the
-    allocations it scored; its team look-ups against the distinct teams it optimised: what the memo saved).
+    """Run NSGA-II per chip x seed x genome x population, each run from an empty team-cost memo (its evaluations:
+    the allocations it scored; its team look-ups against the distinct teams it optimised: what the memo saved).
 
     Returns the "teams_nsga2" and "teams_fronts" tables and the runs' wall times (one dict per run:
-    chip_id, population, seed, seconds) for the untracked timings file.
+    chip_id, genome, population, seed, seconds) for the untracked timings file.
     """
-    tasks = [(chip, decomposition, coverage,
-              NSGA2Config(population=population, generations=config.generations,
-                          crossover_probability=config.crossover_probability,
-                          mutation_rate=config.mutation_rate, seed=seed),
-              torch.get_num_threads())
-             for chip, decomposition in chips[:config.table_5_4_chips]
-             for seed in config.seeds
-             for population in config.populations]
+    runs = [(chip, decomposition, NSGA2Config(population=population, generations=config.generations,
+                                              crossover_probability=config.crossover_probability,
+                                              mutation_rate=config.mutation_rate, seed=seed), genome)
+            for chip, decomposition in chips[:config.table_5_4_chips]
+            for seed in config.seeds
+            for genome in config.genomes
+            for population in config.populations]
+    return budgeted_nsga2_runs(runs, coverage, cache, executor)
+
+
+def budgeted_nsga2_runs(runs: list[tuple[Chip, Decomposition, NSGA2Config, str]], coverage: CoverageConfig,
+                        cache: EvaluationCache, executor: Executor | None = None,
+                        max_teams: list[int] | None = None) -> tuple[pd.DataFrame, pd.DataFrame, list[dict]]:
+    """NSGA-II runs (chip, its regions, settings, genome), each optionally stopped at a budget of distinct teams
+    (`max_teams`, one per run); the tables and wall times of `nsga2_runs`."""
+    budgets = max_teams or [None] * len(runs)
+    tasks = [(chip, decomposition, coverage, nsga2, genome, torch.get_num_threads(), budget)
+             for (chip, decomposition, nsga2, genome), budget in zip(runs, budgets, strict=True)]
     results = (executor or Executor(workers=1)).map(_nsga2_run, tasks)
-    runs, fronts, seconds = [], [], []
-    for (chip, _, _, nsga2, _), (result, evaluator) in zip(tasks, results, strict=True):
+    rows, fronts, seconds = [], [], []
+    for (chip, _, _, nsga2, genome, _, _), (result, evaluator) in zip(tasks, results, strict=True):
         cache.merge(evaluator.cache)  # in task order: a key evaluated by two runs keeps the later run's value
-        runs.append((chip.chip_id, nsga2.population, nsga2.seed, nsga2.generations, result.hypervolume,
+        rows.append((chip.chip_id, genome, nsga2.population, nsga2.seed, nsga2.generations, result.hypervolume,
                      result.evaluations, evaluator.lookups, len(evaluator.asked)))
-        seconds.append({"chip_id": chip.chip_id, "population": nsga2.population, "seed": nsga2.seed,
-                        "seconds": round(result.seconds, 2)})
-        fronts += [(chip.chip_id, nsga2.population, nsga2.seed, cost, int(deploy), counts.ravel().tolist())
+        seconds.append({"chip_id": chip.chip_id, "genome": genome, "population": nsga2.population,
+                        "seed": nsga2.seed, "seconds": round(result.seconds, 2)})
+        fronts += [(chip.chip_id, genome, nsga2.population, nsga2.seed, cost, int(deploy), counts.ravel().tolist())
                    for (cost, deploy), counts in zip(result.front, result.counts, strict=True)]
-    return (pd.DataFrame(runs, columns=["chip_id", "population", "seed", "generations", "hypervolume",
+    return (pd.DataFrame(rows, columns=["chip_id", "genome", "population", "seed", "generations", "hypervolume",
                                         "evaluations", "team_lookups", "distinct_teams"]),
-            pd.DataFrame(fronts, columns=["chip_id", "population", "seed", "coverage_cost",
+            pd.DataFrame(fronts, columns=["chip_id", "genome", "population", "seed", "coverage_cost",
                                           "deployment_cost", "counts"]),
             seconds)
 
@@ -90,10 +103,10 @@ def nsga2_runs(chips: list[tuple[Chip, Decomposition]], coverage: CoverageConfig
 RANDOM_FRONT_DRAWS = (64, 512)  # Table 5.4's random-allocation fronts: the first 64 and all 512 draws
 
 
-def _random_front(task: tuple[Chip, Decomposition, CoverageConfig, int, int]) -> list[tuple]:
+def _random_front(task: tuple[Chip, Decomposition, CoverageConfig, int, int]) -> tuple[list[tuple], list[tuple]]:
     """The random-allocation fronts of one chip and seed (an executor task): NSGA-II's initial sampler drawn
     max(RANDOM_FRONT_DRAWS) times from Generator((seed, hash of the chip id, 5401)), every allocation measured by
-    the optimiser; one row per prefix of RANDOM_FRONT_DRAWS draws."""
+    the optimiser; per prefix of RANDOM_FRONT_DRAWS draws a summary row and the front's points."""
     chip, decomposition, coverage, seed, threads = task
     torch.set_num_threads(threads)
     rng = np.random.default_rng([seed, int(hashlib.sha1(chip.chip_id.encode()).hexdigest()[:12], 16), 5401])
@@ -101,21 +114,28 @@ def _random_front(task: tuple[Chip, Decomposition, CoverageConfig, int, int]) ->
     counts = allocation_to_counts(fractions, coverage.robots_per_species)  # (S, K, O)
     evaluate = AllocationEvaluator(chip_coverage(chip, decomposition, coverage), chip.chip_id, seed)
     objectives = evaluate(counts)
-    rows = []
+    rows, points = [], []
     for draws in RANDOM_FRONT_DRAWS:
-        front = objectives[non_dominated(objectives[:draws])]
-        rows.append((chip.chip_id, seed, draws, team_hypervolume(front), len(front), len(evaluate.asked)))
-    return rows
+        keep = non_dominated(objectives[:draws])
+        keep = keep[np.argsort(objectives[keep, 1], kind="stable")]
+        rows.append((chip.chip_id, seed, draws, team_hypervolume(objectives[keep]), len(keep),
+                     len(evaluate.distinct_teams(counts[:draws]))))
+        points += [(chip.chip_id, seed, draws, float(cost), int(deploy), allocation.ravel().tolist())
+                   for (cost, deploy), allocation in zip(objectives[keep], counts[keep], strict=True)]
+    return rows, points
 
 
 def random_fronts(chips: list[tuple[Chip, Decomposition]], coverage: CoverageConfig, config: ExperimentsConfig,
-                  executor: Executor | None = None) -> pd.DataFrame:
-    """Table 5.4's random-allocation baselines on its chips and seeds: chip_id, seed, draws, hypervolume, front
-    size, distinct teams optimised (for all the draws)."""
+                  executor: Executor | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Table 5.4's random-allocation baselines on its chips and seeds: (chip_id, seed, draws, hypervolume, front
+    size, distinct teams optimised for those draws; the "teams_random_points" table of the fronts' points)."""
     tasks = [(chip, decomposition, coverage, seed, torch.get_num_threads())
              for chip, decomposition in chips[:config.table_5_4_chips] for seed in config.seeds]
-    rows = [row for task_rows in (executor or Executor(workers=1)).map(_random_front, tasks) for row in task_rows]
-    return pd.DataFrame(rows, columns=["chip_id", "seed", "draws", "hypervolume", "front_size", "distinct_teams"])
+    results = (executor or Executor(workers=1)).map(_random_front, tasks)
+    return (pd.DataFrame([row for rows, _ in results for row in rows],
+                         columns=["chip_id", "seed", "draws", "hypervolume", "front_size", "distinct_teams"]),
+            pd.DataFrame([point for _, points in results for point in points],
+                         columns=["chip_id", "seed", "draws", "coverage_cost", "deployment_cost", "counts"]))
 
 
 def baseline_draws(chip_id: str, seed: int, budgets: list[int], n_regions: int, robots_per_species: int

@@ -119,10 +119,10 @@ def rounded(values: dict, digits: int = 4) -> dict:
 
 def save_teams_generator(trained: Trained, problem: TeamsProblem, params: dict, metrics: dict, path: Path) -> Path:
     """The generator file (robocompose.eggan.query's format) with K, the design head, the settings and metrics of
-    its training and its run key."""
+    its training, its run key and the chips it trained on (so a table can show it never saw its test chips)."""
     return save_generator(trained.generator, problem, path, {
         "n_regions": problem.n_regions, "design_head": DESIGN_HEAD, "params": params, "metrics": metrics,
-        "run_key": trained.key})
+        "run_key": trained.key, "train_chip_ids": [chip.chip_id for chip, _ in problem.chips]})
 
 
 def teams_generator_info(path: Path) -> dict:
@@ -143,7 +143,9 @@ class QueryFront:
     counts: np.ndarray  # (F, K, O) their allocations
     hypervolume: float
     generator_seconds: float  # wall time of the learner's part (its draws: noise, forward pass; rounding)
+    seconds: float  # wall time to the measured front: the learner's part and the optimiser on every draw
     distinct: int  # distinct allocations among the draws
+    teams: int  # distinct teams among them: what measuring the front spends
 
 
 def draw_allocations(draws: Draws, problem: TeamsProblem, seed: int) -> tuple[np.ndarray, float]:
@@ -160,31 +162,36 @@ def query_front(draws: Draws, chip: Chip, decomposition: Decomposition, coverage
     """The front of one query: a teams learner's draws (seeded by `seed`) -> allocations -> objectives measured
     by the ergodic optimiser (robots' starts seeded by `seed`) -> the non-dominated set. `problem`: the chip's
     task, if already built."""
+    started = time.perf_counter()
     problem = problem or TeamsProblem([(chip, decomposition)], coverage)  # the task: this chip's features
     distinct, seconds = draw_allocations(draws, problem, seed)
     evaluate = evaluator or AllocationEvaluator(chip_coverage(chip, decomposition, coverage), chip.chip_id, seed)
     objectives = evaluate(distinct)
     keep = non_dominated(objectives)
     keep = keep[np.argsort(objectives[keep, 1], kind="stable")]
-    return QueryFront(objectives[keep], distinct[keep], team_hypervolume(objectives[keep]), seconds, len(distinct))
+    return QueryFront(objectives[keep], distinct[keep], team_hypervolume(objectives[keep]), seconds,
+                      time.perf_counter() - started, len(distinct), len(evaluate.distinct_teams(distinct)))
 
 
 def eggan_queries(draws: Draws, chips: list[tuple[Chip, Decomposition]], coverage: CoverageConfig,
                   seeds: list[int]) -> tuple[pd.DataFrame, pd.DataFrame, list[dict]]:
     """Query a learner's draws on every chip x seed: the "teams_eggan_queries" and "teams_eggan_fronts" tables
-    and the learner's wall times (chip_id, seed, milliseconds) for the untracked timings file."""
+    and the wall times (chip_id, seed, milliseconds of the learner's part, front_seconds to the measured front)
+    for the untracked timings file."""
     from tqdm import tqdm
 
     queries, fronts, timings = [], [], []
     for chip, decomposition in tqdm(chips, desc="eggan queries", mininterval=5.0):
         for seed in seeds:
             query = query_front(draws, chip, decomposition, coverage, seed)
-            queries.append((chip.chip_id, seed, query.hypervolume, query.distinct, len(query.front)))
+            queries.append((chip.chip_id, seed, query.hypervolume, query.distinct, query.teams, len(query.front)))
             fronts += [(chip.chip_id, seed, float(cost), int(deploy), counts.ravel().tolist())
                        for (cost, deploy), counts in zip(query.front, query.counts, strict=True)]
             timings.append({"chip_id": chip.chip_id, "seed": seed,
-                            "milliseconds": round(1000 * query.generator_seconds, 3)})
-    return (pd.DataFrame(queries, columns=["chip_id", "seed", "hypervolume", "distinct", "front_size"]),
+                            "milliseconds": round(1000 * query.generator_seconds, 3),
+                            "front_seconds": round(query.seconds, 3)})
+    return (pd.DataFrame(queries, columns=["chip_id", "seed", "hypervolume", "distinct", "distinct_teams",
+                                           "front_size"]),
             pd.DataFrame(fronts, columns=["chip_id", "seed", "coverage_cost", "deployment_cost", "counts"]),
             timings)
 

@@ -1,8 +1,15 @@
 """NSGA-II on team allocations (thesis 5.2, Table 5.4): the team-formation problem bound to the generic
 `robocompose.search.nsga2` (its operators and loop).
 
-Genome: the K x O allocation fractions, flattened, each in [0, 1]; species.allocation_to_counts turns
-them into robots (a species asked for more than all its robots is scaled down to all of them).
+Genomes (`GENOMES`, the only list of them; every gene in [0, 1]), decoded to K x O fractions that
+species.allocation_to_counts turns into robots (a species asked for more than all its robots is scaled down):
+- "fractions" (the thesis's): the K x O fractions themselves, flattened. Uniform mutation redraws a gene of a
+  typical ~0.06 to U(0, 1), so a mutation mostly adds robots and populations drift towards the whole bank.
+- "share_split" (the factorisation of EG-GAN's output head): per species a deployed share s and K split weights
+  w; fraction (i, j) = s_j w_ij / sum_i w_ij (an all-zero column splits evenly). A mutated split weight moves
+  robots between regions without changing how many are deployed; a mutated share changes only that.
+Both start from the same first population (the same draws of `deployment_share_draws`), so only the genome
+differs between their runs.
 Objectives, both minimised: coverage cost (area-weighted ergodic metric per region, ergodic.py) and
 deployment cost (robots deployed). The initial population (not given by the thesis) deploys a uniform
 share s ~ U(0, 1) of each species, split over the regions by a flat Dirichlet draw, so it spans every
@@ -37,24 +44,60 @@ def deployment_share_draws(rng: np.random.Generator, n: int, n_regions: int, n_s
     return share * split.transpose(0, 2, 1)
 
 
+@dataclass(frozen=True)
+class Genome:
+    """NSGA-II's real vector in [0, 1]^n for K regions x O species: its size, its decoding, its first draws."""
+
+    title: str
+    size: Callable[[int, int], int]  # (K, O) -> n_var
+    decode: Callable[[np.ndarray, int, int], np.ndarray]  # (B, n_var), K, O -> (B, K, O) fractions
+    encode: Callable[[np.ndarray], np.ndarray]  # (B, K, O) share x split fractions -> (B, n_var)
+
+
+def _split_fractions(X: np.ndarray, n_regions: int, n_species: int) -> np.ndarray:
+    """(B, K, O) fractions of (B, K*O + O) share x split genomes."""
+    weights = X[:, :n_regions * n_species].reshape(-1, n_regions, n_species)  # (B, K, O)
+    share = X[:, None, n_regions * n_species:]  # (B, 1, O)
+    total = weights.sum(1, keepdims=True)  # (B, 1, O)
+    split = np.where(total > 0, weights / np.where(total > 0, total, 1.0), 1.0 / n_regions)
+    return share * split
+
+
+def _split_genes(fractions: np.ndarray) -> np.ndarray:
+    """(B, K*O + O) genes of (B, K, O) fractions whose columns sum to at most 1: split weights, then shares."""
+    share = fractions.sum(1)  # (B, O)
+    split = np.where(share[:, None] > 0, fractions / np.where(share > 0, share, 1.0)[:, None], 1.0)
+    return np.concatenate([split.reshape(len(fractions), -1), share], axis=1)
+
+
+GENOMES = {
+    "fractions": Genome("raw fractions (thesis)", lambda k, o: k * o,
+                        lambda X, k, o: X.reshape(-1, k, o), lambda f: f.reshape(len(f), -1)),
+    "share_split": Genome("share x split", lambda k, o: k * o + o, _split_fractions, _split_genes),
+}
+
+
 class DeploymentShareSampling(Sampling):
+    """The first population: `deployment_share_draws` in the problem's genome."""
+
     def _do(self, problem, n_samples, *args, random_state=None, **kwargs):
-        return deployment_share_draws(random_state, n_samples, *problem.shape).reshape(n_samples, -1)
+        return GENOMES[problem.genome].encode(deployment_share_draws(random_state, n_samples, *problem.shape))
 
 
 class AllocationProblem(GenomeProblem):
-    """Genome (K*O fractions) -> [coverage cost, deployment cost] via `evaluate` of the robot counts."""
+    """Genome (`GENOMES[genome]`) -> [coverage cost, deployment cost] via `evaluate` of the robot counts."""
 
     def __init__(self, n_regions: int, n_species: int, robots_per_species: int,
-                 evaluate: Callable[[np.ndarray], np.ndarray]):
-        super().__init__(n_var=n_regions * n_species, n_obj=2, xl=0.0, xu=1.0)
+                 evaluate: Callable[[np.ndarray], np.ndarray], genome: str = "fractions"):
+        super().__init__(n_var=GENOMES[genome].size(n_regions, n_species), n_obj=2, xl=0.0, xu=1.0)
         self.shape = (n_regions, n_species)
+        self.genome = genome
         self.robots_per_species = robots_per_species
         self.evaluate_counts = evaluate
 
     def counts(self, X: np.ndarray) -> np.ndarray:
-        """(B, K, O) robot counts of (B, K*O) genomes."""
-        return allocation_to_counts(X.reshape(-1, *self.shape), self.robots_per_species)
+        """(B, K, O) robot counts of (B, n_var) genomes."""
+        return allocation_to_counts(GENOMES[self.genome].decode(X, *self.shape), self.robots_per_species)
 
     def objectives(self, X: np.ndarray) -> np.ndarray:
         return self.evaluate_counts(self.counts(X))
@@ -75,9 +118,11 @@ class NSGA2Result:
 
 
 def allocation_nsga2(evaluate: Callable[[np.ndarray], np.ndarray], n_regions: int, n_species: int,
-                     robots_per_species: int, config: NSGA2Config) -> NSGA2Result:
-    """Run NSGA-II on the allocations of one chip; `evaluate` maps (B, K, O) counts to (B, 2) objectives."""
-    problem = AllocationProblem(n_regions, n_species, robots_per_species, evaluate)
-    front = run_nsga2(problem, DeploymentShareSampling(), config)
+                     robots_per_species: int, config: NSGA2Config, genome: str = "fractions",
+                     stop: Callable[[], bool] | None = None) -> NSGA2Result:
+    """Run NSGA-II on the allocations of one chip; `evaluate` maps (B, K, O) counts to (B, 2) objectives; `stop`
+    ends the run after a generation (a spend budget)."""
+    problem = AllocationProblem(n_regions, n_species, robots_per_species, evaluate, genome)
+    front = run_nsga2(problem, DeploymentShareSampling(), config, stop)
     return NSGA2Result(front.objectives, problem.counts(front.genomes), team_hypervolume(front.objectives),
                        front.seconds, front.evaluations)

@@ -16,6 +16,7 @@ from robocompose.teams.ergodic import CoverageConfig
 @dataclass(frozen=True)
 class ExperimentsConfig:
     populations: list[int] = field(default_factory=lambda: [20, 50])  # NSGA-II population sizes
+    genomes: list[str] = field(default_factory=lambda: ["fractions"])  # NSGA-II genomes (teams.nsga2.GENOMES)
     generations: int = 50  # NSGA-II generations
     crossover_probability: float = 0.5  # NSGA-II single-point arithmetic crossover probability
     mutation_rate: float = 0.1  # NSGA-II per-gene uniform mutation rate
@@ -23,10 +24,19 @@ class ExperimentsConfig:
     table_5_5_chips: int = 20  # Table 5.5 (no decomposition, random, EG-GAN) on the first test chips ...
     seeds: list[int] = field(default_factory=lambda: [0])  # ... each row of a table on these seeds
     budgets: list[int] = field(default_factory=lambda: [15, 30, 45])  # Table 5.5 deployment budgets
+    heldout_seeds: list[int] = field(default_factory=lambda: [100, 101, 102])  # robot starts that re-measure
+    # every front and pick (teams/heldout.py): never one of `seeds`, on which the methods selected
+    matched_genome: str = "share_split"  # NSGA-II given EG-GAN's spend: its genome ...
+    matched_population: int = 20  # ... and population, stopped once it optimised as many teams as EG-GAN's query
 
     def __post_init__(self) -> None:
         check_field(bool(self.populations) and min(self.populations) >= 2, "populations",
                     "a non-empty list of integers >= 2", self.populations)
+        from robocompose.teams.nsga2 import GENOMES
+
+        check_field(bool(self.genomes) and set(self.genomes) <= set(GENOMES) and len(set(self.genomes)) ==
+                    len(self.genomes), "genomes", f"a non-empty list of distinct names from {sorted(GENOMES)}",
+                    self.genomes)
         check_field(self.generations >= 1, "generations", "an integer >= 1", self.generations)
         for name in ("crossover_probability", "mutation_rate"):
             check_field(0 <= getattr(self, name) <= 1, name, "a probability in [0, 1]", getattr(self, name))
@@ -36,6 +46,12 @@ class ExperimentsConfig:
                     self.seeds)
         check_field(bool(self.budgets) and min(self.budgets) >= 1, "budgets", "a non-empty list of integers >= 1",
                     self.budgets)
+        check_field(len(set(self.heldout_seeds)) >= 2 and min(self.heldout_seeds) >= 0
+                    and not set(self.heldout_seeds) & set(self.seeds), "heldout_seeds",
+                    f"at least 2 distinct integers >= 0, none of the search seeds {self.seeds}", self.heldout_seeds)
+        check_field(self.matched_genome in GENOMES, "matched_genome", f"one of {sorted(GENOMES)}",
+                    self.matched_genome)
+        check_field(self.matched_population >= 2, "matched_population", "an integer >= 2", self.matched_population)
 
 
 SOURCES = ("exact", "model")

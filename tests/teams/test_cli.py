@@ -26,11 +26,14 @@ def test_coverage_prints_costs_of_one_allocation(tmp_path, capsys):
 def test_nsga2_prints_hypervolume_seconds_and_a_front(capsys):
     out = run(["teams", "nsga2", "--synthetic-seed", "1", "--regions", "3", "--pop", "6",
                "--generations", "2"], capsys)
-    assert set(out) == {"hypervolume", "seconds", "front"}
+    assert set(out) == {"hypervolume", "seconds", "distinct_teams", "front"} and out["distinct_teams"] > 0
     front = np.array(out["front"])  # (F, 2) [coverage cost, deployment cost] by deployment: non-dominated
     assert front.shape[1] == 2 and (np.diff(front[:, 1]) > 0).all() and (np.diff(front[:, 0]) < 0).all()
     assert out["hypervolume"] == pytest.approx(team_hypervolume(front)) and out["hypervolume"] > 0
     assert out["seconds"] > 0
+    other = run(["teams", "nsga2", "--synthetic-seed", "1", "--regions", "3", "--pop", "6", "--generations", "2",
+                 "--genome", "share_split"], capsys)
+    assert other["front"] != out["front"]  # the same first population, other children
 
 
 @pytest.mark.parametrize(("allocation", "fragments"), [

@@ -43,6 +43,7 @@ def test_nsga2_runs_record_every_population_and_a_front_per_run(test_chips):
     runs, fronts, seconds = nsga2_runs(test_chips, TINY, EXPERIMENTS, cache)
     assert runs.population.tolist() == [4, 6, 4, 6] and (runs.evaluations == [8, 12, 8, 12]).all()
     assert runs.seed.tolist() == [0, 0, 1, 1] and "seconds" not in runs  # wall time: not in the table
+    assert set(runs.genome) == {"fractions"}
     assert [(run["population"], run["seed"]) for run in seconds] == [(4, 0), (6, 0), (4, 1), (6, 1)]
     assert all(run["seconds"] > 0 for run in seconds)
     assert (runs.distinct_teams < runs.team_lookups).all()  # the memo saved optimisations in every run
@@ -51,7 +52,7 @@ def test_nsga2_runs_record_every_population_and_a_front_per_run(test_chips):
         memo = AllocationEvaluator(chip_coverage(*chips[row.chip_id], TINY), row.chip_id, row.seed, cache)
         assert memo(np.reshape(row.counts, (1, 3, 3)))[0, 0] == pytest.approx(row.coverage_cost, rel=1e-6)
         assert memo.optimised == 0
-    for _, front in fronts.groupby(["population", "seed"]):
+    for _, front in fronts.groupby(["genome", "population", "seed"]):
         points = front[["coverage_cost", "deployment_cost"]].to_numpy()
         assert not any((p <= q).all() and (p < q).any() for p in points for q in points)
     for counts, deployed in zip(fronts.counts, fronts.deployment_cost, strict=True):
@@ -65,14 +66,45 @@ def test_nsga2_runs_record_every_population_and_a_front_per_run(test_chips):
 
 
 def test_random_fronts_are_prefixes_of_one_draw_measured_by_the_optimiser(test_chips):
-    table = random_fronts(test_chips, TINY, EXPERIMENTS)
+    table, points = random_fronts(test_chips, TINY, EXPERIMENTS)
     assert table.draws.tolist() == [64, 512] * 2 and table.seed.tolist() == [0, 0, 1, 1]
     for _, rows in table.groupby("seed"):
         small, large = rows.hypervolume.tolist()
         assert 0 < small <= large  # 512 draws hold the 64: their front can only gain
-        assert rows.distinct_teams.nunique() == 1  # one memo per chip and seed, over all the draws
+        few, many = rows.distinct_teams.tolist()
+        assert 0 < few < many  # the teams of the first 64 draws, then of all 512
     assert table.hypervolume.nunique() == 4  # another seed, other draws
-    pd.testing.assert_frame_equal(random_fronts(test_chips, TINY, EXPERIMENTS), table, check_exact=True)
+    sizes = points.groupby(["chip_id", "seed", "draws"]).size()
+    assert sizes.tolist() == table.front_size.tolist()  # the points are the fronts the table summarises
+    for (seed, draws), front in points.groupby(["seed", "draws"]):
+        assert (np.diff(front.deployment_cost) > 0).all() and (np.diff(front.coverage_cost) < 0).all()
+    again, again_points = random_fronts(test_chips, TINY, EXPERIMENTS)
+    pd.testing.assert_frame_equal(again, table, check_exact=True)
+    pd.testing.assert_frame_equal(again_points, points, check_exact=True)
+
+
+def test_nsga2_on_each_genome_starts_from_the_same_first_population(test_chips):
+    both = dataclasses.replace(EXPERIMENTS, genomes=["fractions", "share_split"], populations=[6], seeds=[0])
+    fronts = {generations: nsga2_runs(test_chips, TINY, dataclasses.replace(both, generations=generations),
+                                      teams_cache())[1] for generations in (1, 3)}
+    first = {genome: rows.counts.map(tuple).tolist() for genome, rows in fronts[1].groupby("genome")}
+    assert first["fractions"] == first["share_split"]  # generation 1 is the first population alone
+    later = {genome: rows.counts.map(tuple).tolist() for genome, rows in fronts[3].groupby("genome")}
+    assert later["fractions"] != later["share_split"]  # then the genomes' children differ
+
+
+def test_a_team_budget_stops_nsga2_after_the_generation_that_reaches_it(test_chips):
+    from robocompose.search.nsga2 import NSGA2Config
+    from robocompose.teams.experiments import budgeted_nsga2_runs
+
+    chip, decomposition = test_chips[0]
+    config = NSGA2Config(population=4, generations=30, seed=0)
+    free, _, _ = budgeted_nsga2_runs([(chip, decomposition, config, "share_split")], TINY, teams_cache())
+    capped, _, _ = budgeted_nsga2_runs([(chip, decomposition, config, "share_split")], TINY, teams_cache(),
+                                       max_teams=[10])
+    assert capped.distinct_teams[0] >= 10 and capped.evaluations[0] < free.evaluations[0]
+    # the generation before the last had fewer: at most one generation's new teams (4 allocations x 3 regions)
+    assert capped.distinct_teams[0] < 10 + 4 * 3
 
 
 def test_coverage_baselines_deploy_exactly_the_budget(test_chips):

@@ -39,15 +39,15 @@ def test_stages_write_their_tables_deterministically(tmp_path, monkeypatch):
     run_stage("teams_baselines")
     outputs = ["nsga2", "fronts", "coverage", "trajectories", "team_costs"]
     first = {name: Path(f"data/teams/{name}.parquet").read_bytes() for name in outputs}
-    random = pd.read_csv("data/teams/random_fronts.csv")
+    random = pd.read_parquet("data/teams/random_fronts.parquet")
     assert random.draws.tolist() == [64, 512] and random.hypervolume.is_monotonic_increasing
-    first["random_fronts"] = Path("data/teams/random_fronts.csv").read_bytes()
+    outputs += ["random_fronts", "random_points"]
+    first |= {name: Path(f"data/teams/{name}.parquet").read_bytes() for name in outputs[-2:]}
     nsga2 = pd.read_parquet("data/teams/nsga2.parquet")
     assert nsga2.population.tolist() == [4, 6] and (nsga2.distinct_teams < nsga2.team_lookups).all()
     run_stage("teams_baselines")  # every memo starts empty again: the same bytes
     for name in outputs:
         assert Path(f"data/teams/{name}.parquet").read_bytes() == first[name], name
-    assert Path("data/teams/random_fronts.csv").read_bytes() == first["random_fronts"]
 
 
 def test_eggan_stage_trains_queries_and_resumes(tmp_path, monkeypatch):
@@ -71,3 +71,24 @@ def test_eggan_stage_trains_queries_and_resumes(tmp_path, monkeypatch):
     model = Path("models/teams_eggan.pt").read_bytes()
     run_stage("teams_eggan")  # the checkpoint holds the finished run: same generator file
     assert Path("models/teams_eggan.pt").read_bytes() == model
+    # the split at stage level: the generator trained on training chips only, and was queried on test chips only
+    trained_on = set(json.loads(Path("models/teams_eggan.json").read_text())["train_chip_ids"])
+    regions = pd.read_parquet("data/regions.parquet")
+    assert trained_on and trained_on <= set(regions[regions.split == "train"].chip_id)
+    assert set(queries.chip_id) <= set(regions[regions.split == "test"].chip_id)
+
+    run_stage("teams_baselines")
+    run_stage("teams_heldout")
+    fronts = pd.read_parquet("data/teams/heldout_fronts.parquet")
+    assert set(fronts.method) == {"nsga2:fractions:4", "nsga2:fractions:6", "nsga2-matched:share_split:20",
+                                  "random:64", "random:512", "eggan"}
+    matched = pd.read_parquet("data/teams/matched_nsga2.parquet")
+    assert (matched.distinct_teams >= queries.distinct_teams).all()  # NSGA-II spent at least EG-GAN's teams
+    spent = fronts.set_index("method").distinct_teams
+    assert spent["eggan"] == queries.distinct_teams[0] and spent["nsga2-matched:share_split:20"] == \
+        matched.distinct_teams[0]
+    picks = pd.read_parquet("data/teams/heldout_picks.parquet")
+    single = {"dec_random_allocation", "dec_uniform_robots", "no_decomposition"}
+    assert single <= set(picks.method) <= single | set(fronts.method)
+    assert picks[picks.method.isin(single)].selected_cost.isna().all()  # single draws: nothing selected
+    assert (picks.deployment_cost <= picks.budget).all()

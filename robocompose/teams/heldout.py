@@ -1,0 +1,153 @@
+"""Select on one seed, report on others: every front and every chosen allocation of Tables 5.4 and 5.5 re-measured
+at robot-start seeds no method selected on.
+
+A team's coverage cost is what the ergodic optimiser reaches from random robot starts, so it depends on the start
+seed (`AllocationEvaluator.seed`): a front found at seed s is a set of allocations whose costs are draws at s, and
+"the best point within a budget" picked from it is, on average, luckier at s than elsewhere (the winner's curse).
+Here every allocation of every method's fronts is re-measured at `heldout_seeds` (disjoint from the search seeds,
+checked by `ExperimentsConfig`):
+- a front's held-out hypervolume is the hypervolume of its allocations at their mean held-out cost (the same
+  allocations, so points that were non-dominated by luck now fall inside others);
+- Table 5.5's "best within the budget" of a front is picked at the run's own seed, and reported at the mean of its
+  held-out costs; the single draws (random teams, no decomposition) are reported the same way without a pick.
+The spread of a cost over the held-out seeds is the optimiser's own seed-to-seed noise, kept beside every mean.
+
+Fronts come from three methods' tables, renamed into one: NSGA-II runs ("nsga2:<genome>:<population>", and
+"nsga2-matched:..." for the runs stopped at EG-GAN's spend), random-allocation fronts ("random:<draws>") and
+EG-GAN's queries ("eggan"). Re-measurement runs per chip, every distinct allocation of the chip once per
+held-out seed, in large optimiser batches (10 ms a team in batches of 256, 5 ms in batches of 1,024).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import torch
+
+from robocompose.fanout.executor import Executor
+from robocompose.teams.baselines import no_decomposition_costs
+from robocompose.teams.chips import Chip
+from robocompose.teams.decompose import Decomposition
+from robocompose.teams.ergodic import CoverageConfig
+from robocompose.teams.evaluator import AllocationEvaluator, chip_coverage
+from robocompose.teams.experiments import baseline_draws
+from robocompose.teams.nsga2 import team_hypervolume
+
+HELDOUT_BATCH = 1024  # teams optimised together: the per-team cost halves from 256 to 1,024
+POINT_COLUMNS = ["method", "chip_id", "seed", "coverage_cost", "deployment_cost", "counts"]
+SINGLE_DRAWS = ("dec_random_allocation", "dec_uniform_robots", "no_decomposition")  # Table 5.5's baselines
+
+
+def nsga2_method(genome: str, population: int, matched: bool = False) -> str:
+    """The method name of NSGA-II runs: "nsga2:<genome>:<population>", "nsga2-matched:..." at EG-GAN's spend."""
+    return f"nsga2{'-matched' if matched else ''}:{genome}:{population}"
+
+
+def front_points(nsga2: pd.DataFrame, matched: pd.DataFrame, random: pd.DataFrame, eggan: pd.DataFrame
+                 ) -> pd.DataFrame:
+    """One table of every front point: method, chip_id, seed, coverage_cost (at the seed), deployment_cost, counts.
+    `nsga2`, `matched`: "teams_fronts" rows of the full and the spend-matched runs; `random`: the random-front
+    points ("teams_random_points"); `eggan`: "teams_eggan_fronts"."""
+    frames = [runs.assign(method=[nsga2_method(g, p, is_matched) for g, p in zip(runs.genome, runs.population,
+                                                                                 strict=True)])
+              for runs, is_matched in ((nsga2, False), (matched, True))]
+    frames += [random.assign(method=[f"random:{draws}" for draws in random.draws]), eggan.assign(method="eggan")]
+    return pd.concat([frame[POINT_COLUMNS] for frame in frames], ignore_index=True)
+
+
+def _remeasure_chip(task: tuple[Chip, Decomposition, CoverageConfig, np.ndarray, list[int], int]) -> np.ndarray:
+    """(N, H) coverage costs of one chip's (N, K, O) allocations at each held-out seed (an executor task)."""
+    chip, decomposition, coverage, counts, seeds, threads = task
+    torch.set_num_threads(threads)
+    problem = chip_coverage(chip, decomposition, coverage)
+    return np.stack([AllocationEvaluator(problem, chip.chip_id, seed, max_batch=HELDOUT_BATCH)(counts)[:, 0]
+                     for seed in seeds], axis=1)
+
+
+def remeasured(points: pd.DataFrame, chips: list[tuple[Chip, Decomposition]], coverage: CoverageConfig,
+               seeds: list[int], executor: Executor | None = None) -> pd.DataFrame:
+    """`points` with heldout_mean and heldout_sd: each allocation's coverage cost over the held-out `seeds`."""
+    by_id = {chip.chip_id: (chip, decomposition) for chip, decomposition in chips}
+    tasks, where = [], []
+    for chip_id, rows in points.groupby("chip_id", sort=True):
+        chip, decomposition = by_id[chip_id]
+        flat = np.asarray(rows.counts.tolist(), dtype=np.int64)  # (n, K*O)
+        distinct, inverse = np.unique(flat, axis=0, return_inverse=True)
+        tasks.append((chip, decomposition, coverage, distinct.reshape(len(distinct), decomposition.n_regions, -1),
+                      seeds, torch.get_num_threads()))
+        where.append((rows.index, inverse.ravel()))
+    mean = pd.Series(np.nan, index=points.index)
+    sd = pd.Series(np.nan, index=points.index)
+    for (index, inverse), costs in zip(where, (executor or Executor(workers=1)).map(_remeasure_chip, tasks),
+                                       strict=True):
+        mean[index] = costs.mean(1)[inverse]
+        sd[index] = costs.std(1, ddof=1)[inverse]
+    return points.assign(heldout_mean=mean, heldout_sd=sd)
+
+
+def heldout_hypervolumes(points: pd.DataFrame) -> pd.DataFrame:
+    """Per method x chip x seed: hypervolume at the selection seed, hypervolume of the same allocations at their
+    held-out mean cost, and the front's size."""
+    rows = []
+    for (method, chip_id, seed), front in points.groupby(["method", "chip_id", "seed"], sort=True):
+        found = front[["coverage_cost", "deployment_cost"]].to_numpy(dtype=np.float64)
+        again = front[["heldout_mean", "deployment_cost"]].to_numpy(dtype=np.float64)
+        rows.append((method, chip_id, seed, team_hypervolume(found), team_hypervolume(again), len(front)))
+    return pd.DataFrame(rows, columns=["method", "chip_id", "seed", "hypervolume", "heldout_hypervolume",
+                                       "front_size"])
+
+
+def budget_picks(points: pd.DataFrame, budgets: list[int]) -> pd.DataFrame:
+    """Table 5.5's "best within the budget" of every front: per method x chip x seed x budget, the point of lowest
+    coverage cost at the selection seed among those deploying <= budget robots, with its held-out cost."""
+    rows = []
+    for (method, chip_id, seed), front in points.groupby(["method", "chip_id", "seed"], sort=True):
+        for budget in budgets:
+            within = front[front.deployment_cost <= budget]
+            if not len(within):
+                continue
+            pick = within.loc[within.coverage_cost.idxmin()]
+            rows.append((method, chip_id, seed, budget, pick.coverage_cost, pick.heldout_mean, pick.heldout_sd,
+                         int(pick.deployment_cost)))
+    return pd.DataFrame(rows, columns=["method", "chip_id", "seed", "budget", "selected_cost", "heldout_mean",
+                                       "heldout_sd", "deployment_cost"])
+
+
+def _single_draws_chip(task: tuple[Chip, Decomposition, CoverageConfig, list[int], list[int], list[int], int]
+                       ) -> list[tuple]:
+    """Table 5.5's single-draw baselines of one chip (the draws of `baseline_draws` at each search seed), each
+    re-measured at every held-out seed (an executor task)."""
+    chip, decomposition, coverage, search_seeds, budgets, heldout_seeds, threads = task
+    torch.set_num_threads(threads)
+    problem = chip_coverage(chip, decomposition, coverage)
+    rows = []
+    for seed in search_seeds:
+        uniform, teams, split = baseline_draws(chip.chip_id, seed, budgets, decomposition.n_regions,
+                                               coverage.robots_per_species)
+        costs = {name: [] for name in SINGLE_DRAWS}
+        for heldout in heldout_seeds:
+            memo = AllocationEvaluator(problem, chip.chip_id, heldout, max_batch=HELDOUT_BATCH)
+            costs["dec_random_allocation"].append(memo(split)[:, 0])
+            costs["dec_uniform_robots"].append(memo(uniform)[:, 0])
+            costs["no_decomposition"].append(no_decomposition_costs(problem, teams, heldout)[0])
+        deployed = {"dec_random_allocation": split.sum((1, 2)), "dec_uniform_robots": uniform.sum((1, 2)),
+                    "no_decomposition": teams.sum(1)}
+        for name in SINGLE_DRAWS:
+            values = np.stack(costs[name], axis=1)  # (budgets, H)
+            rows += [(name, chip.chip_id, seed, budget, np.nan, float(v.mean()), float(v.std(ddof=1)),
+                      int(deployed[name][b]))
+                     for b, (budget, v) in enumerate(zip(budgets, values, strict=True))]
+    return rows
+
+
+def single_draw_costs(chips: list[tuple[Chip, Decomposition]], coverage: CoverageConfig, search_seeds: list[int],
+                      budgets: list[int], heldout_seeds: list[int], executor: Executor | None = None
+                      ) -> pd.DataFrame:
+    """Table 5.5's random-team and joint-plan baselines at the held-out seeds, in `budget_picks`'s columns
+    (selected_cost empty: nothing is selected)."""
+    tasks = [(chip, decomposition, coverage, search_seeds, budgets, heldout_seeds, torch.get_num_threads())
+             for chip, decomposition in chips]
+    rows = [row for chip_rows in (executor or Executor(workers=1)).map(_single_draws_chip, tasks)
+            for row in chip_rows]
+    return pd.DataFrame(rows, columns=["method", "chip_id", "seed", "budget", "selected_cost", "heldout_mean",
+                                       "heldout_sd", "deployment_cost"])
