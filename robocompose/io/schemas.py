@@ -106,11 +106,12 @@ SCHEMAS: dict[str, pa.Schema] = {
     # 5.5's picks: the best point within each budget at the search seed (selected_cost; NaN for the single
     # draws, which select nothing) and its mean and sd over the held-out seeds.
     "teams_heldout_fronts": pa.schema([_required(n, t) for n, t in [
-        ("method", pa.string()), ("chip_id", pa.string()), ("seed", pa.int64()), ("hypervolume", pa.float64()),
-        ("heldout_hypervolume", pa.float64()), ("front_size", pa.int64()), ("distinct_teams", pa.int64())]]),
+        ("method", pa.string()), ("title", pa.string()), ("chip_id", pa.string()), ("seed", pa.int64()),
+        ("hypervolume", pa.float64()), ("heldout_hypervolume", pa.float64()), ("front_size", pa.int64()),
+        ("distinct_teams", pa.int64())]]),
     "teams_heldout_picks": pa.schema([
-        *[_required(n, t) for n, t in [("method", pa.string()), ("chip_id", pa.string()), ("seed", pa.int64()),
-                                       ("budget", pa.int64())]],
+        *[_required(n, t) for n, t in [("method", pa.string()), ("title", pa.string()), ("chip_id", pa.string()),
+                                       ("seed", pa.int64()), ("budget", pa.int64())]],
         pa.field("selected_cost", pa.float64()),
         *[_required(n, t) for n, t in [("heldout_mean", pa.float64()), ("heldout_sd", pa.float64()),
                                        ("deployment_cost", pa.int64())]]]),

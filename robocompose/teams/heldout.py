@@ -31,16 +31,35 @@ from robocompose.teams.decompose import Decomposition
 from robocompose.teams.ergodic import CoverageConfig
 from robocompose.teams.evaluator import AllocationEvaluator, chip_coverage
 from robocompose.teams.experiments import baseline_draws
-from robocompose.teams.nsga2 import team_hypervolume
+from robocompose.teams.nsga2 import GENOMES, team_hypervolume
 
 HELDOUT_BATCH = 1024  # teams optimised together: the per-team cost halves from 256 to 1,024
+PICK_COLUMNS = ["method", "title", "chip_id", "seed", "budget", "selected_cost", "heldout_mean", "heldout_sd",
+                "deployment_cost"]
 POINT_COLUMNS = ["method", "chip_id", "seed", "coverage_cost", "deployment_cost", "counts"]
-SINGLE_DRAWS = ("dec_random_allocation", "dec_uniform_robots", "no_decomposition")  # Table 5.5's baselines
+SINGLE_DRAWS = {  # Table 5.5's baselines (teams/baselines.py): one draw per budget, nothing selected
+    "no_decomposition": "No decomposition",
+    "dec_random_allocation": "Dec + random allocation (random non-empty teams, the thesis's)",
+    "dec_uniform_robots": "Dec + uniform random robots (ours: each robot to a uniform region, regions may stay "
+                          "empty)",
+}
 
 
 def nsga2_method(genome: str, population: int, matched: bool = False) -> str:
     """The method name of NSGA-II runs: "nsga2:<genome>:<population>", "nsga2-matched:..." at EG-GAN's spend."""
     return f"nsga2{'-matched' if matched else ''}:{genome}:{population}"
+
+
+def method_title(method: str) -> str:
+    """A method's title in the tables (written into this stage's tables: the report reads it there)."""
+    kind, *rest = method.split(":")
+    if kind in ("nsga2", "nsga2-matched"):
+        genome, population = rest
+        return (f"NSGA-II:{population}, genome {GENOMES[genome].title}"
+                + (", stopped at EG-GAN's spend" if kind == "nsga2-matched" else ""))
+    if kind == "random":
+        return f"random allocations, front of {rest[0]} draws"
+    return "EG-GAN" if method == "eggan" else SINGLE_DRAWS[method]
 
 
 def front_points(nsga2: pd.DataFrame, matched: pd.DataFrame, random: pd.DataFrame, eggan: pd.DataFrame
@@ -92,8 +111,9 @@ def heldout_hypervolumes(points: pd.DataFrame) -> pd.DataFrame:
     for (method, chip_id, seed), front in points.groupby(["method", "chip_id", "seed"], sort=True):
         found = front[["coverage_cost", "deployment_cost"]].to_numpy(dtype=np.float64)
         again = front[["heldout_mean", "deployment_cost"]].to_numpy(dtype=np.float64)
-        rows.append((method, chip_id, seed, team_hypervolume(found), team_hypervolume(again), len(front)))
-    return pd.DataFrame(rows, columns=["method", "chip_id", "seed", "hypervolume", "heldout_hypervolume",
+        rows.append((method, method_title(method), chip_id, seed, team_hypervolume(found), team_hypervolume(again),
+                     len(front)))
+    return pd.DataFrame(rows, columns=["method", "title", "chip_id", "seed", "hypervolume", "heldout_hypervolume",
                                        "front_size"])
 
 
@@ -107,10 +127,9 @@ def budget_picks(points: pd.DataFrame, budgets: list[int]) -> pd.DataFrame:
             if not len(within):
                 continue
             pick = within.loc[within.coverage_cost.idxmin()]
-            rows.append((method, chip_id, seed, budget, pick.coverage_cost, pick.heldout_mean, pick.heldout_sd,
-                         int(pick.deployment_cost)))
-    return pd.DataFrame(rows, columns=["method", "chip_id", "seed", "budget", "selected_cost", "heldout_mean",
-                                       "heldout_sd", "deployment_cost"])
+            rows.append((method, method_title(method), chip_id, seed, budget, pick.coverage_cost, pick.heldout_mean,
+                         pick.heldout_sd, int(pick.deployment_cost)))
+    return pd.DataFrame(rows, columns=PICK_COLUMNS)
 
 
 def _single_draws_chip(task: tuple[Chip, Decomposition, CoverageConfig, list[int], list[int], list[int], int]
@@ -134,8 +153,8 @@ def _single_draws_chip(task: tuple[Chip, Decomposition, CoverageConfig, list[int
                     "no_decomposition": teams.sum(1)}
         for name in SINGLE_DRAWS:
             values = np.stack(costs[name], axis=1)  # (budgets, H)
-            rows += [(name, chip.chip_id, seed, budget, np.nan, float(v.mean()), float(v.std(ddof=1)),
-                      int(deployed[name][b]))
+            rows += [(name, method_title(name), chip.chip_id, seed, budget, np.nan, float(v.mean()),
+                      float(v.std(ddof=1)), int(deployed[name][b]))
                      for b, (budget, v) in enumerate(zip(budgets, values, strict=True))]
     return rows
 
@@ -149,5 +168,4 @@ def single_draw_costs(chips: list[tuple[Chip, Decomposition]], coverage: Coverag
              for chip, decomposition in chips]
     rows = [row for chip_rows in (executor or Executor(workers=1)).map(_single_draws_chip, tasks)
             for row in chip_rows]
-    return pd.DataFrame(rows, columns=["method", "chip_id", "seed", "budget", "selected_cost", "heldout_mean",
-                                       "heldout_sd", "deployment_cost"])
+    return pd.DataFrame(rows, columns=PICK_COLUMNS)
