@@ -150,7 +150,10 @@ class Executor:
 
             futures = self._client.map(fn, items, pure=False)
             index = {future.key: i for i, future in enumerate(futures)}
-            return ((index[future.key], future.result()) for future in as_completed(futures))
+            # this client's loop: as_completed would otherwise wait on the default client's (another Client of
+            # the process, e.g. the caller's own)
+            completed = as_completed(futures, loop=self._client.loop)
+            return ((index[future.key], future.result()) for future in completed)
         if self.workers == 1:
             return ((i, fn(item)) for i, item in enumerate(items))
         if self._pool is None:
