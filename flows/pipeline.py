@@ -2,7 +2,8 @@
 
 DVC keeps the stage graph and the cache (an up-to-date stage is skipped); Prefect adds schedules,
 retries and logs. Stages run one at a time in dependency order, because DVC locks the repository
-during `dvc repro`.
+during `dvc repro`. A stage is retried only after a transient failure (see `transient`): a stage
+that fails on its own inputs or code fails the same way again, so it fails the flow at once.
 
 Run once, locally (Prefect starts a temporary local server; nothing to set up):
 
@@ -21,6 +22,7 @@ import argparse
 import graphlib
 import os
 import re
+import signal
 import subprocess
 import sys
 from collections import deque
@@ -40,6 +42,7 @@ for _key, _value in {
 
 from prefect import flow, get_run_logger, task  # noqa: E402
 from prefect.settings import PREFECT_API_URL  # noqa: E402
+from prefect.states import State  # noqa: E402
 
 from robocompose.io.dispatch import pin_dispatch  # noqa: E402
 from robocompose.io.errors import INPUT_ERROR_EXIT, InputError, error_line  # noqa: E402
@@ -47,6 +50,15 @@ from robocompose.io.errors import INPUT_ERROR_EXIT, InputError, error_line  # no
 _NODE = re.compile(r'^"(?P<node>[^"]+)";$')
 _EDGE = re.compile(r'^"(?P<upstream>[^"]+)" -> "(?P<downstream>[^"]+)";$')
 _LOG_TAIL = 20  # lines of dvc output quoted in the error of a failed stage
+# dvc's last line when a stage's command failed: "... failed to run: CMD, exited with N" (N < 0: killed by signal -N).
+_STAGE_EXIT = re.compile(r"^ERROR: failed to reproduce .*, exited with (?P<code>-?\d+)$")
+# Signals that stop a healthy stage from outside: the OOM killer, a preempted or shut-down machine.
+_KILLS = {signal.SIGKILL, signal.SIGTERM, signal.SIGHUP}
+# The last line of a stage's traceback when the infrastructure under it failed, not its own code: a Dask worker
+# lost, the connection to a scheduler dropped, a local worker process killed.
+_INFRASTRUCTURE = re.compile(r"^(?:[\w.]+\.)?(?:KilledWorker|CommClosedError|BrokenProcessPool|BrokenPipeError"
+                             r"|Connection(?:Refused|Reset|Aborted)?Error)(?::|$)")
+_DVC_LOCKED = "Unable to acquire lock"  # another dvc process held the repository: try again later
 SERVER_TIMEOUT = 5.0  # s to connect to and hear from the Prefect server's health check (one attempt, no retries)
 
 
@@ -80,7 +92,44 @@ def select_stages(all_stages: list[str], wanted: list[str] | None) -> list[str]:
     return [s for s in all_stages if any(s == w or s.startswith(f"{w}@") for w in wanted)]
 
 
-@task(task_run_name="dvc repro {stage}", retries=1, retry_delay_seconds=5)
+class StageFailed(RuntimeError):
+    """A `dvc repro` that exited non-zero; `transient` if running it again may succeed."""
+
+    def __init__(self, message: str, transient: bool):
+        super().__init__(message)
+        self.transient = transient
+
+
+def transient(returncode: int, output: list[str]) -> bool:
+    """Whether a `dvc repro` that exited `returncode` with `output` (its last lines) failed for a passing reason.
+
+    Transient: dvc or the stage killed from outside (SIGKILL, SIGTERM, SIGHUP, also as a shell's 128 + n), the
+    repository locked by another dvc, or a stage whose traceback ends in a lost worker or connection. Not
+    transient: a stage's own failure (exit 2 for bad params or inputs, 1 for an exception in its code, Ctrl-C).
+    """
+    if returncode < 0:
+        return -returncode in _KILLS
+    if any(_DVC_LOCKED in line for line in output):
+        return True
+    for i, line in enumerate(output):
+        if stage_exit := _STAGE_EXIT.match(line):
+            code = int(stage_exit["code"])
+            if -code in _KILLS or code - 128 in _KILLS:
+                return True
+            return i > 0 and bool(_INFRASTRUCTURE.match(output[i - 1]))
+    return False
+
+
+def retry_if_transient(task: object, task_run: object, state: State) -> bool:
+    """Prefect's `retry_condition_fn` of `run_stage`: retry a StageFailed only if transient; an OSError (the
+    subprocess could not start: no memory, too many open files) always; any other exception never."""
+    error = state.result(raise_on_failure=False)
+    if isinstance(error, StageFailed):
+        return error.transient
+    return isinstance(error, OSError)
+
+
+@task(task_run_name="dvc repro {stage}", retries=1, retry_delay_seconds=5, retry_condition_fn=retry_if_transient)
 def run_stage(stage: str, project_dir: str) -> None:
     """`dvc repro <stage>` in the project, its output streamed into the Prefect log."""
     logger = get_run_logger()
@@ -96,14 +145,16 @@ def run_stage(stage: str, project_dir: str) -> None:
                 tail.append(line)
     if process.returncode:
         output = "\n".join(tail)
-        raise RuntimeError(f"DVC stage {stage!r} failed (dvc repro exited {process.returncode}):\n{output}")
+        raise StageFailed(f"DVC stage {stage!r} failed (dvc repro exited {process.returncode}):\n{output}",
+                          transient(process.returncode, list(tail)))
 
 
 @flow(name="robocompose-pipeline")
 def pipeline(stages: list[str] | None = None, project_dir: str = ".") -> list[str]:
     """Reproduce the DVC stages `stages` (all if None) of the project in dependency order.
 
-    Returns the stages run; the first stage that fails (after its retry) fails the flow.
+    Returns the stages run; the first stage that fails (after its retry, if the failure was transient) fails the
+    flow.
     """
     selected = select_stages(dvc_stages(project_dir), stages)
     get_run_logger().info("stages: %s", selected)

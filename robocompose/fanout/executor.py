@@ -3,11 +3,16 @@
     from robocompose.fanout.executor import Executor, evaluate_many
     with Executor(workers=0) as ex:                 # local processes (0 = all cores, 1 = in this process)
         rewards = ex.map(fn, items)                 # results in item order; progress="label": a tqdm bar
+        for index, reward in ex.as_completed(fn, items): ...   # (item index, result) as each finishes
     with Executor(address="tcp://10.0.0.5:8786") as ex:   # a running dask.distributed scheduler
         rows = evaluate_many(fn, items, key=lambda item: item.key, cache=cache, executor=ex)
 
 `fn` must be a module-level function (it is pickled to the workers) taking one item. An exception in
 `fn` propagates to the caller: a failed evaluation is never turned into a score here.
+
+Results are taken as they finish on every backend (`as_completed`; Dask's `distributed.as_completed`), so one
+slow item holds up neither the progress bar nor the handling of items finished after it; `map` and `imap`
+then put them back in item order, so what a caller builds from them does not depend on the backend.
 
 `evaluate_many` is every world's cached objective: it evaluates only the items whose key is not in the
 cache (each distinct key once), stores each result dict with `cache.put(key, **result)` as it arrives
@@ -21,6 +26,7 @@ executor. Results do not depend on the backend or the number of workers: each it
 
 from __future__ import annotations
 
+import concurrent.futures
 import multiprocessing
 import os
 import re
@@ -123,26 +129,38 @@ class Executor:
 
     def imap(self, fn: Callable[[Any], Any], items: Iterable[Any]) -> Iterator[Any]:
         """Results of `fn` over `items`, yielded in item order as they become available."""
+        return _in_order(self.as_completed(fn, items))
+
+    def as_completed(self, fn: Callable[[Any], Any], items: Iterable[Any]) -> Iterator[tuple[int, Any]]:
+        """(index of the item, result of `fn`) for every item, in the order the evaluations finish (item order in
+        this process). Work starts at the call; the progress bar, if any, counts finished items."""
         items = list(items)
         if not items:
             return iter(())
+        completed = self._completed(fn, items)
         if self.progress is None:
-            return self._results(fn, items)
+            return completed
         from tqdm import tqdm
 
-        return iter(tqdm(self._results(fn, items), total=len(items), desc=self.progress, unit="task",
-                         mininterval=5.0))
+        return iter(tqdm(completed, total=len(items), desc=self.progress, unit="task", mininterval=5.0))
 
-    def _results(self, fn: Callable[[Any], Any], items: list[Any]) -> Iterator[Any]:
+    def _completed(self, fn: Callable[[Any], Any], items: list[Any]) -> Iterator[tuple[int, Any]]:
         if self._client is not None:
+            from distributed import as_completed
+
             futures = self._client.map(fn, items, pure=False)
-            return (future.result() for future in futures)
+            index = {future.key: i for i, future in enumerate(futures)}
+            # this client's loop: as_completed would otherwise wait on the default client's (another Client of
+            # the process, e.g. the caller's own)
+            completed = as_completed(futures, loop=self._client.loop)
+            return ((index[future.key], future.result()) for future in completed)
         if self.workers == 1:
-            return (fn(item) for item in items)
+            return ((i, fn(item)) for i, item in enumerate(items))
         if self._pool is None:
             self._pool = ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("forkserver"),
                                              initializer=quiet_pybullet)  # no banner from each worker
-        return self._pool.map(fn, items)
+        pending = {self._pool.submit(fn, item): i for i, item in enumerate(items)}
+        return ((pending[future], future.result()) for future in concurrent.futures.as_completed(pending))
 
     def map(self, fn: Callable[[Any], Any], items: Iterable[Any]) -> list[Any]:
         """Results of `fn` over `items`, in item order."""
@@ -164,6 +182,18 @@ class Executor:
         self.close()
 
 
+def _in_order(completed: Iterator[tuple[int, Any]]) -> Iterator[Any]:
+    """The results of `completed` ((index, result) pairs, indices 0..n-1 in any order) in index order, each as
+    soon as every result before it has arrived."""
+    waiting: dict[int, Any] = {}
+    following = 0
+    for index, result in completed:
+        waiting[index] = result
+        while following in waiting:
+            yield waiting.pop(following)
+            following += 1
+
+
 def evaluate_many(fn: Callable[[Any], Any], items: Iterable[Any], key: Callable[[Any], CacheKey],
                   cache: EvaluationCache | None = None, executor: Executor | None = None,
                   save_every: int = 0, batch: int = 0) -> list[dict]:
@@ -183,9 +213,9 @@ def evaluate_many(fn: Callable[[Any], Any], items: Iterable[Any], key: Callable[
     own = executor is None and bool(missing)
     executor = Executor(workers=1) if executor is None else executor
     try:
-        for done, (k, result) in enumerate(zip(missing, _results(fn, list(missing.values()), executor, batch),
-                                               strict=True), 1):
-            cache.put(k, **result)
+        missing_keys = list(missing)
+        for done, (index, result) in enumerate(_completed_rows(fn, list(missing.values()), executor, batch), 1):
+            cache.put(missing_keys[index], **result)
             if save_every and done % save_every == 0:
                 cache.save()
     finally:  # keep what was evaluated, also when an evaluation raised
@@ -196,10 +226,14 @@ def evaluate_many(fn: Callable[[Any], Any], items: Iterable[Any], key: Callable[
     return [cache.get(k) for k in keys]
 
 
-def _results(fn: Callable[[Any], Any], items: list[Any], executor: Executor, batch: int) -> Iterator[dict]:
-    """`fn`'s result of every item, in order: one call per item, or per chunk of `batch` items."""
+def _completed_rows(fn: Callable[[Any], Any], items: list[Any], executor: Executor,
+                    batch: int) -> Iterator[tuple[int, dict]]:
+    """(index, `fn`'s result) of every item as the evaluations finish: one call per item, or per chunk of `batch`
+    items (a chunk's results arrive together)."""
     if batch <= 0:
-        yield from executor.imap(fn, items)
+        yield from executor.as_completed(fn, items)
         return
-    for results in executor.imap(fn, [items[i:i + batch] for i in range(0, len(items), batch)]):
-        yield from results
+    chunks = [items[i:i + batch] for i in range(0, len(items), batch)]
+    for chunk, results in executor.as_completed(fn, chunks):
+        first = chunk * batch
+        yield from zip(range(first, first + len(chunks[chunk])), results, strict=True)

@@ -45,6 +45,7 @@ from robocompose.grammar.tree import DesignTree
 from robocompose.io import read_table, write_table
 from robocompose.io.atomic import read_json
 from robocompose.io.errors import InputError, check_field, check_number
+from robocompose.search.significance import holm
 from robocompose.tasks.terrains import TASKS
 
 BASELINES = tuple(m for m in FIG_8_1 if m != "glso")  # Fig. 8.1's family of comparisons
@@ -245,16 +246,6 @@ def read_runs(config: CampaignConfig) -> pd.DataFrame:
     """Every finished run's steps (the committed tables)."""
     tables = [read_table(run_path(config, s), "glso_steps") for s in run_specs(config) if run_path(config, s).exists()]
     return pd.concat(tables, ignore_index=True) if tables else pd.DataFrame()
-
-
-def holm(p: dict[str, float]) -> dict[str, float]:
-    """Holm-Bonferroni adjusted p-values (step-down, monotone, capped at 1)."""
-    order = sorted(p, key=p.get)
-    adjusted, running = {}, 0.0
-    for i, name in enumerate(order):
-        running = max(running, min(1.0, (len(order) - i) * p[name]))
-        adjusted[name] = running
-    return adjusted
 
 
 def bootstrap_median_difference(a: np.ndarray, b: np.ndarray, n: int, rng: np.random.Generator) -> tuple:

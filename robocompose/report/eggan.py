@@ -18,6 +18,8 @@ import pandas as pd
 
 from robocompose.io import read_json, read_table
 from robocompose.report.modular import THESIS_TABLE_5_2
+from robocompose.report.tables import markdown_table
+from robocompose.search.significance import holm
 
 # Thesis Table 5.1 (learned controller): max distance (m), distinct solutions, max distance under EC (m).
 THESIS_TABLE_5_1 = {"Fit2form": ("4.03 ± 0.91", "1.2 ± 0.2", "2.55 ± 1.31"),
@@ -65,22 +67,23 @@ def section(reports_dir: Path, data_dir: Path) -> str:
              "valid satisfying design), looked up the same way; regret = the terrain's exhaustive optimum minus max "
              "distance. Thesis columns: its learned controller; the hand-crafted column is the thesis's experiment "
              "with a controller like ours; '-': a row the thesis does not have.", "",
-             "### Table 5.1: real-time methods", "",
-             "| method | max distance (m) | distinct | EC distance (m) | regret (m) | no valid candidate / EC failures "
-             "| evaluations in training | thesis distance | thesis distinct | thesis EC | thesis hand-crafted |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "### Table 5.1: real-time methods", ""]
+    rows = []
     for method, name in NAMES.items():
         group = table[table.method == method]
         if group.empty:
             continue
         spent = metrics.get(method, {}).get("real_evaluations", "n/a" if method in LEARNED else "-")
-        thesis = THESIS_TABLE_5_1.get(name, NOT_IN_THESIS)
         label = f"{name} (symmetric designs only: ceiling {ceiling['ceiling']:.2f} m)" if method == "dqn" and ceiling \
             else name
-        lines.append(f"| {label} | {_ms(group.max_distance)} | {_ms(group.distinct, 1)} | {_ms(group.ec_distance)} | "
-                     f"{_ms(group.regret)} | {int(group.max_distance.isna().sum())} / {int(group.ec_failures.sum())} | "
-                     f"{spent} | {thesis[0]} | {thesis[1]} | {thesis[2]} | {THESIS_HANDCRAFTED.get(name, '-')} |")
+        rows.append((label, _ms(group.max_distance), _ms(group.distinct, 1), _ms(group.ec_distance), _ms(group.regret),
+                     f"{int(group.max_distance.isna().sum())} / {int(group.ec_failures.sum())}", spent,
+                     *THESIS_TABLE_5_1.get(name, NOT_IN_THESIS), THESIS_HANDCRAFTED.get(name, "-")))
+    lines += markdown_table(["method", "max distance (m)", "distinct", "EC distance (m)", "regret (m)",
+                             "no valid candidate / EC failures", "evaluations in training", "thesis distance",
+                             "thesis distinct", "thesis EC", "thesis hand-crafted"], rows)
     lines += ["", *_table_rows_lines(protocol, set(table.method)), _verdict(table), ""]
+    lines += _significance(table, [m for m in ("random", "portfolio", "ga") if m in set(table.method)])
     lines += _pool_lines(Path(reports_dir) / "metrics" / "modular_pool.json")
     lines += _training_lines(metrics, reports_dir)
     lines += _pool_size_lines(Path(data_dir) / "modular" / "pool_size.parquet", Path(reports_dir) / "figures")
@@ -167,8 +170,7 @@ def _verdict(table: pd.DataFrame) -> str:
     if "optimum" in means.index:
         text += (f" It reaches {means.max_distance['crowding'] / means.max_distance['optimum']:.0%} of the exhaustive "
                  f"optimum ({means.max_distance['optimum']:.2f} m).")
-    tests = _significance(table, [m for m in ("random", "portfolio", "ga") if m in means.index])
-    return f"{text} {tests}" if tests else text
+    return text
 
 
 def _pool_lines(path: Path) -> list[str]:
@@ -178,12 +180,12 @@ def _pool_lines(path: Path) -> list[str]:
         return []
     pool = read_json(path)
     lines = ["### Training pool: exact ground truth", "",
-             "| split | terrains (seeds) | distinct optima (up to mirror) | best-on-average design | its mean regret "
-             "(m) | regret / mean optimum |", "|---|---|---|---|---|---|"]
-    for split in ("training", "validation"):
-        p = pool[split]
-        lines.append(f"| {split} | {p['terrains']} ({p['seeds'][0]}..{p['seeds'][1]}) | {p['distinct_optima']} | "
-                     f"`{p['average_design']}` | {p['mean_regret']:.2f} | {p['regret_ratio']:.0%} |")
+             *markdown_table(["split", "terrains (seeds)", "distinct optima (up to mirror)", "best-on-average design",
+                              "its mean regret (m)", "regret / mean optimum"],
+                             [(split, f"{p['terrains']} ({p['seeds'][0]}..{p['seeds'][1]})", p["distinct_optima"],
+                               p["average_design"], p["mean_regret"], p["regret_ratio"])
+                              for split, p in ((split, pool[split]) for split in ("training", "validation"))],
+                             formats=[None, None, None, "`{}`", "{:.2f}", "{:.0%}"])]
     sizes = ", ".join(f"{n} terrains: `{p['average_design']}` {p['mean_regret']:.2f} m"
                       for n, p in pool.get("by_size", {}).items())
     lines += ["", "Every design on every pool terrain, simulated once (`robocompose modular exhaustive`, committed "
@@ -198,15 +200,15 @@ def _pool_size_lines(path: Path, figures: Path) -> list[str]:
         return []
     study = read_table(path, "modular_pool_size")
     grouped = study.groupby(["pool_terrains", "method"])
-    lines = ["### Beyond the thesis: held-out score against the training pool's size", "",
-             "| pool terrains | method | runs | test max distance (m) | test regret (m) | training max distance (m) | "
-             "EG-GAN iterations / look-ups |",
-             "|---|---|---|---|---|---|---|"]
+    rows = []
     for (n, method), group in grouped:
         cost = f"{group.iterations_done.iloc[0]} / {group.lookups.iloc[0]}" if method == "crowding" else "-"
         fit = group.groupby("seed").train_max_distance.first()
-        lines.append(f"| {n} | {NAMES[method]} | {group.seed.nunique()} | {_ms(group.max_distance)} | "
-                     f"{_ms(group.regret)} | {_ms(fit)} | {cost} |")
+        rows.append((n, NAMES[method], group.seed.nunique(), _ms(group.max_distance), _ms(group.regret), _ms(fit),
+                     cost))
+    lines = ["### Beyond the thesis: held-out score against the training pool's size", "",
+             *markdown_table(["pool terrains", "method", "runs", "test max distance (m)", "test regret (m)",
+                              "training max distance (m)", "EG-GAN iterations / look-ups"], rows)]
     import matplotlib
 
     matplotlib.use("Agg")
@@ -236,19 +238,28 @@ def _pool_size_lines(path: Path, figures: Path) -> list[str]:
 CHANCE = 0.05  # a discriminator whose accuracy stays within this of 1/2 gives the generator no signal
 
 
-def _significance(table: pd.DataFrame, others: list[str]) -> str:
+def _significance(table: pd.DataFrame, others: list[str]) -> list[str]:
     """Wilcoxon signed-rank tests of EG-GAN-crowding's max distance against each method, paired by test terrain
-    (each terrain's mean over its queries: the queries of one terrain are not independent)."""
+    (each terrain's mean over its queries: the queries of one terrain are not independent), Holm-corrected over the
+    family of comparisons made: the lines of their table, none if no comparison could be made."""
     from scipy.stats import wilcoxon
 
     per_terrain = table.groupby(["method", "terrain_seed"]).max_distance.mean().unstack("method")
-    parts = []
+    if "crowding" not in per_terrain:
+        return []
+    raw, pairs = {}, {}
     for other in others:
         diff = (per_terrain["crowding"] - per_terrain[other]).dropna()
         if len(diff) >= 5 and (diff != 0).any():
-            parts.append(f"vs {NAMES[other]} p = {wilcoxon(diff).pvalue:.3f}")
-    return (f"Paired by terrain (Wilcoxon signed-rank, {len(per_terrain)} terrains): " + "; ".join(parts) + "."
-            if parts else "")
+            raw[other], pairs[other] = float(wilcoxon(diff).pvalue), len(diff)
+    if not raw:
+        return []
+    adjusted = holm(raw)
+    return [f"Paired by terrain (Wilcoxon signed-rank, {len(per_terrain)} terrains), Holm-corrected over the "
+            f"{len(raw)} comparisons of EG-GAN-crowding:", "",
+            *markdown_table(["EG-GAN-crowding vs", "paired terrains", "p", "Holm p"],
+                            [(NAMES[m], pairs[m], raw[m], adjusted[m]) for m in raw],
+                            formats=[None, None, "{:.3f}", "{:.3f}"]), ""]
 
 
 def _accuracy(accuracy: float | None, pop_new: float | None) -> str:
@@ -262,13 +273,7 @@ def _accuracy(accuracy: float | None, pop_new: float | None) -> str:
 def _training_lines(metrics: dict, reports_dir: Path) -> list[str]:
     """Each learner's fitness source, iterations, evaluations against the budget, discriminator accuracy (flagged at
     chance), validation-terrain score, surrogate error where a surrogate was used; the validation curves."""
-    lines = ["### Training", "",
-             "| method | fitness | iterations (done / asked) | evaluations / budget | discriminator accuracy "
-             "(ceiling) | "
-             "training max distance (m) | validation max distance (m) | validation regret (m) | "
-             "surrogate Spearman within a terrain |",
-             "|---|---|---|---|---|---|---|---|---|"]
-    flagged = []
+    rows, flagged = [], []
     for method, m in metrics.items():
         final, name = m.get("final", {}), m.get("method", method)
         accuracy = final.get("d_accuracy")
@@ -277,12 +282,16 @@ def _training_lines(metrics: dict, reports_dir: Path) -> list[str]:
         surrogate = m.get("surrogate_heldout") or {}
         source = {"table": "exact (pool tables)", "surrogate": "surrogate + rollouts"}.get(m.get("fitness_source"),
                                                                                            "surrogate + rollouts")
-        lines.append(f"| {name} | {source} | {m.get('iterations_done', m.get('iterations'))} / {m.get('iterations')} | "
-                     f"{m.get('real_evaluations')} / {m.get('evaluation_budget', '-')} | "
-                     f"{_accuracy(accuracy, final.get('pop_new'))} | "
-                     f"{_number((m.get('training_terrains') or {}).get('train_max_distance'))} | "
-                     f"{_number(final.get('val_max_distance'))} | "
-                     f"{_number(final.get('val_regret'))} | {_number(surrogate.get('spearman_within_terrain'))} |")
+        rows.append((name, source, f"{m.get('iterations_done', m.get('iterations'))} / {m.get('iterations')}",
+                     f"{m.get('real_evaluations')} / {m.get('evaluation_budget', '-')}",
+                     _accuracy(accuracy, final.get("pop_new")),
+                     (m.get("training_terrains") or {}).get("train_max_distance"), final.get("val_max_distance"),
+                     final.get("val_regret"), surrogate.get("spearman_within_terrain")))
+    lines = ["### Training", "",
+             *markdown_table(["method", "fitness", "iterations (done / asked)", "evaluations / budget",
+                              "discriminator accuracy (ceiling)", "training max distance (m)",
+                              "validation max distance (m)", "validation regret (m)",
+                              "surrogate Spearman within a terrain"], rows, formats=[None] * 5 + [_number] * 4)]
     lines += ["", "Exact fitness: a design's fitness on a training terrain is its entry in that terrain's exhaustive "
               "table (the pybullet rollout); evaluations = distinct (terrain, design) look-ups, the same budget for "
               "every learner, which stops when it is spent. Training and validation max distance: the best of each "
@@ -335,29 +344,31 @@ def _validation_figure(curves: dict[str, Path], path: Path) -> bool:
     return True
 
 
+def _seeds(group: pd.DataFrame) -> str:
+    return ", ".join(map(str, sorted(group.terrain_seed.unique())))
+
+
 def _table_5_2(table: pd.DataFrame, reports_dir: Path, data_dir: Path) -> list[str]:
     runs_path = Path(data_dir) / "modular" / "runs.parquet"
     crowding = table[table.method == "crowding"]
-    lines = ["### Table 5.2: EG-GAN-crowding beside the GA runs", "",
-             "| method | max distance (m) | distinct | runtime | test terrains | thesis distance | thesis distinct | "
-             "thesis runtime (min) |", "|---|---|---|---|---|---|---|---|"]
+    rows = []
     if runs_path.exists():
         runs = read_table(runs_path, "modular_runs")
         for method, name in (("ga20", "GA-20"), ("ga50", "GA-50"), ("crowding", "GA-crowding")):
             group = runs[runs.method == method]
             if len(group):
-                lines.append(f"| {name} | {_ms(group.best_distance)} | {_ms(group.distinct, 1)} | "
-                             f"{int(group.evaluations.mean())} rollouts (see the modular section's runtimes) | "
-                             f"{', '.join(map(str, sorted(group.terrain_seed.unique())))} | "
-                             + " | ".join(THESIS_TABLE_5_2[method]) + " |")
+                rows.append((name, _ms(group.best_distance), _ms(group.distinct, 1),
+                             f"{int(group.evaluations.mean())} rollouts (see the modular section's runtimes)",
+                             _seeds(group), *THESIS_TABLE_5_2[method]))
     bench = Path(reports_dir) / "benchmarks.json"
     query_ms = read_json(bench).get("eggan.modular.query_ms") if bench.exists() else None
     if len(crowding):
         runtime = "not benchmarked (`make bench`)" if query_ms is None else f"{query_ms:.1f} ms per query"
-        lines.append(f"| EG-GAN-crowding | {_ms(crowding.max_distance)} | {_ms(crowding.distinct, 1)} | "
-                     f"{runtime} | {', '.join(map(str, sorted(crowding.terrain_seed.unique())))} | "
-                     f"{THESIS_TABLE_5_1['EG-GAN-crowding'][0]} | {THESIS_TABLE_5_1['EG-GAN-crowding'][1]} | "
-                     f"{THESIS_QUERY_MIN} |")
+        rows.append(("EG-GAN-crowding", _ms(crowding.max_distance), _ms(crowding.distinct, 1), runtime,
+                     _seeds(crowding), *THESIS_TABLE_5_1["EG-GAN-crowding"][:2], THESIS_QUERY_MIN))
+    lines = ["### Table 5.2: EG-GAN-crowding beside the GA runs", "",
+             *markdown_table(["method", "max distance (m)", "distinct", "runtime", "test terrains", "thesis distance",
+                              "thesis distinct", "thesis runtime (min)"], rows)]
     lines += ["", "The GA rows search each test terrain from scratch (their runtime is simulation); EG-GAN-crowding's "
               "runtime is `eggan.modular.query_ms` of `make bench` (one query: 64 samples, one core, the ranking "
               "included; reports/benchmarks.json). The protocol's queries keep drawing batches of 64 until 10 "

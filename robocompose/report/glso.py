@@ -16,6 +16,7 @@ import pandas as pd
 
 from robocompose.glso import FIG_8_1, FIG_8_2, LABELS, best_designs, best_so_far_curves, draw_curves
 from robocompose.io import read_table
+from robocompose.report.tables import markdown_table
 
 
 def _plot(stats: pd.DataFrame, tasks: list[str], methods: tuple[str, ...], title: str, path: Path) -> None:
@@ -36,14 +37,14 @@ def _plot(stats: pd.DataFrame, tasks: list[str], methods: tuple[str, ...], title
 
 
 def _final_table(final: pd.DataFrame, tasks: list[str], methods: list[str]) -> list[str]:
-    lines = ["| method | " + " | ".join(tasks) + " |", "|---|" + "---|" * len(tasks)]
+    rows = []
     for method in methods:
         cells = []
         for task in tasks:
             v = final[(final.task == task) & (final.method == method)]["best_so_far"]
             cells.append(f"{v.mean():.3f} [{v.min():.3f}, {v.max():.3f}] (n={len(v)})" if len(v) else "-")
-        lines.append(f"| {LABELS[method]} | " + " | ".join(cells) + " |")
-    return lines
+        rows.append((LABELS[method], *cells))
+    return markdown_table(["method", *tasks], rows)
 
 
 def claims(final: pd.DataFrame, tasks: list[str]) -> list[str]:
@@ -97,10 +98,10 @@ def section(reports_dir: Path, data_dir: Path) -> str:
              "before sending them (the grammar methods' depth limit and self-penetration check, random search's "
              "dataset filters, the GA's self-penetration check; GLSO has none) cost no call and are counted "
              "below. Best so far counts simulated designs only.", "",
-             "| method | repeats | not simulated (invalid score) | discarded before a call, per call |",
-             "|---|---|---|---|",
-             *(f"| {LABELS[m]} | {share.loc[m, 'repeats']:.0%} | {share.loc[m, 'invalid']:.0%} | "
-               f"{share.loc[m, 'rejected']:.1f} |" for m in methods), "",
+             *markdown_table(["method", "repeats", "not simulated (invalid score)",
+                              "discarded before a call, per call"],
+                             [(LABELS[m], *share.loc[m, ["repeats", "invalid", "rejected"]]) for m in methods],
+                             formats=[None, "{:.0%}", "{:.0%}", "{:.1f}"]), "",
              "![Fig. 8.1](figures/glso_fig8_1.png)", "", "![Fig. 8.2](figures/glso_fig8_2.png)", "",
              "Final best reward per method and task: mean [min, max] over seeds:", "",
              *_final_table(final, tasks, methods), "",
@@ -174,23 +175,23 @@ def campaign_section(reports_dir: Path) -> str:
     lines = [title, "", f"{summary['runs']} of {summary['planned']} planned runs committed, "
              f"{summary['budget']} objective calls each{rung}; each run's best simulated design re-scored at the "
              f"thesis setting with controller seeds {summary['rescore_seeds']} (never used in search).{partial}", "",
-             "![GLSO campaign](plots/glso_campaign.png)", "",
-             "| method | task | final best at the search rung, median [IQR] | re-scored, median [IQR] | "
-             "calls on a repeated design, median |", "|---|---|---|---|---:|"]
+             "![GLSO campaign](plots/glso_campaign.png)", ""]
+    table = []
     for task in tasks:
         for method in [m for m in LABELS if m in set(finals["method"])]:
             rows = finals[(finals["task"] == task) & (finals["method"] == method)]
             repeats = f"{rows['repeats'].median():.0f}" if "repeats" in rows else "-"
-            lines.append(f"| {LABELS[method]} | {task} | {_median_iqr(rows['search'])} | "
-                         f"{_median_iqr(rows['rescored'])} | {repeats} |")
+            table.append((LABELS[method], task, _median_iqr(rows["search"]), _median_iqr(rows["rescored"]), repeats))
+    lines += markdown_table(["method", "task", "final best at the search rung, median [IQR]", "re-scored, median [IQR]",
+                             "calls on a repeated design, median"], table, align="llllr")
     if tests.empty:
         alone = "Only GLSO has runs yet" if "glso" in set(finals["method"]) else "No GLSO runs yet"
         return "\n".join(lines + ["", f"{alone}: nothing to compare.", ""])
     lines += ["", "GLSO against each method: one-sided Mann-Whitney U (GLSO greater), Holm-corrected within its "
-              "family; median difference GLSO - method with a bootstrap 95% interval.", "",
-              "| task | on | method | n (GLSO / other) | p | p (Holm) | median difference [95% CI] |",
-              "|---|---|---|---|---|---|---|"]
-    lines += [f"| {r.task} | {r.on} | {LABELS[r.method]} | {r.n_glso} / {r.n_other} | {r.p:.3f} | {r.p_holm:.3f} | "
-              f"{r.median_difference:+.3f} [{r.ci_low:+.3f}, {r.ci_high:+.3f}] |" for r in tests.itertuples()]
+              "family; median difference GLSO - method with a bootstrap 95% interval.", ""]
+    lines += markdown_table(["task", "on", "method", "n (GLSO / other)", "p", "p (Holm)", "median difference [95% CI]"],
+                            [(r.task, r.on, LABELS[r.method], f"{r.n_glso} / {r.n_other}", r.p, r.p_holm,
+                              f"{r.median_difference:+.3f} [{r.ci_low:+.3f}, {r.ci_high:+.3f}]")
+                             for r in tests.itertuples()], formats=[None] * 4 + ["{:.3f}", "{:.3f}"])
     lines += ["", "Verdicts (re-scored finals):", "", *campaign_verdicts(tests, 0.05), ""]
     return "\n".join(lines)

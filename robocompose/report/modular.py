@@ -18,6 +18,7 @@ import pandas as pd
 
 from robocompose.io import read_table
 from robocompose.io.atomic import read_json
+from robocompose.report.tables import markdown_table
 
 # Thesis Table 5.2 (learned modular controller): max distance (m), distinct solutions, runtime (min), each mean +- std.
 THESIS_TABLE_5_2 = {"ga20": ("4.21 ± 1.43", "1.8 ± 0.8", "25.4 ± 0.7"),
@@ -84,25 +85,18 @@ def section(reports_dir: Path, data_dir: Path, modular: dict) -> str:
         "",
     ]
     lines += _criterion_lines(truth)
+    rate = _steps_per_second(reports_dir)
+    rows = [(NAMES[method], _mean_std(group.best_distance), _mean_std(group.distinct, 1), _mean_std(group.regret),
+             _failures(group), int(group.evaluations.mean()),
+             _mean_std(group.sim_steps / rate / 60, 1) if rate else "n/a (run `make bench`)",
+             _mean_std(group.sim_seconds / 60, 1), *THESIS_TABLE_5_2[method])
+            for method, group in ((m, runs[runs.method == m]) for m in ("ga20", "ga50", "crowding")) if len(group)]
     lines += [
         "### Evolutionary baselines (Table 5.2)",
         "",
-        "| method | max distance (m) | distinct solutions | regret to the optimum (m) | failed runs | evaluations "
-        "| runtime (min, one quiet core) | measured simulation time (min) | thesis distance | thesis distinct "
-        "| thesis runtime (min) |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
-    ]
-    rate = _steps_per_second(reports_dir)
-    for method in ("ga20", "ga50", "crowding"):
-        group = runs[runs.method == method]
-        if group.empty:
-            continue
-        thesis = THESIS_TABLE_5_2[method]
-        lines.append(f"| {NAMES[method]} | {_mean_std(group.best_distance)} | {_mean_std(group.distinct, 1)} | "
-                     f"{_mean_std(group.regret)} | {_failures(group)} | {int(group.evaluations.mean())} | "
-                     f"{_mean_std(group.sim_steps / rate / 60, 1) if rate else 'n/a (run `make bench`)'} | "
-                     f"{_mean_std(group.sim_seconds / 60, 1)} | {thesis[0]} | {thesis[1]} | {thesis[2]} |")
-    lines += [
+        *markdown_table(["method", "max distance (m)", "distinct solutions", "regret to the optimum (m)", "failed runs",
+                         "evaluations", "runtime (min, one quiet core)", "measured simulation time (min)",
+                         "thesis distance", "thesis distinct", "thesis runtime (min)"], rows),
         "",
         "A run's cost is every evaluation it asked for, repeats included (what it costs without a cache): runtime = "
         f"its simulation steps at {f'{rate:,.0f}' if rate else 'the benchmark'} steps/s (one quiet core, "
@@ -114,18 +108,9 @@ def section(reports_dir: Path, data_dir: Path, modular: dict) -> str:
         "",
         "### Random sampling (Table 5.1 row)",
         "",
-        "| method | max distance (m) | failed runs | max distance under emergency constraints (m) "
-        "| EC answers without a distance | EC optimum (m) | thesis distance | thesis EC distance |",
-        "|---|---|---|---|---|---|---|---|",
-    ]
-    random_runs = runs[runs.method == "random"]
-    if not random_runs.empty:
-        answers = len(random_runs) * modular["experiments"]["ec_draws"]
-        lines.append(f"| Random sampling (10 designs) | {_mean_std(random_runs.best_distance)} | "
-                     f"{_failures(random_runs)} | {_mean_std(random_runs.ec_distance)} | "
-                     f"{int(random_runs.ec_failures.sum())} of {answers} | "
-                     f"{_mean_std(random_runs.ec_optimum)} | {THESIS_RANDOM[0]} | {THESIS_RANDOM[1]} |")
-    lines += [
+        *markdown_table(["method", "max distance (m)", "failed runs", "max distance under emergency constraints (m)",
+                         "EC answers without a distance", "EC optimum (m)", "thesis distance", "thesis EC distance"],
+                        _random_rows(runs[runs.method == "random"], modular["experiments"]["ec_draws"])),
         "",
         "Emergency constraints: each draw caps one module type (leg, wheel or leg-wheel) at 0, 1 or 2; a method "
         "answers with its best valid output design that satisfies the cap, else a random valid satisfying design. "
@@ -136,17 +121,17 @@ def section(reports_dir: Path, data_dir: Path, modular: dict) -> str:
         "",
         "All 4096 designs on each test terrain (designs the rule skips score -10; the rest simulated).",
         "",
-        "| terrain seed | simulated designs | optimum (m) | best design | designs within 0.5 m | "
-        + " | ".join(f"{NAMES[m]} regret (m)" for m in NAMES) + " |",
-        "|---|---|---|---|---|" + "---|" * len(NAMES),
     ]
+    rows = []
     for row in summary[summary.terrain_seed.isin(runs.terrain_seed)].itertuples():
         regrets = []
         for method in NAMES:
             group = runs[(runs.method == method) & (runs.terrain_seed == row.terrain_seed)]
             regrets.append(_mean_std(group.regret) if len(group) else "n/a")
-        lines.append(f"| {row.terrain_seed} | {row.simulated} | {row.optimum:.2f} | `{row.best_design}` | "
-                     f"{row.near_optimal} | " + " | ".join(regrets) + " |")
+        rows.append((row.terrain_seed, row.simulated, row.optimum, row.best_design, row.near_optimal, *regrets))
+    lines += markdown_table(["terrain seed", "simulated designs", "optimum (m)", "best design", "designs within 0.5 m",
+                             *(f"{NAMES[m]} regret (m)" for m in NAMES)], rows,
+                            formats=[None, None, "{:.2f}", "`{}`"])
     found = runs.assign(hit=runs.regret <= 1e-9).groupby("method").hit.mean()
     lines += [
         "",
@@ -163,6 +148,16 @@ def section(reports_dir: Path, data_dir: Path, modular: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _random_rows(random_runs: pd.DataFrame, ec_draws: int) -> list[tuple]:
+    """Table 5.1's random-sampling row (none before the runs exist)."""
+    if random_runs.empty:
+        return []
+    answers = len(random_runs) * ec_draws
+    return [("Random sampling (10 designs)", _mean_std(random_runs.best_distance), _failures(random_runs),
+             _mean_std(random_runs.ec_distance), f"{int(random_runs.ec_failures.sum())} of {answers}",
+             _mean_std(random_runs.ec_optimum), *THESIS_RANDOM)]
+
+
 def _criterion_lines(truth: dict) -> list[str]:
     """The terrain criterion over every terrain with an exhaustive table (from the stage's metrics)."""
     totals = truth["criterion"]
@@ -176,14 +171,12 @@ def _criterion_lines(truth: dict) -> list[str]:
         f"optimum ({totals['mean_optimum']:.2f} m). Criterion (>= 8 terrains, >= 3 distinct optima, regret >= 10%): "
         + ("holds." if totals["holds"] else "does **not** hold."),
         "",
-        "| terrain seed | tallest block (cm) | optimum design | its distance (m) | best-on-average design's "
-        "distance (m) | its regret (m) |",
-        "|---|---|---|---|---|---|",
+        *markdown_table(["terrain seed", "tallest block (cm)", "optimum design", "its distance (m)",
+                         "best-on-average design's distance (m)", "its regret (m)"],
+                        [(row.terrain_seed, truth["tallest_block_cm"][str(row.terrain_seed)], row.optimum_design,
+                          row.optimum, row.average_distance, row.regret) for row in per_terrain.itertuples()],
+                        formats=[None, "{:.1f}", "`{}`", "{:.2f}", "{:.2f}", "{:.2f}"]),
     ]
-    for row in per_terrain.itertuples():
-        tallest = truth["tallest_block_cm"][str(row.terrain_seed)]
-        lines.append(f"| {row.terrain_seed} | {tallest:.1f} | `{row.optimum_design}` | {row.optimum:.2f} | "
-                     f"{row.average_distance:.2f} | {row.regret:.2f} |")
     return lines + [""]
 
 

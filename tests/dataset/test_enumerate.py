@@ -48,7 +48,10 @@ def test_round_trip_through_parquet(small_runs, tmp_path):
 
 def test_another_seed_gives_other_designs(small_runs):
     other, _ = enumerate_designs(EnumerateConfig(n=3, seed=4, chunk=8), progress=None)
-    assert set(other["design_id"]).isdisjoint(set(small_runs[0]["design_id"][:3])) or len(other) == 3
+    assert len(other) == 3 and other["design_id"].is_unique
+    # Another seed may share a design now and then (the grammar's small designs are few); sharing all three, in any
+    # order, means the seed does not reach the derivations.
+    assert len(set(other["design_id"]) & set(small_runs[0]["design_id"][:3])) < 3
 
 
 @pytest.mark.parametrize(("field", "value"), [("n", -5), ("n", 0), ("chunk", 0)])

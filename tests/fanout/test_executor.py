@@ -22,6 +22,27 @@ def _key(item):
     return (item[0], "flat", "h", 0)
 
 
+def _slow_row(item):
+    """_row after sleeping the item's value in seconds."""
+    time.sleep(item[1])
+    return _row(item)
+
+
+SLOW_FIRST = [("slow", 0.5), ("a", 0), ("b", 0), ("c", 0)]  # the first item takes longest
+
+
+class _PutOrder(EvaluationCache):
+    """A cache that records the order its rows arrive in."""
+
+    def __init__(self):
+        super().__init__()
+        self.arrivals = []
+
+    def put(self, key, **values):
+        self.arrivals.append(key[0])
+        super().put(key, **values)
+
+
 def test_local_processes_return_results_in_order():
     with Executor(workers=2) as ex:
         assert ex.backend == "processes"
@@ -31,6 +52,25 @@ def test_local_processes_return_results_in_order():
     assert Executor(workers=1).backend == "inline"
     with pytest.raises(ValueError, match="workers"):
         Executor(workers=-1)
+
+
+@pytest.mark.parametrize("backend", ["processes", "dask"])
+def test_a_slow_first_item_holds_up_neither_later_results_nor_their_order(backend, request):
+    address = request.getfixturevalue("dask_address") if backend == "dask" else None
+    with Executor(workers=2, address=address) as ex:
+        assert ex.backend == backend
+        finished = [index for index, _ in ex.as_completed(_slow_row, SLOW_FIRST)]
+        assert sorted(finished) == [0, 1, 2, 3] and finished[0] != 0  # a later item was handled first
+        assert [r["reward"] for r in ex.map(_slow_row, SLOW_FIRST)] == [0.5, 0.0, 0.0, 0.0]  # item order
+        cache = _PutOrder()
+        rows = evaluate_many(_slow_row, SLOW_FIRST, _key, cache=cache, executor=ex)
+    assert cache.arrivals[0] != "slow" and sorted(cache.arrivals) == ["a", "b", "c", "slow"]  # cached as they came
+    assert [r["reward"] for r in rows] == [0.5, 0.0, 0.0, 0.0]
+
+
+def test_in_this_process_items_complete_in_order():
+    with Executor(workers=1) as ex:
+        assert list(ex.as_completed(abs, [-3, 2, -1])) == [(0, 3), (1, 2), (2, 1)]
 
 
 def test_a_progress_label_shows_a_bar_without_changing_results(capsys):

@@ -142,21 +142,77 @@ def test_pipeline_reproduces_selected_then_all_stages(flows_pipeline: ModuleType
     assert dvc_status(project) == {}
 
 
-def test_failing_stage_fails_the_flow_after_one_retry(
+FLAKY_DVC_YAML = """\
+stages:
+  a:
+    cmd: python -c "open('a.txt', 'w').write('7'); print('stage a wrote 7')"
+    outs: [a.txt]
+  b:
+    cmd: python flaky.py
+    deps: [a.txt]
+    outs: [b.txt]
+"""
+
+# Stage `b` of FLAKY_DVC_YAML killed by SIGKILL (as the OOM killer would) on its first attempt, then it succeeds.
+KILLED_ONCE_STAGE = """\
+import os, signal
+if not os.path.exists("tried"):
+    open("tried", "w").close()
+    os.kill(os.getpid(), signal.SIGKILL)
+open("b.txt", "w").write(open("a.txt").read() + "b")
+"""
+
+
+def test_a_deterministic_failure_runs_once_and_fails_the_flow(
     flows_pipeline: ModuleType, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    assert (flows_pipeline.run_stage.retries, flows_pipeline.run_stage.retry_delay_seconds) == (1, 5)
-    # Same task without the 5 s wait before its retry, to keep the test fast.
-    monkeypatch.setattr(
-        flows_pipeline, "run_stage", flows_pipeline.run_stage.with_options(retry_delay_seconds=0)
-    )
+    task = flows_pipeline.run_stage
+    assert (task.retries, task.retry_delay_seconds) == (1, 5)
+    assert task.retry_condition_fn is flows_pipeline.retry_if_transient
+    # Same task without the 5 s wait before a retry, to keep the test fast (a wrong retry would still show).
+    monkeypatch.setattr(flows_pipeline, "run_stage", task.with_options(retry_delay_seconds=0))
     project = make_dvc_project(tmp_path / "project", FAILING_DVC_YAML)
     state = run_pipeline(flows_pipeline, project)
     assert state.is_failed()
     assert "DVC stage 'b' failed" in state.message
     assert (project / "a.txt").read_text() == "7"  # the stage before ran
-    assert (project / "attempts.txt").read_text() == "attempt\nattempt\n"  # retries=1
+    assert (project / "attempts.txt").read_text() == "attempt\n"  # exit 3: its own failure, not retried
     assert not (project / "c.txt").exists()  # the stage after did not
+
+
+def test_a_killed_stage_is_retried(flows_pipeline: ModuleType, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(flows_pipeline, "run_stage", flows_pipeline.run_stage.with_options(retry_delay_seconds=0))
+    project = make_dvc_project(tmp_path / "project", FLAKY_DVC_YAML)
+    (project / "flaky.py").write_text(KILLED_ONCE_STAGE)
+    state = run_pipeline(flows_pipeline, project)
+    assert state.is_completed(), state.message
+    assert (project / "tried").exists() and (project / "b.txt").read_text() == "7b"
+
+
+def _dvc_failure(stage_exit: int, before: str = "some output") -> list[str]:
+    return [before, f"ERROR: failed to reproduce 'b': failed to run: python b.py, exited with {stage_exit}"]
+
+
+@pytest.mark.parametrize(("returncode", "output", "expected"), [
+    (255, _dvc_failure(2, "stage b: error: params.yaml: b: n must be a positive integer, got -3"), False),
+    (255, _dvc_failure(1, "ValueError: x"), False),  # an exception in the stage's code
+    (255, _dvc_failure(130, "stage b: interrupted"), False),  # Ctrl-C: the user stopped it
+    (255, _dvc_failure(3), False),
+    (255, _dvc_failure(-9), True),  # SIGKILL: the OOM killer
+    (255, _dvc_failure(-15), True),  # SIGTERM: a machine shutting down
+    (255, _dvc_failure(137), True),  # SIGKILL as a shell reports it
+    (255, _dvc_failure(1, "distributed.scheduler.KilledWorker: Attempted to run task 'x' on 3 different workers"),
+     True),
+    (255, _dvc_failure(1, "ConnectionRefusedError: [Errno 111] Connection refused"), True),
+    (255, _dvc_failure(1, "concurrent.futures.process.BrokenProcessPool: A process in the pool was terminated"),
+     True),
+    (255, ["ERROR: Unable to acquire lock. Most likely another DVC process is running"], True),
+    (-9, ["Running stage 'b':"], True),  # dvc itself killed
+    (-2, ["Running stage 'b':"], False),
+])
+def test_only_transient_failures_count_as_transient(flows_pipeline: ModuleType, returncode: int, output: list[str],
+                                                   expected: bool) -> None:
+    assert flows_pipeline.transient(returncode, output) is expected
 
 
 TINY_PARAMS = {"compute": {"workers": 2}, "enumerate": {"n": 6, "seed": 0, "chunk": 8}, "nogram": {"n": 4, "seed": 1}}
@@ -273,25 +329,6 @@ def test_a_server_that_never_answers_fails_within_the_deadline(tmp_path: Path) -
 
 # --- served on a real Prefect server ---
 
-# `b` fails on its first attempt (it leaves a marker), succeeds on the second: the task's retry.
-FLAKY_STAGE = """\
-import os, sys
-if not os.path.exists("tried"):
-    open("tried", "w").close()
-    sys.exit(3)
-open("b.txt", "w").write(open("a.txt").read() + "b")
-"""
-FLAKY_DVC_YAML = """\
-stages:
-  a:
-    cmd: python -c "open('a.txt', 'w').write('7'); print('stage a wrote 7')"
-    outs: [a.txt]
-  b:
-    cmd: python flaky.py
-    deps: [a.txt]
-    outs: [b.txt]
-"""
-
 
 def _free_port() -> int:
     with socket.socket() as sock:
@@ -335,7 +372,7 @@ def prefect_server(tmp_path: Path):
 def test_served_flow_runs_on_a_real_server_and_retries_a_failed_stage(prefect_server: dict, tmp_path: Path,
                                                                       monkeypatch: pytest.MonkeyPatch) -> None:
     project = make_dvc_project(tmp_path / "project", FLAKY_DVC_YAML)
-    (project / "flaky.py").write_text(FLAKY_STAGE)
+    (project / "flaky.py").write_text(KILLED_ONCE_STAGE)
     serve = subprocess.Popen([sys.executable, str(PIPELINE_FILE), "--serve", "--cron", "0 3 * * *", "--name",
                               "nightly", "--project-dir", str(project)], env=prefect_server,
                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)

@@ -9,7 +9,7 @@ import pytest
 from robocompose.evaluation import fidelity
 from robocompose.evaluation.evaluate import EvaluationConfig, evaluate
 from robocompose.glso import campaign
-from robocompose.glso.campaign import CampaignConfig, compare, holm, run_specs
+from robocompose.glso.campaign import CampaignConfig, compare, run_specs
 from robocompose.glso.runs import GLSOConfig
 from robocompose.grammar.tree import DesignTree
 from robocompose.io.errors import ArtifactError, InputError
@@ -43,11 +43,6 @@ def test_the_campaign_runs_its_own_budget_init_population_and_ghs_epsilons_over_
     assert (runs.budget, runs.bo.init, runs.ga.population) == (200, 50, 50)
     assert (runs.ghs.eps_end, runs.ghs.eps_sample_end) == (0.1, 0.1)
     assert runs.ghs.eps_decay == smoke.ghs.eps_decay and runs.mcts == smoke.mcts  # the rest is the profile's
-
-
-def test_holm_adjusts_step_down_and_stays_monotone():
-    assert holm({"a": 0.01, "b": 0.04, "c": 0.03}) == pytest.approx({"a": 0.03, "b": 0.06, "c": 0.06})
-    assert holm({"a": 0.5, "b": 0.6}) == {"a": 1.0, "b": 1.0}
 
 
 def _finals(values: dict[str, list[float]]) -> pd.DataFrame:
