@@ -3,15 +3,16 @@ on (robocompose.teams.heldout), and NSGA-II given EG-GAN's spend.
 
 NSGA-II at EG-GAN's spend: per chip x seed, NSGA-II (`matched_genome`, `matched_population`) stopped after the
 generation at which it has optimised as many distinct teams as EG-GAN's query did there. Writes
-data/teams/{matched_nsga2,matched_fronts,heldout_fronts,heldout_picks}.parquet; the matched runs' wall times go to
-reports/timings.json (not tracked by DVC).
+data/teams/{matched_nsga2,matched_fronts,heldout_fronts,heldout_picks}.parquet and reports/metrics/teams_heldout.json
+(the seeds and each method's mean held-out hypervolume); the matched runs' wall times go to reports/timings.json (not
+tracked by DVC).
 """
 
 import pandas as pd
 import torch
 
 from robocompose.fanout.compute import ComputeConfig
-from robocompose.io import read_table, write_table
+from robocompose.io import atomic_write_json, read_table, write_table
 from robocompose.io.timings import timed
 from robocompose.params import load_section
 from robocompose.search.nsga2 import NSGA2Config
@@ -68,8 +69,13 @@ def main() -> None:
         write_table(matched, "data/teams/matched_nsga2.parquet", "teams_nsga2")
         write_table(matched_fronts, "data/teams/matched_fronts.parquet", "teams_fronts")
         write_table(fronts, "data/teams/heldout_fronts.parquet", "teams_heldout_fronts")
-        write_table(pd.concat([picks, single], ignore_index=True), "data/teams/heldout_picks.parquet",
-                    "teams_heldout_picks")
+        picks = pd.concat([picks, single], ignore_index=True)
+        write_table(picks, "data/teams/heldout_picks.parquet", "teams_heldout_picks")
+        atomic_write_json("reports/metrics/teams_heldout.json", {
+            "search_seeds": experiments.seeds, "heldout_seeds": experiments.heldout_seeds, "chips": len(chips),
+            "heldout_hypervolume": {m: round(float(v), 4) for m, v in
+                                    fronts.groupby("method").heldout_hypervolume.mean().items()},
+            "cost_noise_median": round(float((picks.heldout_sd / picks.heldout_mean).median()), 4)})
 
 
 if __name__ == "__main__":

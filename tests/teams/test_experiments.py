@@ -76,7 +76,7 @@ def test_random_fronts_are_prefixes_of_one_draw_measured_by_the_optimiser(test_c
     assert table.hypervolume.nunique() == 4  # another seed, other draws
     sizes = points.groupby(["chip_id", "seed", "draws"]).size()
     assert sizes.tolist() == table.front_size.tolist()  # the points are the fronts the table summarises
-    for (seed, draws), front in points.groupby(["seed", "draws"]):
+    for _, front in points.groupby(["seed", "draws"]):
         assert (np.diff(front.deployment_cost) > 0).all() and (np.diff(front.coverage_cost) < 0).all()
     again, again_points = random_fronts(test_chips, TINY, EXPERIMENTS)
     pd.testing.assert_frame_equal(again, table, check_exact=True)

@@ -46,11 +46,12 @@ def test_a_reported_cost_never_uses_the_seed_it_was_selected_on(test_chips, monk
     for row in again.itertuples():
         costs = [AllocationEvaluator(chip_coverage(chip, decomposition, TINY), chip.chip_id, seed)(
             np.reshape(row.counts, (1, 3, 3)))[0, 0] for seed in (7, 8, 9)]
-        assert row.heldout_mean == pytest.approx(np.mean(costs)) and row.heldout_sd == pytest.approx(np.std(costs, ddof=1))
+        assert row.heldout_mean == pytest.approx(np.mean(costs))
+        assert row.heldout_sd == pytest.approx(np.std(costs, ddof=1))
     assert (again.heldout_mean != again.coverage_cost).all()  # another start seed, another cost
     picks = budget_picks(again, [3, 30, 45])
     # nothing deploys <= 3 robots; the random front's one point deploys 45: within the last budget only
-    assert list(zip(picks.method, picks.budget)) == [("eggan", 30), ("eggan", 45), ("random:512", 45)]
+    assert list(zip(picks.method, picks.budget, strict=True)) == [("eggan", 30), ("eggan", 45), ("random:512", 45)]
     within = again[(again.method == "eggan") & (again.deployment_cost <= 30)]
     pick = within.loc[within.coverage_cost.idxmin()]  # chosen at the search seed ...
     row = picks[(picks.method == "eggan") & (picks.budget == 30)].iloc[0]
