@@ -1,8 +1,10 @@
 """DVC stage `teams_heldout`: every front of Tables 5.4 and 5.5 re-measured at robot-start seeds no method selected
 on (robocompose.teams.heldout), and NSGA-II given EG-GAN's spend.
 
-NSGA-II at EG-GAN's spend: per chip x seed, NSGA-II (`matched_genome`, `matched_population`) stopped after the
-generation at which it has optimised as many distinct teams as EG-GAN's query did there. Writes
+EG-GAN: the stage teams_eggan's generator and every committed generator piece of the same settings and code
+(robocompose.teams.generators; stale ones are listed in the metrics, not used). NSGA-II at EG-GAN's spend: per chip x
+seed, NSGA-II (`matched_genome`, `matched_population`) stopped after the generation at which it has optimised as many
+distinct teams as EG-GAN's queries did there (the mean over the generators). Writes
 data/teams/{matched_nsga2,matched_fronts,heldout_fronts,heldout_picks}.parquet and reports/metrics/teams_heldout.json
 (the seeds and each method's mean held-out hypervolume); the matched runs' wall times go to reports/timings.json (not
 tracked by DVC).
@@ -19,6 +21,7 @@ from robocompose.search.nsga2 import NSGA2Config
 from robocompose.stage import run_stage
 from robocompose.teams.evaluator import teams_cache
 from robocompose.teams.experiments import budgeted_nsga2_runs, decomposed_chips
+from robocompose.teams.generators import read_pieces
 from robocompose.teams.heldout import (
     budget_picks,
     front_points,
@@ -36,7 +39,10 @@ def main() -> None:
     experiments = params.experiments
     chips = decomposed_chips(read_table("data/regions.parquet", "regions"), "test")[:experiments.table_5_4_chips]
     nsga2 = read_table("data/teams/nsga2.parquet", "teams_nsga2")
-    queries = read_table("data/teams/eggan_queries.parquet", "teams_eggan_queries").set_index(["chip_id", "seed"])
+    pieces, stale = read_pieces(params)
+    generators = {params.eggan.seed: (read_table("data/teams/eggan_queries.parquet", "teams_eggan_queries"),
+                                      read_table("data/teams/eggan_fronts.parquet", "teams_eggan_fronts")), **pieces}
+    spends = pd.concat([queries for queries, _ in generators.values()]).groupby(["chip_id", "seed"]).distinct_teams
     compute = load_section(ComputeConfig, "compute")
     with timed("teams_heldout") as timing, compute.executor("teams_heldout") as executor:
         runs = [(chip, decomposition, NSGA2Config(population=experiments.matched_population,
@@ -45,19 +51,20 @@ def main() -> None:
                                                   mutation_rate=experiments.mutation_rate, seed=seed),
                  experiments.matched_genome)
                 for chip, decomposition in chips for seed in experiments.seeds]
-        spend = [int(queries.distinct_teams[chip.chip_id, nsga2_config.seed]) for chip, _, nsga2_config, _ in runs]
+        spend = [round(spends.mean()[chip.chip_id, nsga2_config.seed]) for chip, _, nsga2_config, _ in runs]
         matched, matched_fronts, timing["matched_runs"] = budgeted_nsga2_runs(runs, params.coverage, teams_cache(),
                                                                               executor, spend)
         points = front_points(read_table("data/teams/fronts.parquet", "teams_fronts"), matched_fronts,
                               read_table("data/teams/random_points.parquet", "teams_random_points"),
-                              read_table("data/teams/eggan_fronts.parquet", "teams_eggan_fronts"))
+                              {seed: fronts for seed, (_, fronts) in generators.items()})
         points = points[points.chip_id.isin([chip.chip_id for chip, _ in chips])]
         points = remeasured(points, chips, params.coverage, experiments.heldout_seeds, executor)
         spent = {**{(nsga2_method(r.genome, r.population, matched=False), r.chip_id, r.seed): r.distinct_teams
                     for r in nsga2.itertuples()},
                  **{(nsga2_method(r.genome, r.population, matched=True), r.chip_id, r.seed): r.distinct_teams
                     for r in matched.itertuples()},
-                 **{("eggan", chip_id, seed): n for (chip_id, seed), n in queries.distinct_teams.items()}}
+                 **{(f"eggan:{generator}", r.chip_id, r.seed): r.distinct_teams
+                    for generator, (queries, _) in generators.items() for r in queries.itertuples()}}
         random = read_table("data/teams/random_fronts.parquet", "teams_random_fronts")
         spent |= {(f"random:{r.draws}", r.chip_id, r.seed): r.distinct_teams for r in random.itertuples()}
         fronts = heldout_hypervolumes(points)
@@ -73,6 +80,7 @@ def main() -> None:
         write_table(picks, "data/teams/heldout_picks.parquet", "teams_heldout_picks")
         atomic_write_json("reports/metrics/teams_heldout.json", {
             "search_seeds": experiments.seeds, "heldout_seeds": experiments.heldout_seeds, "chips": len(chips),
+            "generators": sorted(generators), "stale_generator_pieces": stale,
             "heldout_hypervolume": {m: round(float(v), 4) for m, v in
                                     fronts.groupby("method").heldout_hypervolume.mean().items()},
             "cost_noise_median": round(float((picks.heldout_sd / picks.heldout_mean).median()), 4)})

@@ -234,12 +234,25 @@ def _seconds(method: str, timings: dict, eggan: Eggan) -> pd.Series:
     return runs[(runs.genome == rest[0]) & (runs.population == int(rest[1]))].seconds
 
 
+def _generators_as_one(table: pd.DataFrame, keys: list[str], value: str) -> tuple[pd.DataFrame, pd.Series]:
+    """`table` with the rows of every EG-GAN generator ("eggan:<seed>") replaced by their mean per `keys` (method
+    "eggan"), and each generator's mean `value` (the spread across generators)."""
+    generators = table[table.method.str.startswith("eggan:")]
+    per_generator = generators.groupby("method")[value].mean()
+    numeric = [c for c in generators.columns if c not in keys + ["method", "title"]]
+    mean = generators.groupby(keys, as_index=False)[numeric].mean()
+    mean = mean.assign(method="eggan", title=f"EG-GAN, mean of {len(per_generator)} generator"
+                                             f"{'s' if len(per_generator) > 1 else ''}")
+    return pd.concat([table[~table.method.str.startswith("eggan:")], mean], ignore_index=True), per_generator
+
+
 def _table_5_4(fronts: pd.DataFrame, timings: dict, eggan: Eggan, training: dict) -> str:
     """Table 5.4 from every method's fronts, each re-measured at the held-out seeds (teams_heldout)."""
     from scipy.stats import wilcoxon
 
     from robocompose.search.significance import holm
 
+    fronts, per_generator = _generators_as_one(fronts, ["chip_id", "seed"], "heldout_hypervolume")
     methods = sorted(fronts.method.unique(), key=_method_order)
     titles = fronts.groupby("method").title.first()
     by_method = {m: fronts[fronts.method == m].set_index(["chip_id", "seed"]) for m in methods}
@@ -280,6 +293,13 @@ def _table_5_4(fronts: pd.DataFrame, timings: dict, eggan: Eggan, training: dict
     lines += markdown_table(["method", "EG-GAN minus method", "EG-GAN higher", "p", "Holm p"],
                             [(titles[m], f"{gap.mean():+.2f}", f"{int((gap > 0).sum())} of {len(gap)}", p, adjusted[m])
                              for m, (gap, p) in tests.items()], formats=[None, None, None, "{:.3g}", "{:.3g}"])
+    notes.append(f"EG-GAN: {len(per_generator)} independently trained generator"
+                 f"{'s' if len(per_generator) > 1 else ''} (training seeds "
+                 f"{', '.join(m.split(':')[1] for m in per_generator.index)}), each queried on every chip x seed; "
+                 "its rows are their mean, and the held-out hypervolume of each generator is "
+                 + ", ".join(f"{v:.2f}" for v in per_generator)
+                 + (f" (sd across generators {per_generator.std():.2f})." if len(per_generator) > 1 else
+                    " (one generator: no spread across training seeds yet)."))
     curse = {m: (by_method[m].hypervolume - by_method[m].heldout_hypervolume).mean() for m in methods}
     notes.append("Re-measured at the held-out seeds, every front loses what its selection at one seed won (mean "
                  "hypervolume lost: " + ", ".join(f"{titles[m]} {curse[m]:.2f}" for m in methods) + ").")
@@ -367,6 +387,8 @@ def _table_5_5_heldout(picks: pd.DataFrame, heldout_seeds: list[int]) -> str:
     """Table 5.5 with every row's cost the mean over held-out seeds; a front's point picked at its search seed."""
     budgets = sorted(picks.budget.unique())
     pairs = picks[["chip_id", "seed"]].drop_duplicates()
+    by_generator = picks[picks.method.str.startswith("eggan:")].groupby(["budget", "method"]).heldout_mean.mean()
+    picks, _ = _generators_as_one(picks, ["chip_id", "seed", "budget"], "heldout_mean")
     methods = [*[m for m in THESIS_TABLE_5_5 if m in set(picks.method)],
                *sorted(set(picks.method) - set(THESIS_TABLE_5_5), key=_method_order)]
     rows = []
@@ -394,7 +416,10 @@ def _table_5_5_heldout(picks: pd.DataFrame, heldout_seeds: list[int]) -> str:
               "Held-out over selection-seed cost of the chosen points (median): "
               + ", ".join(f"{selected[selected.method == m].title.iloc[0]} {r:.2f}x" for m, r in ratio.items())
               + f". The optimiser's own seed-to-seed noise: a chosen allocation's cost varies by a median "
-              f"{noise:.0%} (sd over mean) across the held-out seeds."]
+              f"{noise:.0%} (sd over mean) across the held-out seeds. EG-GAN's row is the mean of its generators' "
+              "picks; the spread across generators (sd of each generator's mean x 1e-2): "
+              + ", ".join(f"{by_generator[b].std() * 100:.3f} at <= {b}" if by_generator[b].size > 1 else
+                          f"- at <= {b} (one generator)" for b in budgets if b in by_generator.index) + "."]
     return "\n".join(lines)
 
 

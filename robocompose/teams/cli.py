@@ -1,4 +1,5 @@
-"""`robocompose teams ...`: NSGA-II and the coverage cost of one allocation on one terrain chip.
+"""`robocompose teams ...`: NSGA-II and the coverage cost of one allocation on one terrain chip; one more generator
+(a training seed) as a committed piece.
 
 Heavy modules (torch, pymoo) are imported inside the handlers so `robocompose --help` stays fast.
 """
@@ -7,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 
 from robocompose.arguments import dask_address, input_file, int_at_least, non_negative_int, positive_int
 from robocompose.io.errors import InputError
@@ -38,6 +40,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                           "each species' robots sent to each region")
     coverage.add_argument("--seed", type=non_negative_int, default=0, help="seed of the robots' starts")
     coverage.set_defaults(handler=_coverage)
+
+    generator = commands.add_parser(
+        "generator", help="train one more EG-GAN generator (a training seed) as stage teams_eggan does, query it on "
+        "the test chips and write the committed piece measured/teams/generators/seed-K/ (params.yaml's teams "
+        "section; stage decompose's regions)")
+    generator.add_argument("--seed", type=non_negative_int, required=True, help="the generator's training seed")
+    generator.add_argument("--params", type=input_file("a params YAML file"), default=Path("params.yaml"),
+                           help="the settings (default: params.yaml)")
+    generator.set_defaults(handler=_generator)
 
 
 
@@ -78,7 +89,7 @@ def _setup(args: argparse.Namespace):
 
 def _genome(name: str) -> str:
     """argparse type: a name of robocompose.teams.nsga2.GENOMES (imported only when the flag is given)."""
-    from robocompose.teams.nsga2 import GENOMES
+    from robocompose.teams.genomes import GENOMES
 
     if name not in GENOMES:
         raise argparse.ArgumentTypeError(f"expected one of {', '.join(GENOMES)}, found {name!r}")
@@ -102,6 +113,27 @@ def _nsga2(args: argparse.Namespace) -> None:
     print(json.dumps({"hypervolume": result.hypervolume, "seconds": result.seconds,
                       "distinct_teams": len(evaluator.asked),
                       "front": [[float(c), int(d)] for c, d in result.front]}))
+
+
+def _generator(args: argparse.Namespace) -> None:
+    import torch
+
+    from robocompose.io import read_table
+    from robocompose.params import load_section
+    from robocompose.teams.experiments import decomposed_chips
+    from robocompose.teams.generators import PIECES, train_and_query, write_piece
+    from robocompose.teams.params import TeamsParams
+
+    params = load_section(TeamsParams, "teams", path=args.params)
+    regions = read_table("data/regions.parquet", "regions")  # stage decompose's: the same chips and split
+    torch.set_num_threads(params.threads)
+    generated = train_and_query(params, args.seed, decomposed_chips(regions, "train"),
+                                decomposed_chips(regions, "test"),
+                                Path(f"models/checkpoints/teams_generator_seed{args.seed}.pt"))
+    directory = write_piece(generated, params, args.seed)
+    print(json.dumps({"piece": str(directory), "root": str(PIECES), "seed": args.seed,
+                      "mean_hypervolume": round(float(generated.queries.hypervolume.mean()), 4),
+                      "training_seconds": round(generated.training_seconds, 1)}))
 
 
 def _coverage(args: argparse.Namespace) -> None:

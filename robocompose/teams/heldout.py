@@ -14,8 +14,9 @@ The spread of a cost over the held-out seeds is the optimiser's own seed-to-seed
 
 Fronts come from three methods' tables, renamed into one: NSGA-II runs ("nsga2:<genome>:<population>", and
 "nsga2-matched:..." for the runs stopped at EG-GAN's spend), random-allocation fronts ("random:<draws>") and
-EG-GAN's queries ("eggan"). Re-measurement runs per chip, every distinct allocation of the chip once per
-held-out seed, in large optimiser batches (10 ms a team in batches of 256, 5 ms in batches of 1,024).
+each EG-GAN generator's queries ("eggan:<training seed>", robocompose.teams.generators). Re-measurement runs per
+chip, every distinct allocation of the chip once per held-out seed, in large optimiser batches (10 ms a team in
+batches of 256, 5 ms in batches of 1,024).
 """
 
 from __future__ import annotations
@@ -31,7 +32,8 @@ from robocompose.teams.decompose import Decomposition
 from robocompose.teams.ergodic import CoverageConfig
 from robocompose.teams.evaluator import AllocationEvaluator, chip_coverage
 from robocompose.teams.experiments import baseline_draws
-from robocompose.teams.nsga2 import GENOMES, team_hypervolume
+from robocompose.teams.genomes import GENOMES
+from robocompose.teams.nsga2 import team_hypervolume
 
 HELDOUT_BATCH = 1024  # teams optimised together: the per-team cost halves from 256 to 1,024
 PICK_COLUMNS = ["method", "title", "chip_id", "seed", "budget", "selected_cost", "heldout_mean", "heldout_sd",
@@ -59,18 +61,22 @@ def method_title(method: str) -> str:
                 + (", stopped at EG-GAN's spend" if kind == "nsga2-matched" else ""))
     if kind == "random":
         return f"random allocations, front of {rest[0]} draws"
-    return "EG-GAN" if method == "eggan" else SINGLE_DRAWS[method]
+    if kind == "eggan":
+        return f"EG-GAN, generator {rest[0]}"
+    return SINGLE_DRAWS[method]
 
 
-def front_points(nsga2: pd.DataFrame, matched: pd.DataFrame, random: pd.DataFrame, eggan: pd.DataFrame
+def front_points(nsga2: pd.DataFrame, matched: pd.DataFrame, random: pd.DataFrame, eggan: dict[int, pd.DataFrame]
                  ) -> pd.DataFrame:
     """One table of every front point: method, chip_id, seed, coverage_cost (at the seed), deployment_cost, counts.
     `nsga2`, `matched`: "teams_fronts" rows of the full and the spend-matched runs; `random`: the random-front
-    points ("teams_random_points"); `eggan`: "teams_eggan_fronts"."""
+    points ("teams_random_points"); `eggan`: each generator's "teams_eggan_fronts" by its training seed (method
+    "eggan:<seed>")."""
     frames = [runs.assign(method=[nsga2_method(g, p, is_matched) for g, p in zip(runs.genome, runs.population,
                                                                                  strict=True)])
               for runs, is_matched in ((nsga2, False), (matched, True))]
-    frames += [random.assign(method=[f"random:{draws}" for draws in random.draws]), eggan.assign(method="eggan")]
+    frames += [random.assign(method=[f"random:{draws}" for draws in random.draws]),
+               *(fronts.assign(method=f"eggan:{seed}") for seed, fronts in sorted(eggan.items()))]
     return pd.concat([frame[POINT_COLUMNS] for frame in frames], ignore_index=True)
 
 

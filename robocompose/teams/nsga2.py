@@ -1,15 +1,9 @@
 """NSGA-II on team allocations (thesis 5.2, Table 5.4): the team-formation problem bound to the generic
 `robocompose.search.nsga2` (its operators and loop).
 
-Genomes (`GENOMES`, the only list of them; every gene in [0, 1]), decoded to K x O fractions that
-species.allocation_to_counts turns into robots (a species asked for more than all its robots is scaled down):
-- "fractions" (the thesis's): the K x O fractions themselves, flattened. Uniform mutation redraws a gene of a
-  typical ~0.06 to U(0, 1), so a mutation mostly adds robots and populations drift towards the whole bank.
-- "share_split" (the factorisation of EG-GAN's output head): per species a deployed share s and K split weights
-  w; fraction (i, j) = s_j w_ij / sum_i w_ij (an all-zero column splits evenly). A mutated split weight moves
-  robots between regions without changing how many are deployed; a mutated share changes only that.
-Both start from the same first population (the same draws of `deployment_share_draws`), so only the genome
-differs between their runs.
+Genomes: teams/genomes.py (the thesis's K x O fractions, and EG-GAN's share x split), decoded to K x O fractions
+that species.allocation_to_counts turns into robots; both start from the same first population (the draws of
+`deployment_share_draws`), so only the genome differs between their runs.
 Objectives, both minimised: coverage cost (area-weighted ergodic metric per region, ergodic.py) and
 deployment cost (robots deployed). The initial population (not given by the thesis) deploys a uniform
 share s ~ U(0, 1) of each species, split over the regions by a flat Dirichlet draw, so it spans every
@@ -32,6 +26,7 @@ import numpy as np
 from pymoo.core.sampling import Sampling
 
 from robocompose.search.nsga2 import GenomeProblem, NSGA2Config, hypervolume, run_nsga2
+from robocompose.teams.genomes import GENOMES
 from robocompose.teams.species import allocation_to_counts
 
 REFERENCE_POINT = (0.25, 60.0)
@@ -42,39 +37,6 @@ def deployment_share_draws(rng: np.random.Generator, n: int, n_regions: int, n_s
     share = rng.random((n, 1, n_species))  # (n, 1, O) deployed share per species
     split = rng.dirichlet(np.ones(n_regions), size=(n, n_species))  # (n, O, K)
     return share * split.transpose(0, 2, 1)
-
-
-@dataclass(frozen=True)
-class Genome:
-    """NSGA-II's real vector in [0, 1]^n for K regions x O species: its size, its decoding, its first draws."""
-
-    title: str
-    size: Callable[[int, int], int]  # (K, O) -> n_var
-    decode: Callable[[np.ndarray, int, int], np.ndarray]  # (B, n_var), K, O -> (B, K, O) fractions
-    encode: Callable[[np.ndarray], np.ndarray]  # (B, K, O) share x split fractions -> (B, n_var)
-
-
-def _split_fractions(X: np.ndarray, n_regions: int, n_species: int) -> np.ndarray:
-    """(B, K, O) fractions of (B, K*O + O) share x split genomes."""
-    weights = X[:, :n_regions * n_species].reshape(-1, n_regions, n_species)  # (B, K, O)
-    share = X[:, None, n_regions * n_species:]  # (B, 1, O)
-    total = weights.sum(1, keepdims=True)  # (B, 1, O)
-    split = np.where(total > 0, weights / np.where(total > 0, total, 1.0), 1.0 / n_regions)
-    return share * split
-
-
-def _split_genes(fractions: np.ndarray) -> np.ndarray:
-    """(B, K*O + O) genes of (B, K, O) fractions whose columns sum to at most 1: split weights, then shares."""
-    share = fractions.sum(1)  # (B, O)
-    split = np.where(share[:, None] > 0, fractions / np.where(share > 0, share, 1.0)[:, None], 1.0)
-    return np.concatenate([split.reshape(len(fractions), -1), share], axis=1)
-
-
-GENOMES = {
-    "fractions": Genome("raw fractions (thesis)", lambda k, o: k * o,
-                        lambda X, k, o: X.reshape(-1, k, o), lambda f: f.reshape(len(f), -1)),
-    "share_split": Genome("share x split", lambda k, o: k * o + o, _split_fractions, _split_genes),
-}
 
 
 class DeploymentShareSampling(Sampling):

@@ -32,7 +32,7 @@ class ExperimentsConfig:
     def __post_init__(self) -> None:
         check_field(bool(self.populations) and min(self.populations) >= 2, "populations",
                     "a non-empty list of integers >= 2", self.populations)
-        from robocompose.teams.nsga2 import GENOMES
+        from robocompose.teams.genomes import GENOMES
 
         check_field(bool(self.genomes) and set(self.genomes) <= set(GENOMES) and len(set(self.genomes)) ==
                     len(self.genomes), "genomes", f"a non-empty list of distinct names from {sorted(GENOMES)}",

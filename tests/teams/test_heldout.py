@@ -24,7 +24,7 @@ def test_chips(tmp_path_factory):
 def _points(chip_id: str) -> pd.DataFrame:
     """Two methods' fronts on one chip at search seed 0 (their costs there: the caller's)."""
     counts = [[2, 0, 0, 0, 1, 0, 0, 0, 1], [3, 1, 0, 2, 2, 0, 1, 0, 3], [5, 5, 5, 5, 5, 5, 5, 5, 5]]
-    return pd.DataFrame({"method": ["eggan", "eggan", "random:512"], "chip_id": chip_id, "seed": 0,
+    return pd.DataFrame({"method": ["eggan:0", "eggan:0", "random:512"], "chip_id": chip_id, "seed": 0,
                          "deployment_cost": [sum(c) for c in counts], "counts": counts})
 
 
@@ -51,10 +51,10 @@ def test_a_reported_cost_never_uses_the_seed_it_was_selected_on(test_chips, monk
     assert (again.heldout_mean != again.coverage_cost).all()  # another start seed, another cost
     picks = budget_picks(again, [3, 30, 45])
     # nothing deploys <= 3 robots; the random front's one point deploys 45: within the last budget only
-    assert list(zip(picks.method, picks.budget, strict=True)) == [("eggan", 30), ("eggan", 45), ("random:512", 45)]
-    within = again[(again.method == "eggan") & (again.deployment_cost <= 30)]
+    assert list(zip(picks.method, picks.budget, strict=True)) == [("eggan:0", 30), ("eggan:0", 45), ("random:512", 45)]
+    within = again[(again.method == "eggan:0") & (again.deployment_cost <= 30)]
     pick = within.loc[within.coverage_cost.idxmin()]  # chosen at the search seed ...
-    row = picks[(picks.method == "eggan") & (picks.budget == 30)].iloc[0]
+    row = picks[(picks.method == "eggan:0") & (picks.budget == 30)].iloc[0]
     assert row.selected_cost == pick.coverage_cost and row.heldout_mean == pick.heldout_mean  # ... reported held out
     hypervolumes = heldout_hypervolumes(again)
     assert hypervolumes.front_size.tolist() == [2, 1]
@@ -71,7 +71,7 @@ def test_heldout_seeds_must_not_include_a_search_seed():
 
 
 def test_heldout_hypervolume_is_of_the_same_allocations_at_their_heldout_cost():
-    points = pd.DataFrame({"method": "eggan", "chip_id": "c", "seed": 0, "coverage_cost": [0.05, 0.10],
+    points = pd.DataFrame({"method": "eggan:0", "chip_id": "c", "seed": 0, "coverage_cost": [0.05, 0.10],
                            "deployment_cost": [40, 20], "counts": [[1], [1]], "heldout_mean": [0.20, 0.10],
                            "heldout_sd": [0.01, 0.01]})
     row = heldout_hypervolumes(points).iloc[0]

@@ -81,11 +81,11 @@ def test_eggan_stage_trains_queries_and_resumes(tmp_path, monkeypatch):
     run_stage("teams_heldout")
     fronts = pd.read_parquet("data/teams/heldout_fronts.parquet")
     assert set(fronts.method) == {"nsga2:fractions:4", "nsga2:fractions:6", "nsga2-matched:share_split:20",
-                                  "random:64", "random:512", "eggan"}
+                                  "random:64", "random:512", "eggan:0"}
     matched = pd.read_parquet("data/teams/matched_nsga2.parquet")
     assert (matched.distinct_teams >= queries.distinct_teams).all()  # NSGA-II spent at least EG-GAN's teams
     spent = fronts.set_index("method").distinct_teams
-    assert spent["eggan"] == queries.distinct_teams[0] and spent["nsga2-matched:share_split:20"] == \
+    assert spent["eggan:0"] == queries.distinct_teams[0] and spent["nsga2-matched:share_split:20"] == \
         matched.distinct_teams[0]
     picks = pd.read_parquet("data/teams/heldout_picks.parquet")
     single = {"dec_random_allocation", "dec_uniform_robots", "no_decomposition"}
