@@ -7,7 +7,8 @@ its queries on the first test chips at every search seed (generative.eggan_queri
 measured/teams/generators/seed-K/ (eggan_queries.parquet, eggan_fronts.parquet, piece.json). Stage `teams_heldout`
 takes every piece whose key matches the current settings and code (`piece_key`: every setting that shapes a
 generator or its queries, and the code its result comes from) and re-measures its fronts beside the rest; a piece of
-other settings or code is reported as stale and never mixed in. A piece of the stage's own seed is skipped (the stage's is used).
+other settings or code is reported as stale and never mixed in. A piece of the stage's own seed is skipped (the
+stage's is used).
 """
 
 from __future__ import annotations
