@@ -29,12 +29,17 @@ run: setup
 	$(BIN)/python -m robocompose.io.dispatch $(BIN)/dvc repro
 
 # `make test`: lint and the suite without the tests marked slow (kills, real servers); `make test-slow`: those.
+# Both on TEST_WORKERS pytest-xdist processes (`make test TEST_WORKERS=0`: one process, as `python -m pytest` runs),
+# a test file per worker at a time (its module fixtures built once).
+TEST_WORKERS ?= 2
+XDIST := -n $(TEST_WORKERS) --dist loadfile
+
 test: setup
 	$(BIN)/ruff check robocompose stages flows tests benchmarks
-	$(BIN)/python -m pytest -q -ra -m "not slow"
+	$(BIN)/python -m pytest -q -ra -m "not slow" $(XDIST)
 
 test-slow: setup
-	$(BIN)/python -m pytest -q -ra -m slow
+	$(BIN)/python -m pytest -q -ra -m slow $(XDIST)
 
 bench: setup
 	$(BIN)/python -m benchmarks

@@ -1,7 +1,10 @@
 """Shared fixtures: the two reference designs of the RoboGrammar/GLSO papers; a Foxglove validator of MCAP logs;
-the bad-input check of the `robocompose` command."""
+the bad-input check of the `robocompose` command; tests marked exclusive run alone under pytest-xdist."""
 
+import contextlib
+import fcntl
 import json
+import os
 from pathlib import Path
 
 import jsonschema
@@ -11,6 +14,32 @@ from mcap.reader import make_reader
 from robocompose.grammar.references import REFERENCE_DESIGNS
 from robocompose.grammar.tree import DesignTree
 from robocompose.io.mcap_log import SCALARS, SCALARS_SCHEMA, foxglove_schema_bytes
+
+# --- wall-clock bounds under pytest-xdist (`make test`: two workers) ---
+
+
+@contextlib.contextmanager
+def _room(directory: Path, alone: bool):
+    """Shared by every worker's tests, or held alone (a test marked exclusive): flock on two files in the run's
+    temporary directory. The turnstile stops new tests from entering while an exclusive one waits for the room."""
+    with (directory / "exclusive.turnstile").open("a") as turnstile, (directory / "exclusive.room").open("a") as room:
+        fcntl.flock(turnstile, fcntl.LOCK_EX)
+        if not alone:
+            fcntl.flock(turnstile, fcntl.LOCK_UN)
+        fcntl.flock(room, fcntl.LOCK_EX if alone else fcntl.LOCK_SH)
+        yield  # closing the files releases both locks
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_protocol(item, nextitem):
+    """Under pytest-xdist, a test marked exclusive (it times itself against a bound) runs while no other worker
+    runs a test (setup, call and teardown, module fixtures included): the other core's work would count in its
+    time. Without xdist (`python -m pytest`) nothing changes."""
+    if "PYTEST_XDIST_WORKER" not in os.environ or not item.config.getoption("basetemp"):
+        return (yield)
+    with _room(Path(item.config.getoption("basetemp")).parent, item.get_closest_marker("exclusive") is not None):
+        return (yield)
+
 
 FLAT_REFERENCE = REFERENCE_DESIGNS["robogrammar_flat"]
 RIDGED_REFERENCE = REFERENCE_DESIGNS["robogrammar_ridged"]

@@ -54,6 +54,7 @@ def test_command_line_flags_override_the_section():
         parser.parse_args(["--address", "nonsense"])  # argparse's one line, exit 2
 
 
+@pytest.mark.exclusive
 def test_an_unreachable_address_in_the_section_fails_within_ten_seconds_with_one_line():
     compute = ComputeConfig(address=f"tcp://127.0.0.1:{closed_port()}")
     started = time.perf_counter()

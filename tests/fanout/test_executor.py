@@ -192,6 +192,7 @@ def test_a_malformed_address_is_refused_at_once_with_one_line(address):
     assert time.perf_counter() - started < 1 and repr(address) in str(error.value) and "\n" not in str(error.value)
 
 
+@pytest.mark.exclusive
 def test_an_unreachable_scheduler_fails_within_ten_seconds_with_one_line():
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -203,6 +204,7 @@ def test_an_unreachable_scheduler_fails_within_ten_seconds_with_one_line():
     assert address in str(error.value) and "tcp://host:8786" in str(error.value) and "\n" not in str(error.value)
 
 
+@pytest.mark.exclusive
 @pytest.mark.parametrize("argv", [
     ["enumerate", "--n", "2", "--out", "{tmp}/d.parquet"],
     ["teams", "nsga2", "--synthetic-seed", "0", "--regions", "3", "--pop", "4", "--generations", "1"],
@@ -231,6 +233,7 @@ def _http_server():
     return server
 
 
+@pytest.mark.exclusive
 @pytest.mark.slow
 @pytest.mark.parametrize("listener", ["http server", "silent listener"])
 def test_an_address_that_is_no_scheduler_fails_within_ten_seconds_with_one_line(listener):

@@ -304,6 +304,7 @@ def test_a_bad_cron_is_rejected_before_any_server_is_contacted(tmp_path: Path, c
     assert line.endswith("expected 5 fields: minute hour day-of-month month day-of-week, e.g. '0 3 * * *'")
 
 
+@pytest.mark.exclusive
 def test_an_unreachable_server_fails_in_one_line_within_seconds(tmp_path: Path) -> None:
     project = make_dvc_project(tmp_path / "project")
     url = f"http://127.0.0.1:{_free_port()}/api"  # nothing listens there: refused
@@ -314,6 +315,7 @@ def test_an_unreachable_server_fails_in_one_line_within_seconds(tmp_path: Path) 
         "waited at most 5 s per step), expected a running Prefect server (`prefect server start`)"]
 
 
+@pytest.mark.exclusive
 def test_a_server_that_never_answers_fails_within_the_deadline(tmp_path: Path) -> None:
     project = make_dvc_project(tmp_path / "project")
     with socket.socket() as silent:  # accepts connections (the kernel's backlog), never replies

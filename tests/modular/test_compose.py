@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -71,8 +72,10 @@ def test_compose_simulate_adds_each_designs_rollout_on_the_terrain(tmp_path, mod
     (np.zeros((50, 20), dtype=complex), "expected real numbers (metres), found dtype complex128"),
     (np.array(["x"] * 1000).reshape(50, 20), "expected real numbers (metres), found dtype <U1"),
 ])
-def test_a_bad_heightmap_exits_2_with_a_clear_line(tmp_path, model, cli_error, heights, message):
-    path, params = tmp_path / "map.npy", tmp_path / "p.yaml"
+def test_a_bad_heightmap_exits_2_with_a_clear_line(tmp_path, monkeypatch, model, cli_error, heights, message):
+    # relative names: the line (cut at LINE_LIMIT) names both files, and tmp_path's length varies (user, xdist worker)
+    monkeypatch.chdir(tmp_path)
+    path, params = Path("map.npy"), Path("p.yaml")
     params.write_text("modular:\n  eval: {terrain: {max_height_range: [0.1, 0.3]}}\n  fitness: {}\n  experiments: {}\n")
     np.save(path, heights)
     cli_error(["compose", "modular", "--heightmap", str(path), "--model", str(model), "--params", str(params)],
