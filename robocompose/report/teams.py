@@ -404,7 +404,14 @@ def _table_5_5_heldout(picks: pd.DataFrame, heldout_seeds: list[int]) -> str:
         title = chosen.title.iloc[0] + ("" if chosen.selected_cost.isna().all() else " (best within the budget)")
         rows.append((title, *(map(str, thesis) if thesis else ["-"] * len(budgets)), *cells))
     header = ["method", *[f"thesis <= {b}" for b in budgets], *[f"ours <= {b}" for b in budgets]]
-    lines = markdown_table(header, rows)
+    means = picks.groupby(["budget", "method"]).heldout_mean.mean()
+    best = {b: means[b].idxmin() for b in budgets}
+    titles = picks.groupby("method").title.first()
+    verdict = ("holds" if all(m == "eggan" for m in best.values()) else "does NOT hold") if "eggan" in titles else None
+    lead = ([f"**Dec + EG-GAN lowest at every budget, at held-out seeds (thesis: it is): {verdict}.** Lowest: "
+             + "; ".join(f"<= {b}: {titles[m]} ({means[b, m] * 100:.3f})" for b, m in best.items()) + ".", ""]
+            if verdict else [])
+    lines = lead + markdown_table(header, rows)
     selected = picks.dropna(subset=["selected_cost"])
     ratio = (selected.heldout_mean / selected.selected_cost).groupby(selected.method).median()
     noise = (picks.heldout_sd / picks.heldout_mean).median()

@@ -42,6 +42,8 @@ def test_section_has_both_tables_beside_the_thesis_and_its_figures(tmp_path, mon
     assert "| Dec + random allocation (random non-empty teams, the thesis's) | 0.732 | 0.401 | 0.062 |" in text
     assert "| Dec + uniform random robots (ours: each robot to a uniform region, regions may stay empty) | - |" in text
     assert "none of which any method searched or selected on" in text and "seed-to-seed noise" in text
+    table_5_5 = text[text.index("### Table 5.5"):]
+    assert table_5_5.split("\n")[2].startswith("**Dec + EG-GAN lowest at every budget, at held-out seeds")
     assert "As the thesis measured it" in text and "| Dec + EG-GAN (best front point" in text
     assert "synthetic label chips" in text
     assert "| terrain-driven (weight 0.3) |" in text and "| random-seed Voronoi" in text
