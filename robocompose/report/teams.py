@@ -24,6 +24,7 @@ THESIS_TABLE_5_5 = {  # method: coverage cost x 1e-2 at deployment budget 15 / 3
     "dec_uniform_robots": ("Dec + uniform random robots (ours: each robot to a uniform region, regions may stay "
                            "empty)", None),
 }
+THESIS_EGGAN_5_5 = (0.049, 0.018, 0.007)  # Dec + EG-GAN, best front point within the budget
 TERRAIN_COLOURS = ["#3b7dd8", "#8c6d46", "#b8d98a", "#9a9a9a"]  # Water, Mountain, Plain, City
 SPECIES_COLOURS = ["#d62728", "#ff7f0e", "#1f77b4"]  # ground, aerial, aquatic
 SPECIES_NAMES = ["ground", "aerial", "aquatic"]
@@ -127,12 +128,11 @@ def _purity_table(purity: pd.DataFrame, weight: float) -> str:
     means = purity.groupby("method").purity.agg(["mean", "std"])
     paired = purity.pivot(index="chip_id", columns="method", values="purity")
     wins = int((paired["terrain"] > paired["voronoi"]).sum())
+    rows = [(f"terrain-driven (weight {weight:g})", means.loc["terrain"]),
+            ("random-seed Voronoi, same seeds and Lloyd steps (weight 0)", means.loc["voronoi"])]
     return "\n".join([
-        "| decomposition | mean region purity (share of the dominant terrain) |", "|---|---|",
-        f"| terrain-driven (weight {weight:g}) | {means.loc['terrain', 'mean']:.3f} ± "
-        f"{means.loc['terrain', 'std']:.3f} |",
-        f"| random-seed Voronoi, same seeds and Lloyd steps (weight 0) | {means.loc['voronoi', 'mean']:.3f} ± "
-        f"{means.loc['voronoi', 'std']:.3f} |",
+        *markdown_table(["decomposition", "mean region purity (share of the dominant terrain)"], rows,
+                        formats=[None, lambda m: f"{m['mean']:.3f} ± {m['std']:.3f}"]),
         "", f"Over all {len(paired)} chips; the terrain-driven regions are purer on {wins} of them. Regions may "
         "be split into several pieces (a region is a terrain class near its centre, not a convex cell)."])
 
@@ -324,17 +324,15 @@ def _table_5_4(fronts: pd.DataFrame, timings: dict, eggan: Eggan, training: dict
 
 def _table_5_5(coverage: pd.DataFrame, eggan: Eggan | None) -> str:
     budgets = sorted(coverage.budget.unique())
-    header = " | ".join(f"<= {b}" for b in budgets)
-    lines = [f"| method | thesis {header} | ours {header} |",
-             "|---|" + "---|" * (2 * len(budgets))]
-    means = {}
+    header = ["method", *[f"{'thesis ' if i == 0 else ''}<= {b}" for i, b in enumerate(budgets)],
+              *[f"{'ours ' if i == 0 else ''}<= {b}" for i, b in enumerate(budgets)]]
+    table, means = [], {}
     for method, (name, thesis) in THESIS_TABLE_5_5.items():
         rows = coverage[coverage.method == method]
         values = [rows[rows.budget == b].coverage_cost for b in budgets]
         means[method] = [v.mean() for v in values]
-        thesis = map(str, thesis) if thesis else ["-"] * len(budgets)
-        lines.append(f"| {name} | {' | '.join(thesis)} | "
-                     f"{' | '.join(_mean_std(v, 100, 3) for v in values)} |")
+        table.append((name, *(map(str, thesis) if thesis else ["-"] * len(budgets)),
+                      *(_mean_std(v, 100, 3) for v in values)))
     pairs = {method: frozenset(zip(rows.chip_id, rows.seed, strict=True))
              for method, rows in coverage.groupby("method")}
     notes = []
@@ -349,8 +347,7 @@ def _table_5_5(coverage: pd.DataFrame, eggan: Eggan | None) -> str:
             means["dec_eggan"].append(within.mean())
         queried = frozenset(zip(eggan.queries.chip_id, eggan.queries.seed, strict=True))
         pairs["dec_eggan"] = frozenset(wanted) if frozenset(wanted) <= queried else queried
-        lines.append(f"| Dec + EG-GAN (best front point within the budget) | 0.049 | 0.018 | 0.007 | "
-                     f"{' | '.join(cells)} |")
+        table.append(("Dec + EG-GAN (best front point within the budget)", *map(str, THESIS_EGGAN_5_5), *cells))
         best = [min(means, key=lambda m: means[m][i]) for i in range(len(budgets))]
         held = [b for b, m in zip(budgets, best, strict=True) if m == "dec_eggan"]
         where = ", ".join(f"<= {b}" for b in held) or "no budget"
@@ -363,6 +360,7 @@ def _table_5_5(coverage: pd.DataFrame, eggan: Eggan | None) -> str:
     same = len(set(pairs.values())) == 1
     empty = coverage.assign(any_empty=coverage.empty_regions > 0).pivot_table(
         index="method", columns="budget", values="any_empty", aggfunc="mean")
+    lines = markdown_table(header, table)
     lines += ["", f"Ours: mean ± std over {coverage.chip_id.nunique()} test chips x {coverage.seed.nunique()} "
               "seeds, " + ("every row on the same chip x seed pairs" if same else
                           "WARNING: the rows do not cover the same chip x seed pairs") +
@@ -378,9 +376,6 @@ def _table_5_5(coverage: pd.DataFrame, eggan: Eggan | None) -> str:
                           + ", ".join(f"{share:.0%} at <= {b}" for b, share in row.items())
                           for method, row in empty.iterrows()) + "."]
     return "\n".join(lines)
-
-
-THESIS_EGGAN_5_5 = (0.049, 0.018, 0.007)
 
 
 def _table_5_5_heldout(picks: pd.DataFrame, heldout_seeds: list[int]) -> str:
