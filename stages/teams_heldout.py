@@ -42,7 +42,8 @@ def main() -> None:
     pieces, stale = read_pieces(params)
     generators = {params.eggan.seed: (read_table("data/teams/eggan_queries.parquet", "teams_eggan_queries"),
                                       read_table("data/teams/eggan_fronts.parquet", "teams_eggan_fronts")), **pieces}
-    spends = pd.concat([queries for queries, _ in generators.values()]).groupby(["chip_id", "seed"]).distinct_teams
+    spends = (pd.concat([queries for queries, _ in generators.values()])  # EG-GAN's spend: mean over generators
+              .groupby(["chip_id", "seed"]).distinct_teams.mean())
     compute = load_section(ComputeConfig, "compute")
     with timed("teams_heldout") as timing, compute.executor("teams_heldout") as executor:
         runs = [(chip, decomposition, NSGA2Config(population=experiments.matched_population,
@@ -51,7 +52,7 @@ def main() -> None:
                                                   mutation_rate=experiments.mutation_rate, seed=seed),
                  experiments.matched_genome)
                 for chip, decomposition in chips for seed in experiments.seeds]
-        spend = [round(spends.mean()[chip.chip_id, nsga2_config.seed]) for chip, _, nsga2_config, _ in runs]
+        spend = [round(spends[chip.chip_id, nsga2_config.seed]) for chip, _, nsga2_config, _ in runs]
         matched, matched_fronts, timing["matched_runs"] = budgeted_nsga2_runs(runs, params.coverage, teams_cache(),
                                                                               executor, spend)
         points = front_points(read_table("data/teams/fronts.parquet", "teams_fronts"), matched_fronts,
