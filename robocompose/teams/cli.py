@@ -1,5 +1,5 @@
 """`robocompose teams ...`: NSGA-II and the coverage cost of one allocation on one terrain chip; one more generator
-(a training seed) as a committed piece.
+(a training seed) or a chip-count study's generator as a committed piece.
 
 Heavy modules (torch, pymoo) are imported inside the handlers so `robocompose --help` stays fast.
 """
@@ -15,7 +15,8 @@ from robocompose.io.errors import InputError
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    """Add the `teams` command (sub-commands `nsga2` and `coverage`) to the robocompose CLI."""
+    """Add the `teams` command (sub-commands `nsga2`, `coverage`, `generator`, `chip-count`) to the robocompose
+    CLI."""
     teams = subparsers.add_parser("teams", help="multi-robot team formation on terrain chips (thesis 5.2)")
     commands = teams.add_subparsers(dest="teams_command", required=True)
 
@@ -49,6 +50,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     generator.add_argument("--params", type=input_file("a params YAML file"), default=Path("params.yaml"),
                            help="the settings (default: params.yaml)")
     generator.set_defaults(handler=_generator)
+
+    chip_count = commands.add_parser(
+        "chip-count", help="train a generator on N training chips (extra synthetic chips past the set's own when N "
+        "exceeds the training split's) and write its validation hypervolume to the committed piece "
+        "measured/teams/chip_count/train-N-seed-K.json (params.yaml's teams section; stage decompose's regions)")
+    chip_count.add_argument("--train-chips", type=positive_int, required=True, help="N, the training chips")
+    chip_count.add_argument("--seed", type=non_negative_int, required=True, help="the generator's training seed")
+    chip_count.add_argument("--params", type=input_file("a params YAML file"), default=Path("params.yaml"),
+                            help="the settings (default: params.yaml)")
+    chip_count.set_defaults(handler=_chip_count)
 
 
 
@@ -134,6 +145,26 @@ def _generator(args: argparse.Namespace) -> None:
     print(json.dumps({"piece": str(directory), "root": str(PIECES), "seed": args.seed,
                       "mean_hypervolume": round(float(generated.queries.hypervolume.mean()), 4),
                       "training_seconds": round(generated.training_seconds, 1)}))
+
+
+def _chip_count(args: argparse.Namespace) -> None:
+    import torch
+
+    from robocompose.io import read_table
+    from robocompose.params import load_section
+    from robocompose.teams.chip_count import PIECES, measure, write_piece
+    from robocompose.teams.experiments import decomposed_chips
+    from robocompose.teams.params import TeamsParams
+
+    params = load_section(TeamsParams, "teams", path=args.params)
+    regions = read_table("data/regions.parquet", "regions")  # stage decompose's: the same chips and split
+    torch.set_num_threads(params.threads)
+    piece = measure(params, decomposed_chips(regions, "train"), args.train_chips, args.seed,
+                    Path(f"models/checkpoints/teams_chip_count_{args.train_chips}_seed{args.seed}.pt"))
+    path = write_piece(piece, params)
+    print(json.dumps({"piece": str(path), "root": str(PIECES),
+                      **{name: piece[name] for name in ("train_chips", "seed", "validation_hypervolume",
+                                                        "training_seconds")}}))
 
 
 def _coverage(args: argparse.Namespace) -> None:
