@@ -32,7 +32,8 @@ def main() -> None:
     experiments = params.experiments
     compute = load_section(ComputeConfig, "compute")
     with timed("teams_baselines") as timing, compute.executor("teams_baselines") as executor:
-        runs, fronts, timing["nsga2_runs"] = nsga2_runs(test_chips, params.coverage, experiments, cache, executor)
+        runs, fronts, run_timings = nsga2_runs(test_chips, params.coverage, experiments, cache, executor)
+        timing.update(run_timings)
         coverage = coverage_baselines(test_chips, params.coverage, experiments, executor)
         random, random_points = random_fronts(test_chips, params.coverage, experiments, executor)
         write_table(random, "data/teams/random_fronts.parquet", "teams_random_fronts")

@@ -137,21 +137,56 @@ class GenerationsOrStop(Termination):
         return (algorithm.n_gen or 0) / self.generations
 
 
+def _algorithm(config: NSGA2Config, sampling: Sampling) -> NSGA2:
+    return NSGA2(pop_size=config.population, sampling=sampling, selection=RankRouletteSelection(),
+                 crossover=SinglePointArithmeticCrossover(config.crossover_probability),
+                 mutation=UniformMutation(config.mutation_rate), eliminate_duplicates=True)
+
+
+def _front(population: Population, seconds: float, evaluations: int) -> Front:
+    genomes, objectives = population.get("X"), population.get("F")
+    keep = non_dominated(objectives)
+    keep = keep[np.argsort(objectives[keep, -1], kind="stable")]
+    return Front(genomes[keep], objectives[keep], seconds, evaluations)
+
+
 def run_nsga2(problem: GenomeProblem, sampling: Sampling, config: NSGA2Config,
               stop: Callable[[], bool] | None = None) -> Front:
     """`config.generations` generations of NSGA-II on `problem` from a first population drawn by `sampling`, or
     fewer: the run ends after the first generation at which `stop()` is true (a spend budget)."""
-    algorithm = NSGA2(pop_size=config.population, sampling=sampling, selection=RankRouletteSelection(),
-                      crossover=SinglePointArithmeticCrossover(config.crossover_probability),
-                      mutation=UniformMutation(config.mutation_rate), eliminate_duplicates=True)
     started = time.perf_counter()
-    result = minimize(problem, algorithm, GenerationsOrStop(config.generations, stop), seed=config.seed,
-                      verbose=False)
+    result = minimize(problem, _algorithm(config, sampling), GenerationsOrStop(config.generations, stop),
+                      seed=config.seed, verbose=False)
+    return _front(result.pop, time.perf_counter() - started, int(result.algorithm.evaluator.n_eval))
+
+
+def run_nsga2_together(runs: list[tuple[GenomeProblem, NSGA2Config]], sampling: Sampling,
+                       prefetch: Callable[[list[tuple[GenomeProblem, np.ndarray]]], None]
+                       ) -> tuple[list[Front], float]:
+    """Several NSGA-II runs stepped together, generation by generation: every run still going asks for its
+    offspring, `prefetch` sees all their genomes at once ((problem, (B, n_var) genomes) per asking run, so that
+    what the runs share, like a memo of costly parts, is computed in one batch), then each run evaluates and tells.
+
+    Each run draws exactly what it draws alone (its own seeded Generator, pymoo's ask-and-tell is its own loop);
+    it can differ from its lone self only where an objective computed in a shared batch rounds differently.
+    Returns the runs' fronts (`seconds`: the wall time of all of them) and that wall time."""
+    started = time.perf_counter()
+    algorithms = []
+    for problem, config in runs:
+        algorithm = _algorithm(config, sampling)
+        algorithm.setup(problem, termination=GenerationsOrStop(config.generations, None), seed=config.seed,
+                        verbose=False)
+        algorithms.append(algorithm)
+    while going := [algorithm for algorithm in algorithms if algorithm.has_next()]:
+        offspring = [algorithm.ask() for algorithm in going]
+        prefetch([(algorithm.problem, population.get("X")) for algorithm, population in zip(going, offspring,
+                                                                                             strict=True)])
+        for algorithm, population in zip(going, offspring, strict=True):
+            algorithm.evaluator.eval(algorithm.problem, population, algorithm=algorithm)
+            algorithm.tell(infills=population)
     seconds = time.perf_counter() - started
-    genomes, objectives = result.pop.get("X"), result.pop.get("F")
-    keep = non_dominated(objectives)
-    keep = keep[np.argsort(objectives[keep, -1], kind="stable")]
-    return Front(genomes[keep], objectives[keep], seconds, int(result.algorithm.evaluator.n_eval))
+    return [_front(algorithm.result().pop, seconds, int(algorithm.evaluator.n_eval)) for algorithm in algorithms], \
+        seconds
 
 
 def survivors(genomes: np.ndarray, objectives: np.ndarray, problem: GenomeProblem, n: int,

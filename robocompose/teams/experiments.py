@@ -2,13 +2,15 @@
 
 Every row of a table runs on the same chips and seeds: Table 5.4 on the first `table_5_4_chips`
 test chips, Table 5.5 on the first `table_5_5_chips`, each on every one of `seeds` (EG-GAN's rows
-come from generative.py on the same chips). Table 5.4: NSGA-II with each population size per chip
-and seed; the runtime is the wall time of the run measured inside it, with an empty evaluation
-cache (as the thesis times a run from scratch); every evaluation is then merged into the stage's
-cache for later stages. Runtimes are returned apart from the runs table, which DVC hashes (wall
-time is not reproducible). Table 5.5: the baselines of baselines.py at each deployment budget, per
-chip and seed. Beside Table 5.4, random-allocation fronts: the non-dominated set of 64 and of 512 draws of
-NSGA-II's initial sampler, the count a query decodes (a learner must beat them to have learned anything).
+come from generative.py on the same chips). Table 5.4: NSGA-II with each genome and population size per chip
+and seed. The runs of one chip and seed are stepped together over one team-cost memo (`_nsga2_group`): each
+generation's new teams of all of them are optimised in one batch, which costs about what one run's batch costs, and
+each run counts its own spend. The runtime a user waits for is timed apart: every (genome, population) run alone on
+the first chip and seed with an empty memo (as the thesis times a run from scratch). Runtimes are returned apart
+from the runs table, which DVC hashes (wall time is not reproducible). Table 5.5: the baselines of baselines.py at
+each deployment budget, per chip and seed. Beside Table 5.4, random-allocation fronts: the non-dominated set of 64
+and of 512 draws of NSGA-II's initial sampler, the count a query decodes (a learner must beat them to have learned
+anything).
 
 The runs (chip x seed x population) and the per-chip baselines are independent tasks, fanned out
 through the project's Executor (local processes or a Dask cluster; None = in this process). Each task
@@ -31,8 +33,14 @@ from robocompose.teams.baselines import no_decomposition_costs, random_allocatio
 from robocompose.teams.chips import Chip, read_chip
 from robocompose.teams.decompose import Decomposition, chip_decomposition
 from robocompose.teams.ergodic import CoverageConfig
-from robocompose.teams.evaluator import AllocationEvaluator, chip_coverage
-from robocompose.teams.nsga2 import NSGA2Result, allocation_nsga2, deployment_share_draws, team_hypervolume
+from robocompose.teams.evaluator import AllocationEvaluator, chip_coverage, teams_cache
+from robocompose.teams.nsga2 import (
+    NSGA2Result,
+    allocation_nsga2,
+    allocation_nsga2_together,
+    deployment_share_draws,
+    team_hypervolume,
+)
 from robocompose.teams.params import ExperimentsConfig
 from robocompose.teams.species import SPECIES, allocation_to_counts, deployment_cost
 
@@ -56,23 +64,62 @@ def _nsga2_run(task: tuple[Chip, Decomposition, CoverageConfig, NSGA2Config, str
     return result, evaluate
 
 
+def _nsga2_group(task: tuple[Chip, Decomposition, CoverageConfig, list[tuple[NSGA2Config, str]], int]
+                 ) -> tuple[list[tuple[NSGA2Result, AllocationEvaluator]], float]:
+    """The NSGA-II runs (settings, genome) of one chip and seed (an executor task), stepped together over one
+    team-cost memo that starts empty: their results, each with its own evaluator (its spend), and their wall time."""
+    chip, decomposition, coverage, settings, threads = task
+    torch.set_num_threads(threads)
+    (seed,) = {nsga2.seed for nsga2, _ in settings}  # the memo holds the costs of one robot-start seed
+    plan, memo = chip_coverage(chip, decomposition, coverage), teams_cache()
+    shared = AllocationEvaluator(plan, chip.chip_id, seed, memo)
+    evaluators = [AllocationEvaluator(plan, chip.chip_id, seed, memo) for _ in settings]
+    results, seconds = allocation_nsga2_together(
+        [(evaluate, nsga2, genome) for evaluate, (nsga2, genome) in zip(evaluators, settings, strict=True)],
+        decomposition.n_regions, len(SPECIES), coverage.robots_per_species, shared.team_costs)
+    return list(zip(results, evaluators, strict=True)), seconds
+
+
 def nsga2_runs(chips: list[tuple[Chip, Decomposition]], coverage: CoverageConfig, config: ExperimentsConfig,
                cache: EvaluationCache, executor: Executor | None = None
-               ) -> tuple[pd.DataFrame, pd.DataFrame, list[dict]]:
-    """Run NSGA-II per chip x seed x genome x population, each run from an empty team-cost memo (its evaluations:
-    the allocations it scored; its team look-ups against the distinct teams it optimised: what the memo saved).
+               ) -> tuple[pd.DataFrame, pd.DataFrame, dict[str, list[dict]]]:
+    """Run NSGA-II per chip x seed x genome x population, the runs of a chip and seed stepped together (its
+    evaluations: the allocations it scored; its team look-ups against the distinct teams it optimised: what the
+    memo saved it), every team cost merged into `cache`.
 
-    Returns the "teams_nsga2" and "teams_fronts" tables and the runs' wall times (one dict per run:
-    chip_id, genome, population, seed, seconds) for the untracked timings file.
+    Returns the "teams_nsga2" and "teams_fronts" tables and, for the untracked timings file, the wall times:
+    "nsga2_groups" (chip_id, seed, seconds of its runs together) and "nsga2_alone" (each genome and population
+    run alone from an empty memo on the first chip and seed: chip_id, genome, population, seed, seconds).
     """
-    runs = [(chip, decomposition, NSGA2Config(population=population, generations=config.generations,
-                                              crossover_probability=config.crossover_probability,
-                                              mutation_rate=config.mutation_rate, seed=seed), genome)
-            for chip, decomposition in chips[:config.table_5_4_chips]
-            for seed in config.seeds
-            for genome in config.genomes
-            for population in config.populations]
-    return budgeted_nsga2_runs(runs, coverage, cache, executor)
+    def settings(seed: int) -> list[tuple[NSGA2Config, str]]:
+        return [(NSGA2Config(population=population, generations=config.generations,
+                             crossover_probability=config.crossover_probability, mutation_rate=config.mutation_rate,
+                             seed=seed), genome)
+                for genome in config.genomes for population in config.populations]
+
+    tasks = [(chip, decomposition, coverage, settings(seed), torch.get_num_threads())
+             for chip, decomposition in chips[:config.table_5_4_chips] for seed in config.seeds]
+    groups = (executor or Executor(workers=1)).map(_nsga2_group, tasks)
+    rows, fronts, timings = [], [], []
+    for (chip, _, _, runs, _), (results, seconds) in zip(tasks, groups, strict=True):
+        cache.merge(results[0][1].cache)  # the group's one memo (keys carry the chip and seed: no overlap)
+        timings.append({"chip_id": chip.chip_id, "seed": runs[0][0].seed, "seconds": round(seconds, 2)})
+        for (nsga2, genome), (result, evaluator) in zip(runs, results, strict=True):
+            rows.append((chip.chip_id, genome, nsga2.population, nsga2.seed, nsga2.generations, result.hypervolume,
+                         result.evaluations, evaluator.lookups, len(evaluator.asked)))
+            fronts += [(chip.chip_id, genome, nsga2.population, nsga2.seed, cost, int(deploy),
+                        counts.ravel().tolist())
+                       for (cost, deploy), counts in zip(result.front, result.counts, strict=True)]
+    chip, decomposition = chips[0]
+    _, _, alone = budgeted_nsga2_runs([(chip, decomposition, nsga2, genome) for nsga2, genome in
+                                       settings(config.seeds[0])], coverage, teams_cache(), executor)
+    return (pd.DataFrame(rows, columns=NSGA2_COLUMNS), pd.DataFrame(fronts, columns=FRONT_COLUMNS),
+            {"nsga2_groups": timings, "nsga2_alone": alone})
+
+
+NSGA2_COLUMNS = ["chip_id", "genome", "population", "seed", "generations", "hypervolume", "evaluations",
+                 "team_lookups", "distinct_teams"]
+FRONT_COLUMNS = ["chip_id", "genome", "population", "seed", "coverage_cost", "deployment_cost", "counts"]
 
 
 def budgeted_nsga2_runs(runs: list[tuple[Chip, Decomposition, NSGA2Config, str]], coverage: CoverageConfig,
@@ -93,11 +140,7 @@ def budgeted_nsga2_runs(runs: list[tuple[Chip, Decomposition, NSGA2Config, str]]
                         "seed": nsga2.seed, "seconds": round(result.seconds, 2)})
         fronts += [(chip.chip_id, genome, nsga2.population, nsga2.seed, cost, int(deploy), counts.ravel().tolist())
                    for (cost, deploy), counts in zip(result.front, result.counts, strict=True)]
-    return (pd.DataFrame(rows, columns=["chip_id", "genome", "population", "seed", "generations", "hypervolume",
-                                        "evaluations", "team_lookups", "distinct_teams"]),
-            pd.DataFrame(fronts, columns=["chip_id", "genome", "population", "seed", "coverage_cost",
-                                          "deployment_cost", "counts"]),
-            seconds)
+    return pd.DataFrame(rows, columns=NSGA2_COLUMNS), pd.DataFrame(fronts, columns=FRONT_COLUMNS), seconds
 
 
 RANDOM_FRONT_DRAWS = (64, 512)  # Table 5.4's random-allocation fronts: the first 64 and all 512 draws

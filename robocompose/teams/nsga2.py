@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from pymoo.core.sampling import Sampling
 
-from robocompose.search.nsga2 import GenomeProblem, NSGA2Config, hypervolume, run_nsga2
+from robocompose.search.nsga2 import Front, GenomeProblem, NSGA2Config, hypervolume, run_nsga2, run_nsga2_together
 from robocompose.teams.genomes import GENOMES
 from robocompose.teams.species import allocation_to_counts
 
@@ -79,12 +79,29 @@ class NSGA2Result:
     evaluations: int  # objective evaluations requested by NSGA-II (cached or not)
 
 
+def _result(problem: AllocationProblem, front: Front) -> NSGA2Result:
+    return NSGA2Result(front.objectives, problem.counts(front.genomes), team_hypervolume(front.objectives),
+                       front.seconds, front.evaluations)
+
+
 def allocation_nsga2(evaluate: Callable[[np.ndarray], np.ndarray], n_regions: int, n_species: int,
                      robots_per_species: int, config: NSGA2Config, genome: str = "fractions",
                      stop: Callable[[], bool] | None = None) -> NSGA2Result:
     """Run NSGA-II on the allocations of one chip; `evaluate` maps (B, K, O) counts to (B, 2) objectives; `stop`
     ends the run after a generation (a spend budget)."""
     problem = AllocationProblem(n_regions, n_species, robots_per_species, evaluate, genome)
-    front = run_nsga2(problem, DeploymentShareSampling(), config, stop)
-    return NSGA2Result(front.objectives, problem.counts(front.genomes), team_hypervolume(front.objectives),
-                       front.seconds, front.evaluations)
+    return _result(problem, run_nsga2(problem, DeploymentShareSampling(), config, stop))
+
+
+def allocation_nsga2_together(runs: list[tuple[Callable[[np.ndarray], np.ndarray], NSGA2Config, str]],
+                              n_regions: int, n_species: int, robots_per_species: int,
+                              prefetch: Callable[[np.ndarray], object]) -> tuple[list[NSGA2Result], float]:
+    """NSGA-II runs (each: its `evaluate`, settings, genome) on the allocations of one chip, stepped together;
+    `prefetch` sees each generation's (B, K, O) counts of every run at once. Their results and wall time."""
+    problems = [AllocationProblem(n_regions, n_species, robots_per_species, evaluate, genome)
+                for evaluate, _, genome in runs]
+    fronts, seconds = run_nsga2_together(
+        [(problem, config) for problem, (_, config, _) in zip(problems, runs, strict=True)],
+        DeploymentShareSampling(),
+        lambda asked: prefetch(np.concatenate([problem.counts(genomes) for problem, genomes in asked])))
+    return [_result(problem, front) for problem, front in zip(problems, fronts, strict=True)], seconds

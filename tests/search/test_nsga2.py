@@ -14,6 +14,7 @@ from robocompose.search.nsga2 import (
     non_dominated,
     nsga2_generation,
     run_nsga2,
+    run_nsga2_together,
 )
 
 
@@ -47,6 +48,20 @@ def test_nsga2_is_deterministic_given_its_seed_and_improves_with_generations():
                                                                                      seed=3)) for g in (2, 2, 15))
     np.testing.assert_array_equal(first.objectives, again.objectives)
     assert hypervolume(longer.objectives, reference) >= hypervolume(first.objectives, reference)
+
+
+def test_runs_stepped_together_are_each_the_run_it_would_be_alone():
+    settings = [NSGA2Config(population=8, generations=6, seed=1), NSGA2Config(population=12, generations=3, seed=2),
+                NSGA2Config(population=8, generations=6, seed=5)]
+    seen = []
+    together, seconds = run_nsga2_together([(Schaffer(), config) for config in settings], FloatRandomSampling(),
+                                           lambda asked: seen.append([len(g) for _, g in asked]))
+    for config, front in zip(settings, together, strict=True):
+        alone = run_nsga2(Schaffer(), FloatRandomSampling(), config)
+        np.testing.assert_array_equal(front.genomes, alone.genomes)
+        assert front.evaluations == alone.evaluations and front.seconds == seconds
+    # every generation of every run still going is prefetched in one call; the shorter run drops out
+    assert seen == [[8, 12, 8]] * 3 + [[8, 8]] * 3
 
 
 def test_one_generation_keeps_the_batch_and_does_not_lose_hypervolume():

@@ -44,9 +44,16 @@ def test_nsga2_runs_record_every_population_and_a_front_per_run(test_chips):
     assert runs.population.tolist() == [4, 6, 4, 6] and (runs.evaluations == [8, 12, 8, 12]).all()
     assert runs.seed.tolist() == [0, 0, 1, 1] and "seconds" not in runs  # wall time: not in the table
     assert set(runs.genome) == {"fractions"}
-    assert [(run["population"], run["seed"]) for run in seconds] == [(4, 0), (6, 0), (4, 1), (6, 1)]
-    assert all(run["seconds"] > 0 for run in seconds)
+    chip_id = test_chips[0][0].chip_id
+    assert [(run["chip_id"], run["seed"]) for run in seconds["nsga2_groups"]] == [(chip_id, 0), (chip_id, 1)]
+    # the time a user waits for: each run alone, on the first chip and seed
+    assert [(run["population"], run["seed"]) for run in seconds["nsga2_alone"]] == [(4, 0), (6, 0)]
+    assert all(run["seconds"] > 0 for group in seconds.values() for run in group)
     assert (runs.distinct_teams < runs.team_lookups).all()  # the memo saved optimisations in every run
+    # the runs of a chip and seed share their memo: a team two of them met was optimised once
+    optimised = cache.frame().groupby("seed").size()
+    assert (optimised <= runs.groupby("seed").distinct_teams.sum()).all()
+    assert (optimised >= runs.groupby("seed").distinct_teams.max()).all()
     chips = {chip.chip_id: (chip, decomposition) for chip, decomposition in test_chips}
     for row in fronts.itertuples():  # every front point is the sum of its teams' cached costs
         memo = AllocationEvaluator(chip_coverage(*chips[row.chip_id], TINY), row.chip_id, row.seed, cache)
