@@ -281,10 +281,10 @@ def _table_5_4(fronts: pd.DataFrame, timings: dict, eggan: Eggan, training: dict
                      f"front (higher on {int((random_gap > 0).sum())} of {len(random_gap)} chip x seed pairs), and "
                      f"measures its front {speed:,.1f}x faster than that NSGA-II row "
                      f"({seconds['eggan'].mean():.1f} s against {seconds[best].mean():.1f} s).")
-    notes.append("Time to a measured front: EG-GAN's per query (the generator, then the optimiser on its answer), every "
-                 "chip x seed; an NSGA-II row's from that row run alone from an empty team-cost memo on the first "
-                 "chip and seed (the stage steps a chip's NSGA-II rows together over one memo, a saving a user "
-                 "running one of them would not have).")
+    notes.append("Time to a measured front: EG-GAN's per query (the generator, then the optimiser on its answer), "
+                 "every chip x seed; an NSGA-II row's from that row run alone from an empty team-cost memo on the "
+                 "first chip and seed (the stage steps a chip's NSGA-II rows together over one memo, a saving a "
+                 "user running one of them would not have).")
     tests = {}
     for m in methods:
         if m == "eggan":

@@ -80,13 +80,19 @@ def front_points(nsga2: pd.DataFrame, matched: pd.DataFrame, random: pd.DataFram
     return pd.concat([frame[POINT_COLUMNS] for frame in frames], ignore_index=True)
 
 
-def _remeasure_chip(task: tuple[Chip, Decomposition, CoverageConfig, np.ndarray, list[int], int]) -> np.ndarray:
-    """(N, H) coverage costs of one chip's (N, K, O) allocations at each held-out seed (an executor task)."""
-    chip, decomposition, coverage, counts, seeds, threads = task
-    torch.set_num_threads(threads)
+def allocation_costs(chip: Chip, decomposition: Decomposition, coverage: CoverageConfig, counts: np.ndarray,
+                     seeds: list[int]) -> np.ndarray:
+    """(N, H) coverage costs of one chip's (N, K, O) allocations at each of the robot-start `seeds`."""
     problem = chip_coverage(chip, decomposition, coverage)
     return np.stack([AllocationEvaluator(problem, chip.chip_id, seed, max_batch=HELDOUT_BATCH)(counts)[:, 0]
                      for seed in seeds], axis=1)
+
+
+def _remeasure_chip(task: tuple[Chip, Decomposition, CoverageConfig, np.ndarray, list[int], int]) -> np.ndarray:
+    """`allocation_costs` at the held-out seeds (an executor task)."""
+    *problem, threads = task
+    torch.set_num_threads(threads)
+    return allocation_costs(*problem)
 
 
 def remeasured(points: pd.DataFrame, chips: list[tuple[Chip, Decomposition]], coverage: CoverageConfig,

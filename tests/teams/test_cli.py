@@ -77,7 +77,21 @@ def test_compose_teams_prints_the_measured_front_and_the_best_within_a_budget(tm
     budget = front[-1]["deployment_cost"]
     best = run(["compose", "teams", "--chip", str(chip), "--model", str(tiny_teams_model), "--budget", str(budget)],
                capsys)["allocation"]
-    assert best["coverage_cost"] == min(p["coverage_cost"] for p in front if p["deployment_cost"] <= budget)
+    # picked at the selection seed (0) ...
+    assert best["selection_cost"] == min(p["coverage_cost"] for p in front if p["deployment_cost"] <= budget)
+    assert best["selection_seed"] == 0 and best["report_seeds"] == [1, 2, 3]
+    # ... and reported at seeds it was not picked on, measured afresh by the optimiser
+    from robocompose.teams.chips import chips_in_file
+    from robocompose.teams.compose import TeamsComposer
+    from robocompose.teams.decompose import decompose_chip
+    from robocompose.teams.evaluator import AllocationEvaluator, chip_coverage
+
+    composer = TeamsComposer.load(tiny_teams_model)
+    first = next(chips_in_file(chip))
+    plan = chip_coverage(first, decompose_chip(first, composer.decompose), composer.coverage)
+    again = [AllocationEvaluator(plan, first.chip_id, seed)(np.array([best["counts"]]))[0, 0] for seed in (1, 2, 3)]
+    assert best["coverage_cost"] == pytest.approx(np.mean(again), rel=1e-6)
+    assert best["coverage_cost_sd"] == pytest.approx(np.std(again, ddof=1), rel=1e-5)
 
 
 def test_a_budget_answer_lies_inside_the_box_or_says_none_does():

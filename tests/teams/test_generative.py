@@ -115,6 +115,29 @@ def test_a_briefly_trained_generator_beats_random_allocations_of_the_same_count(
     assert fronts[5] < random_hypervolume < fronts[200]  # 7.5 < 9.4 < 11.2
 
 
+def test_the_shipped_generator_beats_random_allocations_of_its_count_on_chips_it_never_saw():
+    # the default profile's generator, trained on the training split; two test-split chips of the same synthetic set
+    from robocompose.teams.compose import TeamsComposer
+    from robocompose.teams.decompose import split_chips
+
+    composer = TeamsComposer.load(SHIPPED_MODEL)
+    settings = composer.info["params"]
+    chip_ids = [synthetic_chip(settings["chips"]["seed"], index).chip_id
+                for index in range(settings["chips"]["n_synthetic"])]
+    split = split_chips(chip_ids, settings["decompose"]["test_fraction"], settings["decompose"]["seed"])
+    unseen = [index for index, chip_id in enumerate(chip_ids) if split[chip_id] == "test"][:2]
+    assert not {chip_ids[index] for index in unseen} & set(composer.info["train_chip_ids"])
+    samples = settings["eggan"]["samples"]
+    for index in unseen:
+        chip = synthetic_chip(settings["chips"]["seed"], index)
+        generated = composer.query(chip, seed=0)["hypervolume"]
+        decomposition = decompose_chip(chip, composer.decompose)
+        evaluate = AllocationEvaluator(chip_coverage(chip, decomposition, composer.coverage), chip.chip_id, 0)
+        draws = deployment_share_draws(np.random.default_rng(index), samples, decomposition.n_regions, 3)
+        random = evaluate(allocation_to_counts(draws, composer.coverage.robots_per_species))
+        assert generated > team_hypervolume(random[non_dominated(random)])
+
+
 def test_validation_chips_are_held_out_of_training_and_the_summary_flags_a_discriminator_at_chance():
     chips = [(synthetic_chip(6, index, size=40), None) for index in range(3)]
     training, validation = split_validation(chips, EgganConfig(validation_chips=1))
