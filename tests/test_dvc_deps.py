@@ -136,6 +136,16 @@ def test_dvc_yaml_code_deps_are_what_make_deps_writes():
 
 
 @pytest.mark.parametrize("name", sorted(STAGES))
+def test_stage_can_come_from_the_run_cache_and_takes_no_backend_setting_as_a_param(name):
+    """A persisted out turns DVC's run cache off for its stage: checkpoints are no outs. Results do not depend
+    on the backend, so pointing `compute:` at a Dask cluster (or another worker count) reruns nothing."""
+    stage = STAGES[name]
+    assert [str(out) for out in stage.outs if out.persist] == []
+    params = {key for dep in stage.deps if hasattr(dep, "params") for key in dep.params}
+    assert params & {"compute", "compute.workers", "compute.address"} == set()
+
+
+@pytest.mark.parametrize("name", sorted(STAGES))
 def test_stage_lists_every_file_it_reads(name):
     stage = STAGES[name]
     problems = read_problems(name, stage_script(stage), dep_paths(stage), out_paths(stage), STAGES)
