@@ -12,7 +12,7 @@ export PREFECT_SERVER_EPHEMERAL_STARTUP_TIMEOUT_SECONDS := 120
 export MPLBACKEND := Agg
 export PATH := $(CURDIR)/$(BIN):$(PATH)
 
-.PHONY: setup run test test-slow bench lint profile
+.PHONY: setup run test test-slow bench lint profile deps
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -47,3 +47,7 @@ bench: setup
 # `make profile PROFILE=paper` switches params.yaml to the thesis's scale; `make profile PROFILE=default` back.
 profile: setup
 	$(BIN)/robocompose profile $(PROFILE)
+
+# `make deps`: rewrite each stage's code deps in dvc.yaml from its script's import closure (robocompose/dvc_deps.py).
+deps: setup
+	$(BIN)/python -m robocompose.dvc_deps
