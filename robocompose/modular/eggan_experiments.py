@@ -6,7 +6,7 @@ baseline's own trainer, all on the same problem and budget; with the table sourc
 pool's validation terrains (`validation_scores`) goes into its log and metrics, its score on the training terrains
 (`training_scores`) into its metrics. A model is saved with its params, metrics and provenance.
 
-Table 5.1's methods (`REALTIME_METHODS`, `realtime_proposers`): the learned ones from their model files, random
+Table 5.1's methods (`realtime_methods`, `realtime_proposers`): the learned ones from their model files, random
 sampling and the rows from tables (`robocompose.modular.protocol`, which runs the test protocol). Every learned
 row is an entry of `robocompose.eggan.learners.LEARNERS["modular"]`, the only list of them: its title and
 whether it trained are written beside its results (`method_info`) for the report.
@@ -75,9 +75,13 @@ def train_variant(variant: str, modular: ModularParams, params: EgganModularPara
     return metrics
 
 
-# Table 5.1's rows, in its order: the learned baselines, random sampling, EG-GAN's variants; ours beside them,
-# read from tables: the terrain-agnostic portfolio (after random sampling) and the oracle (last)
-REALTIME_METHODS = (*baselines("modular"), "random", "portfolio", *variants("modular"), "optimum")
+def realtime_methods() -> tuple[str, ...]:
+    """Table 5.1's rows, in its order: the learned baselines, random sampling, EG-GAN's variants; ours beside them,
+    read from tables: the terrain-agnostic portfolio (after random sampling) and the oracle (last). Read from the
+    registry at each call, so that a learner registered at run time (a test's) is a row."""
+    return (*baselines("modular"), "random", "portfolio", *variants("modular"), "optimum")
+
+
 UNLEARNED = {"random": "Random sampling", "portfolio": "Portfolio (terrain-agnostic baseline)",
              "optimum": "Exhaustive optimum (oracle)"}  # the rows no learner answers -> their titles
 
@@ -99,7 +103,7 @@ def realtime_proposers(problem: ModularEgganProblem, params: EgganModularParams,
     rows from tables (`table_proposers` of the `portfolio` designs and each test terrain's fittest designs)."""
     tables = table_proposers(portfolio, optima)
     proposers: dict[str, Proposer] = {}
-    for method in REALTIME_METHODS:
+    for method in realtime_methods():
         path = models / f"eggan_modular_{method}.pt"
         if method == "random":
             proposers[method] = random_proposer

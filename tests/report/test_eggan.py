@@ -11,7 +11,7 @@ import pytest
 
 from robocompose.io import write_table
 from robocompose.io.errors import ArtifactError
-from robocompose.modular.eggan_experiments import REALTIME_METHODS, method_info
+from robocompose.modular.eggan_experiments import method_info, realtime_methods
 from robocompose.report.eggan import section
 
 
@@ -30,7 +30,7 @@ def _stage_metrics(reports, realtime: dict | None = None, eggan: dict | None = N
     """The metrics of `modular_realtime` (each row's title and whether it is learned, as the stage writes them,
     beside `realtime`) and of `train_eggan_modular` (`eggan`, else a training record per learner)."""
     (reports / "metrics").mkdir(parents=True, exist_ok=True)
-    rows = {m: method_info(m) for m in REALTIME_METHODS}
+    rows = {m: method_info(m) for m in realtime_methods()}
     (reports / "metrics" / "modular_realtime.json").write_text(json.dumps({**rows, **(realtime or {})}))
     trained = {m: {"method": info["title"], "real_evaluations": 100} for m, info in rows.items() if info["learned"]}
     (reports / "metrics" / "eggan_modular.json").write_text(json.dumps(trained if eggan is None else eggan))
