@@ -3,7 +3,8 @@
 params (compute, glso, evaluation) + models/vae_{full,nopred,nogram}.pt -> data/glso/steps.parquet (all step
 tables), data/glso/runs/ (per run; persistent), data/glso/rollouts/<task>.{mcap,gif,png} (each task's best design
 replayed, and its picture at rest),
-reports/metrics/glso.json. Each run's checkpoint, data/glso/checkpoints/<run>.ckpt (its step rows as JSON; the
+reports/metrics/glso.json (with every registered method's title and figure groups: the report names the methods
+from there). Each run's checkpoint, data/glso/checkpoints/<run>.ckpt (its step rows as JSON; the
 run replays them to resume), is not a DVC output: it only saves time (its key covers the run, the settings and
 the code): a killed stage resumes every run where it stopped.
 """
@@ -12,6 +13,7 @@ from pathlib import Path
 
 from robocompose.evaluation.evaluate import EvaluationConfig
 from robocompose.fanout.compute import ComputeConfig
+from robocompose.glso.registry import describe
 from robocompose.glso.runs import GLSOConfig, record_best, run_all, summarise
 from robocompose.grammar.tree import DesignTree
 from robocompose.io import atomic_write_json, write_table
@@ -37,7 +39,7 @@ def main() -> None:
             render_design(DesignTree(tuple(row.parents), tuple(row.tokens)), OUT / "rollouts" / f"{row.task}.png",
                           width=320, height=240)
         atomic_write_json("reports/metrics/glso.json", {
-            "final_best": summarise(steps), "budget": config.budget, "seeds": config.seeds,
+            "final_best": summarise(steps), "budget": config.budget, "seeds": config.seeds, "methods": describe(),
             "best_design": {row.task: {"method": row.method, "seed": int(row.seed), "design_id": row.design_id,
                                        "score": round(float(row.score), 4)} for row in best.itertuples()},
             "settings_hash": {task: evaluation.settings_hash(task) for task in config.tasks}})

@@ -3,7 +3,8 @@
 params (modular, eggan_modular) + the generators of `train_eggan_modular` + the test terrains' exhaustive table
 (data/modular/exhaustive.parquet) + the training pool's tables (data/modular/pool.parquet, stage modular_pool;
 its training terrains give the portfolio) -> data/modular/realtime.parquet,
-reports/metrics/modular_realtime.json (per method; the portfolio's designs; DQN's symmetric-space ceiling on the
+reports/metrics/modular_realtime.json (per method, with its title and whether it is learned: the report reads
+them there; the portfolio's designs; DQN's symmetric-space ceiling on the
 test terrains), and Fig. 5.1's designs on the first two test terrains (data/modular/fig5_1.json).
 Every candidate is answered from the test terrain's exhaustive table: no rollout. A test terrain without a table
 stops the stage with one line naming it.
@@ -14,7 +15,7 @@ from pathlib import Path
 from robocompose.eggan.query import load_generator
 from robocompose.io import atomic_write_json, read_table, write_table
 from robocompose.io.timings import timed
-from robocompose.modular.eggan_experiments import make_problem, realtime_proposers
+from robocompose.modular.eggan_experiments import make_problem, method_info, realtime_proposers
 from robocompose.modular.eggan_params import EgganModularParams
 from robocompose.modular.figure_5_1 import figure_5_1
 from robocompose.modular.params import ModularParams
@@ -46,8 +47,8 @@ def main() -> None:
     write_table(table, "data/modular/realtime.parquet", "modular_realtime")
     ceiling = symmetric_ceiling(test)
     atomic_write_json("reports/metrics/modular_realtime.json", {
-        **{row["method"]: {k: (None if v != v else round(float(v), 4)) for k, v in row.items() if k != "method"}
-           for row in summarise(table).to_dict("records")},
+        **{row["method"]: {**{k: (None if v != v else round(float(v), 4)) for k, v in row.items() if k != "method"},
+                           **method_info(row["method"])} for row in summarise(table).to_dict("records")},
         "portfolio_designs": {"pool_terrains": len(fitness.train_seeds), "designs": designs},
         "dqn_symmetric_ceiling": {k: round(v, 4) if isinstance(v, float) else v for k, v in ceiling.items()}})
 

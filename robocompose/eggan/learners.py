@@ -6,8 +6,11 @@ k) -> k candidate designs, best first; a teams learner gives its `Draws`, (probl
 designs it drew, whose front the teams world measures with the ergodic optimiser (`teams.eggan_problem.
 query_front`). A learned baseline also says how it trains on a problem under the problem's budget of real
 evaluations (`training`); EG-GAN itself trains with `robocompose.eggan.train` (Algorithm 1, checkpointed), each
-world choosing its evolution. Every learner works on an `EgganProblem` (DQN on a `SequentialProblem`): a new
-learner is its own file (trainer, file writer and reader) plus one line under its world in `LEARNERS`.
+world choosing its evolution (a modular EG-GAN variant names its own: `evolution`). Every learner works on an
+`EgganProblem` (DQN on a `SequentialProblem`): a new learner is its own file (trainer, file writer and reader)
+plus one line under its world in `LEARNERS`. The entry is the only list of it: its title (which the stages write
+into their artifacts for the report), its settings' dataclass (checked when a profile is written), its place in
+the tables (registry order) and in the training queue (`cost`) all live there.
 """
 
 from __future__ import annotations
@@ -72,19 +75,25 @@ class Learner:
     load: Callable  # (path, problem) -> (model, info)
     answer: Callable[[Any, int], Answer | Draws]  # (model, samples per draw) -> its answer in its world's way
     training: Training | None = None  # None: trained by robocompose.eggan.train (EG-GAN)
+    evolution: str | None = None  # an EG-GAN variant's evolution method (its world's `evolution_methods`)
+    cost: int = 1  # relative training time: a stage that trains learners side by side starts the costliest first
 
 
 LEARNERS: dict[str, dict[str, Learner]] = {
-    "modular": {  # the baselines in the order of the thesis's Table 5.1
-        "eggan": Learner("EG-GAN", load_generator, generator_answer),
+    # In the order of the thesis's Table 5.1 (its random sampling row stands between the baselines and EG-GAN).
+    # Costs rank the training times on the default profile, slowest highest (MolGAN; Fit2form fastest).
+    "modular": {
         "fit2form": Learner("Fit2form", load_generator, generator_answer,
-                            Training(Fit2formConfig, train_fit2form, save_generator, lambda settings, rows: {})),
+                            Training(Fit2formConfig, train_fit2form, save_generator, lambda settings, rows: {}),
+                            cost=1),
         "dqn": Learner("DQN", load_dqn, dqn_answer,
                        Training(DQNConfig, train_dqn, save_dqn,
-                                lambda settings, rows: {"episodes": rows[-1]["episodes"]})),
+                                lambda settings, rows: {"episodes": rows[-1]["episodes"]}), cost=2),
         "molgan": Learner("MolGAN", load_generator, generator_answer,
                           Training(MolganConfig, train_molgan, save_generator,
-                                   lambda settings, rows: {"lam": settings.lam})),
+                                   lambda settings, rows: {"lam": settings.lam}), cost=5),
+        "ga": Learner("EG-GAN", load_generator, generator_answer, evolution="ga", cost=4),
+        "crowding": Learner("EG-GAN-crowding", load_generator, generator_answer, evolution="crowding", cost=3),
     },
     "teams": {  # Tables 5.4 and 5.5 (NSGA-II and the random allocations are not learned: teams/baselines.py)
         "eggan": Learner("EG-GAN", load_generator, generator_draws),
@@ -95,3 +104,16 @@ LEARNERS: dict[str, dict[str, Learner]] = {
 def baselines(world: str) -> dict[str, Learner]:
     """The learned baselines of `world` (its learners that train themselves), in registry order."""
     return {name: learner for name, learner in LEARNERS[world].items() if learner.training is not None}
+
+
+def variants(world: str) -> dict[str, Learner]:
+    """The EG-GAN variants of `world` (its learners trained by `robocompose.eggan.train` with their own evolution
+    method), in registry order."""
+    return {name: learner for name, learner in LEARNERS[world].items() if learner.evolution is not None}
+
+
+def training_order(world: str) -> tuple[str, ...]:
+    """Every learner of `world` that a stage trains (the variants and the baselines), costliest first (registry
+    order among equals), so that workers started in this order finish close together."""
+    trained = {**variants(world), **baselines(world)}
+    return tuple(sorted(trained, key=lambda name: -trained[name].cost))

@@ -12,7 +12,8 @@ from robocompose.arguments import input_file, non_negative_int, output_file
 def register(subparsers: argparse._SubParsersAction) -> None:
     evaluate = subparsers.add_parser("evaluate", help="score a design on a task (MPPI in pybullet); prints JSON")
     evaluate.add_argument("--rules", required=True, help="comma-separated rule indices, e.g. 0,7,1,13,...")
-    evaluate.add_argument("--task", default="flat", help="flat, frozen_lake, ridged or wall")
+    evaluate.add_argument("--task", default="flat",
+                          help="a terrain of robocompose.tasks.terrains.TASKS (unknown: refused with the list)")
     evaluate.add_argument("--seed", type=non_negative_int, default=None,
                           help="controller seed (default: evaluation.seed)")
     evaluate.add_argument("--params", type=Path, default=Path("params.yaml"),

@@ -2,10 +2,14 @@
 GA, MCTS and GHS, all on one objective and one budget. A method implements `method.SearchMethod` and is named
 in `registry.METHODS`; runs become step tables (`runs.py`); `robocompose glso` runs one."""
 
-FIG_8_1 = ("random", "ga", "mcts", "ghs", "glso")  # the thesis's comparison with baselines
-FIG_8_2 = ("glso", "glso_nopred", "glso_nogram")  # the thesis's ablations
-LABELS = {"glso": "GLSO", "glso_nopred": "GLSO_nopred", "glso_nogram": "GLSO_nogram", "random": "Random",
-          "ga": "GA", "mcts": "MCTS", "ghs": "GHS"}  # method -> the thesis's legend name
+REFERENCE = "glso"  # the method under test: every claim compares it with the others of a figure group
+GROUPS = {"baselines": "Fig. 8.1", "ablations": "Fig. 8.2"}  # a method's figure group -> the thesis's figure
+
+
+def group_titles(methods: list[dict], group: str | None = None) -> dict[str, str]:
+    """Method -> title, in registry order, of the methods of figure group `group` (None: all), from the record of
+    the registry a stage wrote (`registry.describe`): the report reads methods there, not from the registry."""
+    return {m["name"]: m["title"] for m in methods if group is None or group in m["groups"]}
 
 
 def best_designs(steps):  # (pd.DataFrame) -> pd.DataFrame; no pandas import here: the CLI imports this package
@@ -23,10 +27,11 @@ def best_so_far_curves(steps):  # (pd.DataFrame) -> pd.DataFrame
                        mean="mean", min="min", max="max", runs="size").reset_index()
 
 
-def draw_curves(ax, stats, task: str, methods, centre: str, low: str, high: str) -> None:
-    """One panel of Figs. 8.1/8.2: each method's `centre` curve of `best_so_far_curves` with a `low`-`high` band."""
-    for method in methods:
+def draw_curves(ax, stats, task: str, titles: dict[str, str], centre: str, low: str, high: str) -> None:
+    """One panel of Figs. 8.1/8.2: each method's (`titles`: method -> legend name, in legend order) `centre` curve
+    of `best_so_far_curves` with a `low`-`high` band."""
+    for method, title in titles.items():
         s = stats[(stats["task"] == task) & (stats["method"] == method)] if len(stats) else stats
         if len(s):
-            line, = ax.plot(s["calls"], s[centre], label=LABELS[method])
+            line, = ax.plot(s["calls"], s[centre], label=title)
             ax.fill_between(s["calls"], s[low], s[high], color=line.get_color(), alpha=0.2)

@@ -38,8 +38,8 @@ from robocompose.evaluation.evaluate import OK, EvaluationConfig, evaluate, obje
 from robocompose.evaluation.fidelity import THESIS, append_row, read_rows, rung_config
 from robocompose.evaluation.manifest import claim_directory, read_manifest
 from robocompose.fanout.cache import EvaluationCache
-from robocompose.glso import FIG_8_1, FIG_8_2, best_designs, best_so_far_curves, draw_curves
-from robocompose.glso.registry import METHODS
+from robocompose.glso import GROUPS, best_designs, best_so_far_curves, draw_curves, group_titles
+from robocompose.glso.registry import METHODS, describe, family
 from robocompose.glso.runs import GLSOConfig, RunSpec, run_search
 from robocompose.grammar.tree import DesignTree
 from robocompose.io import read_table, write_table
@@ -48,8 +48,6 @@ from robocompose.io.errors import InputError, check_field, check_number
 from robocompose.search.significance import holm
 from robocompose.tasks.terrains import TASKS
 
-BASELINES = tuple(m for m in FIG_8_1 if m != "glso")  # Fig. 8.1's family of comparisons
-ABLATIONS = tuple(m for m in FIG_8_2 if m != "glso")  # Fig. 8.2's
 RESCORE_COLUMNS = ("task", "method", "seed", "design_id", "rescore_seed", "reward", "status", "objective")
 RESCORES_FILE = "rescores.csv"
 CACHE_FILE = "eval_cache.parquet"  # under `checkpoints`: not committed, it only saves time
@@ -281,9 +279,9 @@ def compare(final: pd.DataFrame, column: str, bootstrap: int, alpha: float, seed
     rows = []
     for task, group in final.groupby("task", sort=False):
         glso = group.loc[group["method"] == "glso", column].dropna().to_numpy()
-        for family in (BASELINES, ABLATIONS):
+        for name in GROUPS:
             raw, found = {}, {}
-            for method in family:
+            for method in family(name):
                 other = group.loc[group["method"] == method, column].dropna().to_numpy()
                 if len(glso) and len(other):
                     raw[method] = float(mannwhitneyu(glso, other, alternative="greater").pvalue)
@@ -295,7 +293,7 @@ def compare(final: pd.DataFrame, column: str, bootstrap: int, alpha: float, seed
             for method, p_holm in holm(raw).items():
                 other = found[method]
                 diff, low, high = bootstrap_median_difference(glso, other, bootstrap, rng)
-                rows.append({"task": task, "on": column, "family": "baselines" if family is BASELINES else "ablations",
+                rows.append({"task": task, "on": column, "family": name,
                              "method": method, "n_glso": len(glso), "n_other": len(other), "p": raw[method],
                              "p_holm": p_holm, "p_floor": floors[method], "holm_floor": holm_floor,
                              "median_difference": diff, "ci_low": low, "ci_high": high,
@@ -311,7 +309,7 @@ def summarise(config: CampaignConfig) -> dict:
     steps = read_runs(config)
     planned = len(run_specs(config))
     if steps.empty:
-        return {"runs": 0, "planned": planned, "finals": [], "tests": [], "curves": []}
+        return {"runs": 0, "planned": planned, "finals": [], "tests": [], "curves": [], "methods": describe()}
     rescores = read_rescores(config.directory)
     final = final_bests(steps, rescores)
     tests = compare(final, "search", config.bootstrap, config.alpha) + compare(
@@ -320,7 +318,7 @@ def summarise(config: CampaignConfig) -> dict:
             "rung": read_manifest(config.directory).get("rung", ""),
             "rescore_seeds": list(config.rescore_seeds), "finals": final.to_dict("records"), "tests": tests,
             "curves": best_so_far_curves(steps)[["task", "method", "calls", "median", "q25", "q75", "runs"]]
-            .to_dict("records")}
+            .to_dict("records"), "methods": describe()}
 
 
 def plot(summary: dict, path: str | Path) -> Path:
@@ -329,10 +327,10 @@ def plot(summary: dict, path: str | Path) -> Path:
 
     stats = pd.DataFrame(summary["curves"])
     tasks = list(dict.fromkeys(stats["task"])) if len(stats) else ["flat"]
-    fig, axes = plt.subplots(2, len(tasks), figsize=(4.5 * len(tasks), 6.4), squeeze=False)
-    for row, (methods, title) in enumerate([(FIG_8_1, "Fig. 8.1"), (FIG_8_2, "Fig. 8.2")]):
+    fig, axes = plt.subplots(len(GROUPS), len(tasks), figsize=(4.5 * len(tasks), 3.2 * len(GROUPS)), squeeze=False)
+    for row, (group, title) in enumerate(GROUPS.items()):
         for ax, task in zip(axes[row], tasks, strict=True):
-            draw_curves(ax, stats, task, methods, "median", "q25", "q75")
+            draw_curves(ax, stats, task, group_titles(summary["methods"], group), "median", "q25", "q75")
             ax.set_title(f"{title}: {task}")
             ax.set_xlabel("objective calls")
             ax.set_ylabel("best reward so far")

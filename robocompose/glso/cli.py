@@ -11,7 +11,8 @@ from robocompose.arguments import add_compute_arguments, dask_address
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     glso = subparsers.add_parser("glso", help="search a task for the best design with one method; JSON per step")
-    glso.add_argument("--task", default="flat", help="flat, frozen_lake, ridged or wall")
+    glso.add_argument("--task", default="flat",
+                      help="a terrain of robocompose.tasks.terrains.TASKS (an unknown one is refused with the list)")
     glso.add_argument("--method", default="glso",
                       help="a method of robocompose/glso/registry.py: glso (and its ablations), random, ga, mcts, ...")
     glso.add_argument("--budget", type=int, default=None, help="objective calls (default: glso.budget)")

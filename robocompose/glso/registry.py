@@ -1,6 +1,8 @@
 """The GLSO search methods by name: a new method is its own file (a `method.SearchMethod` and the dataclass of
 its settings) plus one line here. Its settings are read from `glso.<section>` of params.yaml (methods may share
 a section, as the three latent ablations share `bo`), its name is what `glso.methods` and `--method` take.
+`METHODS` is the only list of them: titles, figure groups (`robocompose.glso.GROUPS`) and legend order live on
+the entries, and the stages write them into their artifacts (`describe`) for the report, which imports no torch.
 
 Importing this module imports every method (torch, bayes_opt): the command line's parser does not.
 """
@@ -11,6 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from robocompose.evaluation.evaluate import INVALID_SCORE, ROBOGRAMMAR_INVALID_SCORE
+from robocompose.glso import GROUPS, REFERENCE
 from robocompose.glso.bo import BOConfig, LatentBO
 from robocompose.glso.ghs import GHSConfig, GraphHeuristicSearch
 from robocompose.glso.graph_ga import GAConfig, GraphGA
@@ -21,32 +24,55 @@ from robocompose.glso.random_search import RandomConfig, RandomSearch
 
 @dataclass(frozen=True)
 class Method:
-    """A registered search method: its class, its settings' dataclass and params section, the VAE it
-    searches (`variant` fills the {variant} of `glso.models`; None for a method without a VAE), and the
-    score it is told for a design that cannot be simulated, by status (its original's)."""
+    """A registered search method: its class, its settings' dataclass and params section, its title (the
+    thesis's legend name) and figure groups (keys of `robocompose.glso.GROUPS`), the VAE it searches (`variant`
+    fills the {variant} of `glso.models`; None for a method without a VAE), and the score it is told for a
+    design that cannot be simulated, by status (its original's)."""
 
     cls: type[SearchMethod]
     settings: type
     section: str
+    title: str
+    groups: tuple[str, ...]
     variant: str | None = None
     invalid_score: dict[str, float] = field(default_factory=lambda: dict(ROBOGRAMMAR_INVALID_SCORE))
+
+    def __post_init__(self) -> None:
+        unknown = [group for group in self.groups if group not in GROUPS]
+        if unknown:  # a misspelt group would leave the method out of its figure and its claim
+            raise TypeError(f"glso method {self.title}: figure groups {unknown} are not of {list(GROUPS)}")
 
     def model_path(self, models: str) -> Path | None:
         return None if self.variant is None else Path(models.format(variant=self.variant))
 
 
-# In the order of the thesis's Fig. 8.1 and 8.2 legends. Invalid scores: GLSO's run_bo.py (3.8 / 4.0); MCTS,
-# GHS and random search RoboGrammar's -2.0 (heuristic_search_algo_mpc.py; design_search.py redraws such a
-# design instead, which would hide the call it cost); the GA, whose NGE original has no such design, the same.
+# In the order of the legends of Figs. 8.1 and 8.2 and of the report's tables. Invalid scores: GLSO's run_bo.py
+# (3.8 / 4.0); MCTS, GHS and random search RoboGrammar's -2.0 (heuristic_search_algo_mpc.py; design_search.py
+# redraws such a design instead, which would hide the call it cost); the GA, whose NGE original has no such
+# design, the same.
 METHODS: dict[str, Method] = {
-    "glso": Method(LatentBO, BOConfig, "bo", variant="full", invalid_score=INVALID_SCORE),
-    "glso_nopred": Method(LatentBO, BOConfig, "bo", variant="nopred", invalid_score=INVALID_SCORE),  # ablation
-    "glso_nogram": Method(LatentBO, BOConfig, "bo", variant="nogram", invalid_score=INVALID_SCORE),  # ablation
-    "random": Method(RandomSearch, RandomConfig, "random"),
-    "ga": Method(GraphGA, GAConfig, "ga"),
-    "mcts": Method(TreeSearch, MCTSConfig, "mcts"),
-    "ghs": Method(GraphHeuristicSearch, GHSConfig, "ghs"),
+    "glso": Method(LatentBO, BOConfig, "bo", "GLSO", ("baselines", "ablations"), variant="full",
+                   invalid_score=INVALID_SCORE),
+    "glso_nopred": Method(LatentBO, BOConfig, "bo", "GLSO_nopred", ("ablations",), variant="nopred",
+                          invalid_score=INVALID_SCORE),
+    "glso_nogram": Method(LatentBO, BOConfig, "bo", "GLSO_nogram", ("ablations",), variant="nogram",
+                          invalid_score=INVALID_SCORE),
+    "random": Method(RandomSearch, RandomConfig, "random", "Random", ("baselines",)),
+    "ga": Method(GraphGA, GAConfig, "ga", "GA", ("baselines",)),
+    "mcts": Method(TreeSearch, MCTSConfig, "mcts", "MCTS", ("baselines",)),
+    "ghs": Method(GraphHeuristicSearch, GHSConfig, "ghs", "GHS", ("baselines",)),
 }
+
+
+def family(group: str) -> tuple[str, ...]:
+    """The methods GLSO is compared with in figure group `group` (its members but GLSO), in registry order."""
+    return tuple(name for name, method in METHODS.items() if group in method.groups and name != REFERENCE)
+
+
+def describe() -> list[dict]:
+    """Every registered method's name, title and figure groups, in registry order: what the stages write into
+    their artifacts so that the report (no torch, so no registry) can name and group the methods."""
+    return [{"name": name, "title": method.title, "groups": list(method.groups)} for name, method in METHODS.items()]
 
 
 def settings_sections() -> dict[str, type]:

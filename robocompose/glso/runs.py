@@ -62,14 +62,14 @@ from robocompose.io.checkpoint import load_checkpoint, save_checkpoint
 from robocompose.io.errors import ArtifactError, InputError, check_field
 from robocompose.io.provenance import code_digest
 from robocompose.params import build_config
-from robocompose.tasks.terrains import get_task
+from robocompose.tasks.terrains import TASKS, get_task
 
 
 @dataclass(frozen=True)
 class RunSettings:
     """The `glso:` section of params.yaml but for the methods' own sections (`GLSOConfig` adds those)."""
 
-    tasks: list = field(default_factory=lambda: ["flat", "frozen_lake", "ridged", "wall"])
+    tasks: list = field(default_factory=lambda: list(TASKS))
     methods: list = field(default_factory=lambda: list(METHODS))
     seeds: list = field(default_factory=lambda: [0, 1, 2])  # run seeds (thesis: 3)
     budget: int = 550  # objective calls per run (GLSO: 50 random + 500 BO steps)

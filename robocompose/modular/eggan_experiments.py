@@ -1,13 +1,15 @@
-"""EG-GAN on modular robots: training the two variants and the learned baselines, and the methods of Table 5.1.
+"""EG-GAN on modular robots: training its variants and the learned baselines, and the methods of Table 5.1.
 
 Training (`train_variant`, `train_baseline`): Algorithm 1 on `ModularEgganProblem` with the variant's evolution
-(crowding: EG-GAN-crowding; ga: EG-GAN), resumable from its checkpoint, or a learned baseline's own trainer, all
-on the same problem and budget; with the table source each learner's score on the pool's validation terrains
-(`validation_scores`) goes into its log and metrics, its score on the training terrains (`training_scores`) into
-its metrics. A model is saved with its params, metrics and provenance.
+(its registry entry's: crowding for EG-GAN-crowding, ga for EG-GAN), resumable from its checkpoint, or a learned
+baseline's own trainer, all on the same problem and budget; with the table source each learner's score on the
+pool's validation terrains (`validation_scores`) goes into its log and metrics, its score on the training terrains
+(`training_scores`) into its metrics. A model is saved with its params, metrics and provenance.
 
-Table 5.1's methods (`REALTIME_METHODS`, `realtime_proposers`): the learned ones from their model files, random
-sampling and the rows from tables (`robocompose.modular.protocol`, which runs the test protocol).
+Table 5.1's methods (`realtime_methods`, `realtime_proposers`): the learned ones from their model files, random
+sampling and the rows from tables (`robocompose.modular.protocol`, which runs the test protocol). Every learned
+row is an entry of `robocompose.eggan.learners.LEARNERS["modular"]`, the only list of them: its title and
+whether it trained are written beside its results (`method_info`) for the report.
 """
 
 from __future__ import annotations
@@ -17,12 +19,12 @@ import math
 import time
 from pathlib import Path
 
-from robocompose.eggan.learners import LEARNERS, Answer, Learner, baselines, generator_answer
+from robocompose.eggan.learners import LEARNERS, Answer, baselines, generator_answer, training_order, variants
 from robocompose.eggan.query import save_generator
 from robocompose.eggan.train import train
 from robocompose.fanout.cache import EvaluationCache
 from robocompose.fanout.executor import Executor
-from robocompose.modular.eggan_params import VARIANTS, EgganModularParams
+from robocompose.modular.eggan_params import EgganModularParams
 from robocompose.modular.eggan_problem import ModularEgganProblem
 from robocompose.modular.params import ModularParams
 from robocompose.modular.protocol import Proposer, random_proposer, table_proposers, training_scores, validation_scores
@@ -46,9 +48,12 @@ def train_variant(variant: str, modular: ModularParams, params: EgganModularPara
                   executor: Executor | None, out: Path, progress: bool = False) -> dict:
     """Train one EG-GAN variant; writes out/eggan_modular_VARIANT.{pt,json,mcap,csv} and its checkpoint; returns
     its metrics (no wall times: they go to reports/timings.json, so that the files stay byte-reproducible)."""
-    if variant not in VARIANTS:
-        raise ValueError(f"variant {variant!r}: expected one of {sorted(VARIANTS)}")
-    config = dataclasses.replace(params.train, evolution=variant, evolution_steps=params.evolution_steps[variant])
+    known = variants("modular")
+    if variant not in known:
+        raise ValueError(f"variant {variant!r}: expected one of {sorted(known)}")
+    learner = known[variant]
+    config = dataclasses.replace(params.train, evolution=learner.evolution,
+                                 evolution_steps=params.evolution_steps[variant])
     # per iteration and task: X_gen, then one batch per crowding step / GA generation
     problem = make_problem(modular, params, cache, executor,
                            config.iterations * config.tasks * (1 + config.evolution_steps))
@@ -60,9 +65,9 @@ def train_variant(variant: str, modular: ModularParams, params: EgganModularPara
                                      params.protocol.candidates)
     trained = train(problem, params.network, config, out / "checkpoints" / f"{name}.pt",
                     Path("reports/plots") / f"{name}.csv", out / f"{name}.mcap", progress=progress, validate=validate)
-    metrics = {"method": VARIANTS[variant], **_common_metrics(problem, config.iterations, trained.rows),
+    metrics = {"method": learner.title, **_common_metrics(problem, config.iterations, trained.rows),
                **_training_fit(problem, generator_answer(trained.generator, params.protocol.samples), params),
-               "batch": config.batch, "tasks_per_iteration": config.tasks, "evolution": variant,
+               "batch": config.batch, "tasks_per_iteration": config.tasks, "evolution": learner.evolution,
                "evolution_steps": config.evolution_steps}
     save_generator(trained.generator, problem, out / f"{name}.pt",
                    {"run_key": trained.key, "settings_hash": modular.eval.settings_hash(),
@@ -70,22 +75,26 @@ def train_variant(variant: str, modular: ModularParams, params: EgganModularPara
     return metrics
 
 
-# Table 5.1's rows, in its order: the learned baselines, random sampling, EG-GAN's two variants; ours beside them,
-# read from tables: the terrain-agnostic portfolio (after random sampling) and the oracle (last)
-REALTIME_METHODS = (*baselines("modular"), "random", "portfolio", "ga", "crowding", "optimum")
-TABLE_METHODS = {"portfolio": "Portfolio (terrain-agnostic)", "optimum": "Exhaustive optimum (oracle)"}
+def realtime_methods() -> tuple[str, ...]:
+    """Table 5.1's rows, in its order: the learned baselines, random sampling, EG-GAN's variants; ours beside them,
+    read from tables: the terrain-agnostic portfolio (after random sampling) and the oracle (last). Read from the
+    registry at each call, so that a learner registered at run time (a test's) is a row."""
+    return (*baselines("modular"), "random", "portfolio", *variants("modular"), "optimum")
+
+
+UNLEARNED = {"random": "Random sampling", "portfolio": "Portfolio (terrain-agnostic baseline)",
+             "optimum": "Exhaustive optimum (oracle)"}  # the rows no learner answers -> their titles
 
 
 def method_title(method: str) -> str:
-    """The name of a row of Table 5.1 (the thesis's, where it has the row)."""
-    if method == "random":
-        return "Random sampling"
-    return TABLE_METHODS.get(method) or VARIANTS.get(method) or LEARNERS["modular"][method].title
+    """The name of a row of Table 5.1 (the thesis's, where it has the row); KeyError for no row."""
+    return UNLEARNED[method] if method in UNLEARNED else LEARNERS["modular"][method].title
 
 
-def learner_of(method: str) -> Learner:
-    """The learner of a learned row of Table 5.1 (an EG-GAN variant is the EG-GAN learner)."""
-    return LEARNERS["modular"]["eggan"] if method in VARIANTS else LEARNERS["modular"][method]
+def method_info(method: str) -> dict:
+    """What the stages write beside a row's results for the report (which reads no registry): its title and
+    whether it is a learner, whose training metrics the report then requires."""
+    return {"title": method_title(method), "learned": method in LEARNERS["modular"]}
 
 
 def realtime_proposers(problem: ModularEgganProblem, params: EgganModularParams, models: Path,
@@ -94,14 +103,14 @@ def realtime_proposers(problem: ModularEgganProblem, params: EgganModularParams,
     rows from tables (`table_proposers` of the `portfolio` designs and each test terrain's fittest designs)."""
     tables = table_proposers(portfolio, optima)
     proposers: dict[str, Proposer] = {}
-    for method in REALTIME_METHODS:
+    for method in realtime_methods():
         path = models / f"eggan_modular_{method}.pt"
         if method == "random":
             proposers[method] = random_proposer
         elif method in tables:
             proposers[method] = tables[method]
         elif path.exists():
-            learner = learner_of(method)
+            learner = LEARNERS["modular"][method]
             proposers[method] = learner.answer(learner.load(path, problem)[0], params.protocol.samples)
         else:
             raise FileNotFoundError(f"{path}: no trained {method_title(method)} model (run train_eggan_modular)")
@@ -114,7 +123,7 @@ def train_baseline(name: str, modular: ModularParams, params: EgganModularParams
     rollouts as EG-GAN; writes out/eggan_modular_NAME.{pt,json} and returns its metrics."""
     learner = LEARNERS["modular"][name]
     training = learner.training
-    config = build_config(training.settings, params.baselines.get(name, {}), f"eggan_modular.baselines.{name}")
+    config = build_config(training.settings, params.baselines[name], f"eggan_modular.baselines.{name}")
     problem = make_problem(modular, params, cache, executor, config.iterations * config.tasks)
     model, rows = training.train(problem, params.network, config, progress)
     if problem.fitness.source == "table":
@@ -129,17 +138,12 @@ def train_baseline(name: str, modular: ModularParams, params: EgganModularParams
     return metrics
 
 
-# The learners of train_eggan_modular, slowest first (so that two workers finish together): the EG-GAN variants
-# and the learned baselines. Each trains on its own copy of the problem, so they may run side by side.
-TRAINED = ("molgan", "ga", "crowding", "dqn", "fit2form")
-
-
 def train_method(method: str, modular: ModularParams, params: EgganModularParams, cache: EvaluationCache | None,
                  executor: Executor | None, out: Path, progress: bool = False) -> dict:
-    """Train one learner of `TRAINED` (an EG-GAN variant or a learned baseline); returns its metrics and, under
-    "seconds", its training wall time (which the caller moves to reports/timings.json)."""
+    """Train one learner of `training_order("modular")` (an EG-GAN variant or a learned baseline); returns its
+    metrics and, under "seconds", its training wall time (which the caller moves to reports/timings.json)."""
     started = time.perf_counter()
-    trainer = train_variant if method in VARIANTS else train_baseline
+    trainer = train_variant if method in variants("modular") else train_baseline
     metrics = trainer(method, modular, params, cache, executor, out, progress)
     return {**metrics, "seconds": round(time.perf_counter() - started, 1)}
 
@@ -151,18 +155,16 @@ def _train_job(job: tuple[str, ModularParams, EgganModularParams, Path]) -> dict
 
 def train_all(modular: ModularParams, params: EgganModularParams, cache: EvaluationCache | None,
               executor: Executor | None, out: Path) -> tuple[dict, dict]:
-    """Every learner of Table 5.1: (metrics, training seconds), keyed in the table's order (the EG-GAN variants,
-    then the baselines). On exact fitness (tables: no rollouts) the learners train side by side on the executor's
-    workers, each in one thread: a learner's bytes do not depend on where it ran. With the surrogate source they
-    train one after another, their rollouts fanned out on the executor."""
-    order = (*VARIANTS, *baselines("modular"))
-    if sorted(order) != sorted(TRAINED):
-        raise ValueError(f"TRAINED {TRAINED} must name the learners {order}")
+    """Every learner of Table 5.1: (metrics, training seconds), keyed the EG-GAN variants first, then the
+    baselines. They start costliest first (`training_order`; each trains on its own copy of the problem). On exact
+    fitness (tables: no rollouts) the learners train side by side on the executor's workers, each in one thread: a
+    learner's bytes do not depend on where it ran. With the surrogate source they train one after another, their
+    rollouts fanned out on the executor."""
+    order, queue = (*variants("modular"), *baselines("modular")), training_order("modular")
     if params.fitness.source == "table" and executor is not None:
-        results = dict(zip(TRAINED, executor.map(_train_job, [(m, modular, params, out) for m in TRAINED]),
-                           strict=True))
+        results = dict(zip(queue, executor.map(_train_job, [(m, modular, params, out) for m in queue]), strict=True))
     else:
-        results = {m: train_method(m, modular, params, cache, executor, out, progress=True) for m in TRAINED}
+        results = {m: train_method(m, modular, params, cache, executor, out, progress=True) for m in queue}
     seconds = {m: results[m].pop("seconds") for m in order}
     return {m: results[m] for m in order}, seconds
 

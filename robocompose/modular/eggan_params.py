@@ -5,12 +5,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from robocompose.eggan.learners import baselines, variants
 from robocompose.eggan.networks import NetworkConfig
 from robocompose.eggan.train import TrainConfig
 from robocompose.io.errors import InputError, check_field
 from robocompose.modular.eggan_problem import FitnessConfig
-
-VARIANTS = {"crowding": "EG-GAN-crowding", "ga": "EG-GAN"}  # evolution method -> the thesis's name
+from robocompose.params import build_config
 
 
 @dataclass(frozen=True)
@@ -52,13 +52,22 @@ class EgganModularParams:
     fitness: FitnessConfig = field(default_factory=FitnessConfig)
     network: NetworkConfig = field(default_factory=NetworkConfig)
     train: TrainConfig = field(default_factory=TrainConfig)  # the EG-GAN variants share it; `evolution` set per variant
-    evolution_steps: dict = field(default_factory=lambda: dict.fromkeys(VARIANTS, 1))  # crowding: steps; ga: GA gens
+    # per EG-GAN variant (learners.variants): crowding steps; ga: GA generations
+    evolution_steps: dict = field(default_factory=lambda: dict.fromkeys(variants("modular"), 1))
     protocol: ProtocolConfig = field(default_factory=ProtocolConfig)
-    baselines: dict = field(default_factory=dict)  # baseline name -> its config mapping (see robocompose.eggan.<name>)
+    # learned baseline name -> the mapping of its registry entry's settings dataclass (robocompose.eggan.<name>)
+    baselines: dict = field(default_factory=lambda: {name: {} for name in baselines("modular")})
     pool_size: PoolSizeConfig = field(default_factory=PoolSizeConfig)
 
     def __post_init__(self) -> None:
-        steps = self.evolution_steps
-        check_field(set(steps) == set(VARIANTS) and all(isinstance(v, int) and not isinstance(v, bool) and v >= 1
-                                                        for v in steps.values()),
-                    "evolution_steps", f"a positive integer for each of {sorted(VARIANTS)}", steps)
+        steps, known = self.evolution_steps, sorted(variants("modular"))
+        check_field(set(steps) == set(known) and all(isinstance(v, int) and not isinstance(v, bool) and v >= 1
+                                                     for v in steps.values()),
+                    "evolution_steps", f"a positive integer for each of {known}", steps)
+        # Each baseline's settings are checked here, so that `robocompose profile` refuses a bad one before any
+        # stage runs; the trainer builds its dataclass again from the same mapping.
+        learned = baselines("modular")
+        check_field(isinstance(self.baselines, dict) and set(self.baselines) == set(learned), "baselines",
+                    f"a settings mapping for each of {list(learned)}", sorted(self.baselines, key=str))
+        for name, values in self.baselines.items():
+            build_config(learned[name].training.settings, values, f"baselines.{name}")

@@ -7,6 +7,10 @@ Built from `train_eggan_modular` (reports/metrics/eggan_modular.json, reports/pl
 DQN's symmetric-space ceiling; data/modular/fig5_1.json, Fig. 5.1's generated designs); every distance is a pybullet
 rollout, read from the test terrain's exhaustive table. Beside the thesis's rows: a terrain-agnostic portfolio
 (the designs best on average over the training pool) and each terrain's exhaustive optimum (an oracle bound).
+
+The rows, their order and their titles are the stages' (modular_realtime.json names each method's title and
+whether it is learned; eggan_modular.json each learner's): this module imports no registry (and no torch), and
+a row it cannot name, or a learner without training metrics, stops the report with one line.
 """
 
 from __future__ import annotations
@@ -17,25 +21,23 @@ from pathlib import Path
 import pandas as pd
 
 from robocompose.io import read_json, read_table
+from robocompose.io.errors import ArtifactError
 from robocompose.report.modular import THESIS_TABLE_5_2
 from robocompose.report.tables import markdown_table
 from robocompose.search.significance import holm
 
-# Thesis Table 5.1 (learned controller): max distance (m), distinct solutions, max distance under EC (m).
-THESIS_TABLE_5_1 = {"Fit2form": ("4.03 ± 0.91", "1.2 ± 0.2", "2.55 ± 1.31"),
-                    "DQN based": ("4.31 ± 0.26", "2.7 ± 0.9", "3.10 ± 0.92"),
-                    "MolGAN": ("3.82 ± 0.55", "1.8 ± 0.3", "2.93 ± 1.00"),
-                    "Random sampling": ("0.72 ± 0.64", "-", "0.63 ± 0.69"),
-                    "EG-GAN": ("5.10 ± 0.42", "2.2 ± 0.7", "3.77 ± 1.18"),
-                    "EG-GAN-crowding": ("5.73 ± 0.22", "5.8 ± 1.5", "5.36 ± 0.52")}
+# Thesis Table 5.1 (learned controller) by method: max distance (m), distinct solutions, max distance under EC (m).
+# Thesis numbers, not a list of methods: a method the thesis has no row for gets "-".
+THESIS_TABLE_5_1 = {"fit2form": ("4.03 ± 0.91", "1.2 ± 0.2", "2.55 ± 1.31"),
+                    "dqn": ("4.31 ± 0.26", "2.7 ± 0.9", "3.10 ± 0.92"),
+                    "molgan": ("3.82 ± 0.55", "1.8 ± 0.3", "2.93 ± 1.00"),
+                    "random": ("0.72 ± 0.64", "-", "0.63 ± 0.69"),
+                    "ga": ("5.10 ± 0.42", "2.2 ± 0.7", "3.77 ± 1.18"),
+                    "crowding": ("5.73 ± 0.22", "5.8 ± 1.5", "5.36 ± 0.52")}
 # Thesis, hand-crafted controller ("effect of the controller"): max distance (m).
-THESIS_HANDCRAFTED = {"Fit2form": "3.81 ± 1.22", "Random sampling": "0.86 ± 0.81", "EG-GAN-crowding": "4.96 ± 0.45"}
+THESIS_HANDCRAFTED = {"fit2form": "3.81 ± 1.22", "random": "0.86 ± 0.81", "crowding": "4.96 ± 0.45"}
 THESIS_QUERY_MIN = 0.003  # EG-GAN-crowding's runtime in Table 5.2
-NAMES = {"fit2form": "Fit2form", "dqn": "DQN based", "molgan": "MolGAN", "random": "Random sampling",
-         "portfolio": "Portfolio (terrain-agnostic baseline)", "ga": "EG-GAN", "crowding": "EG-GAN-crowding",
-         "optimum": "Exhaustive optimum (oracle)"}
 NOT_IN_THESIS = ("-", "-", "-")
-LEARNED = ("fit2form", "dqn", "molgan", "ga", "crowding")  # rows with a training budget
 
 
 def _ms(values: pd.Series, digits: int = 2) -> str:
@@ -43,17 +45,35 @@ def _ms(values: pd.Series, digits: int = 2) -> str:
     return f"{values.mean():.{digits}f} ± {values.std(ddof=0):.{digits}f}" if len(values) else "n/a"
 
 
+def row_titles(table: pd.DataFrame, protocol: dict, metrics: dict, where: Path) -> dict[str, str]:
+    """Method -> title of every row of Table 5.1, in the table's order, from the `modular_realtime` stage's
+    metrics (`where`); ArtifactError for a method it does not name, or a learner `metrics` has no training of."""
+    titles = {}
+    for method in dict.fromkeys(table.method):
+        info = protocol.get(method)
+        if not isinstance(info, dict) or "title" not in info:
+            raise ArtifactError(f"{where}: no title for method {method!r} of the realtime table (rerun stage "
+                                "`modular_realtime`)")
+        if info.get("learned") and method not in metrics:
+            raise ArtifactError(f"{where}: {info['title']} is a learner, but eggan_modular.json has no training "
+                                f"metrics for {method!r} (rerun stage `train_eggan_modular`)")
+        titles[method] = info["title"]
+    return titles
+
+
 def section(reports_dir: Path, data_dir: Path) -> str:
     realtime_path = Path(data_dir) / "modular" / "realtime.parquet"
     metrics_path = Path(reports_dir) / "metrics" / "eggan_modular.json"
     protocol_path = Path(reports_dir) / "metrics" / "modular_realtime.json"
     title = "## EG-GAN: modular robots for a terrain in real time (thesis ch. 4, 5.1; Tables 5.1, 5.2)"
-    if not realtime_path.exists() or not metrics_path.exists():
-        return (f"{title}\n\nNot run yet: missing {realtime_path} or {metrics_path} (stages `train_eggan_modular`, "
+    missing = [str(p) for p in (realtime_path, metrics_path, protocol_path) if not p.exists()]
+    if missing:
+        return (f"{title}\n\nNot run yet: missing {', '.join(missing)} (stages `train_eggan_modular`, "
                 "`modular_realtime`).\n")
     table = read_table(realtime_path, "modular_realtime")
     metrics = json.loads(metrics_path.read_text())
-    protocol = read_json(protocol_path) if protocol_path.exists() else {}
+    protocol = read_json(protocol_path)
+    titles = row_titles(table, protocol, metrics, protocol_path)
     ceiling = protocol.get("dqn_symmetric_ceiling")
     seeds = ", ".join(map(str, sorted(table.terrain_seed.unique())))
     lines = [title, "",
@@ -69,25 +89,23 @@ def section(reports_dir: Path, data_dir: Path) -> str:
              "with a controller like ours; '-': a row the thesis does not have.", "",
              "### Table 5.1: real-time methods", ""]
     rows = []
-    for method, name in NAMES.items():
+    for method, name in titles.items():
         group = table[table.method == method]
-        if group.empty:
-            continue
-        spent = metrics.get(method, {}).get("real_evaluations", "n/a" if method in LEARNED else "-")
+        spent = metrics[method]["real_evaluations"] if protocol[method]["learned"] else "-"
         label = f"{name} (symmetric designs only: ceiling {ceiling['ceiling']:.2f} m)" if method == "dqn" and ceiling \
             else name
         rows.append((label, _ms(group.max_distance), _ms(group.distinct, 1), _ms(group.ec_distance), _ms(group.regret),
                      f"{int(group.max_distance.isna().sum())} / {int(group.ec_failures.sum())}", spent,
-                     *THESIS_TABLE_5_1.get(name, NOT_IN_THESIS), THESIS_HANDCRAFTED.get(name, "-")))
+                     *THESIS_TABLE_5_1.get(method, NOT_IN_THESIS), THESIS_HANDCRAFTED.get(method, "-")))
     lines += markdown_table(["method", "max distance (m)", "distinct", "EC distance (m)", "regret (m)",
                              "no valid candidate / EC failures", "evaluations in training", "thesis distance",
                              "thesis distinct", "thesis EC", "thesis hand-crafted"], rows)
     lines += ["", *_table_rows_lines(protocol, set(table.method)), _verdict(table), ""]
-    lines += _significance(table, [m for m in ("random", "portfolio", "ga") if m in set(table.method)])
+    lines += _significance(table, [m for m in ("random", "portfolio", "ga") if m in titles], titles)
     lines += _pool_lines(Path(reports_dir) / "metrics" / "modular_pool.json")
     lines += _training_lines(metrics, reports_dir)
-    lines += _pool_size_lines(Path(data_dir) / "modular" / "pool_size.parquet", Path(reports_dir) / "figures")
-    lines += _table_5_2(table, reports_dir, data_dir)
+    lines += _pool_size_lines(Path(data_dir) / "modular" / "pool_size.parquet", Path(reports_dir) / "figures", titles)
+    lines += _table_5_2(table, reports_dir, data_dir, titles)
     fig_5_1 = Path(data_dir) / "modular" / "fig5_1.json"
     if fig_5_1.exists():
         figures = Path(reports_dir) / "figures"
@@ -194,17 +212,21 @@ def _pool_lines(path: Path) -> list[str]:
     return lines
 
 
-def _pool_size_lines(path: Path, figures: Path) -> list[str]:
-    """Held-out score against the training pool's size (stage modular_pool_size): a table and a figure."""
+def _pool_size_lines(path: Path, figures: Path, titles: dict[str, str]) -> list[str]:
+    """Held-out score against the training pool's size (stage modular_pool_size): a table and a figure; its
+    methods are rows of Table 5.1 (`titles`), ArtifactError for one that is not."""
     if not path.exists():
         return []
     study = read_table(path, "modular_pool_size")
+    unknown = sorted(set(study.method) - set(titles))
+    if unknown:
+        raise ArtifactError(f"{path}: methods {unknown} are not rows of the realtime table (rerun the stages)")
     grouped = study.groupby(["pool_terrains", "method"])
     rows = []
     for (n, method), group in grouped:
         cost = f"{group.iterations_done.iloc[0]} / {group.lookups.iloc[0]}" if method == "crowding" else "-"
         fit = group.groupby("seed").train_max_distance.first()
-        rows.append((n, NAMES[method], group.seed.nunique(), _ms(group.max_distance), _ms(group.regret), _ms(fit),
+        rows.append((n, titles[method], group.seed.nunique(), _ms(group.max_distance), _ms(group.regret), _ms(fit),
                      cost))
     lines = ["### Beyond the thesis: held-out score against the training pool's size", "",
              *markdown_table(["pool terrains", "method", "runs", "test max distance (m)", "test regret (m)",
@@ -218,9 +240,9 @@ def _pool_size_lines(path: Path, figures: Path) -> list[str]:
     fits = grouped.train_max_distance.mean().unstack("method")
     fig, ax = plt.subplots(figsize=(5, 3.5))
     for method in means.columns:
-        line = ax.plot(means.index, means[method], marker="o", label=f"{NAMES[method]}, test terrains")[0]
+        line = ax.plot(means.index, means[method], marker="o", label=f"{titles[method]}, test terrains")[0]
         ax.plot(fits.index, fits[method], marker="x", linestyle="--", color=line.get_color(),
-                label=f"{NAMES[method]}, its training terrains")
+                label=f"{titles[method]}, its training terrains")
     ax.set(xlabel="training terrains", ylabel="max distance (m)")
     ax.legend(fontsize=7)
     fig.tight_layout()
@@ -238,7 +260,7 @@ def _pool_size_lines(path: Path, figures: Path) -> list[str]:
 CHANCE = 0.05  # a discriminator whose accuracy stays within this of 1/2 gives the generator no signal
 
 
-def _significance(table: pd.DataFrame, others: list[str]) -> list[str]:
+def _significance(table: pd.DataFrame, others: list[str], titles: dict[str, str]) -> list[str]:
     """Wilcoxon signed-rank tests of EG-GAN-crowding's max distance against each method, paired by test terrain
     (each terrain's mean over its queries: the queries of one terrain are not independent), Holm-corrected over the
     family of comparisons made: the lines of their table, none if no comparison could be made."""
@@ -258,7 +280,7 @@ def _significance(table: pd.DataFrame, others: list[str]) -> list[str]:
     return [f"Paired by terrain (Wilcoxon signed-rank, {len(per_terrain)} terrains), Holm-corrected over the "
             f"{len(raw)} comparisons of EG-GAN-crowding:", "",
             *markdown_table(["EG-GAN-crowding vs", "paired terrains", "p", "Holm p"],
-                            [(NAMES[m], pairs[m], raw[m], adjusted[m]) for m in raw],
+                            [(titles[m], pairs[m], raw[m], adjusted[m]) for m in raw],
                             formats=[None, None, "{:.3f}", "{:.3f}"]), ""]
 
 
@@ -304,13 +326,15 @@ def _training_lines(metrics: dict, reports_dir: Path) -> list[str]:
         lines += [f"**Discriminator at chance** (accuracy within {CHANCE} of 0.5 at the end of training): "
                   + ", ".join(flagged) + ". A generator trained against such a discriminator has no signal to learn "
                   "from.", ""]
-    curves = {variant: Path(reports_dir) / "plots" / f"eggan_modular_{variant}.csv" for variant in ("crowding", "ga")}
-    if all(path.exists() for path in curves.values()):
+    # EG-GAN's variants (the learners that name their evolution) log curves; the other learners do not
+    variants = [variant for variant, m in metrics.items() if "evolution" in m]
+    curves = {metrics[v]["method"]: Path(reports_dir) / "plots" / f"eggan_modular_{v}.csv" for v in variants}
+    if curves and all(path.exists() for path in curves.values()):
         figure = Path(reports_dir) / "figures" / "eggan_modular_validation.png"
         if _validation_figure(curves, figure):
+            files = ", ".join(f"`reports/plots/eggan_modular_{v}.csv`" for v in variants)
             lines += ["![validation curves](figures/eggan_modular_validation.png)", "",
-                      "Validation-terrain max distance and discriminator accuracy over training "
-                      "(`reports/plots/eggan_modular_{crowding,ga}.csv`).", ""]
+                      f"Validation-terrain max distance and discriminator accuracy over training ({files}).", ""]
     return lines
 
 
@@ -319,20 +343,21 @@ def _number(value) -> str:
 
 
 def _validation_figure(curves: dict[str, Path], path: Path) -> bool:
-    """Validation max distance and discriminator accuracy against iteration, per EG-GAN variant (False: no curve)."""
+    """Validation max distance and discriminator accuracy against iteration, per EG-GAN variant (`curves`: its
+    title -> its log; False: no curve)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    frames = {variant: pd.read_csv(csv) for variant, csv in curves.items()}
+    frames = {name: pd.read_csv(csv) for name, csv in curves.items()}
     if not all("val_max_distance" in frame for frame in frames.values()):
         return False
     fig, (left, right) = plt.subplots(1, 2, figsize=(10, 3.5))
-    for variant, frame in frames.items():
+    for name, frame in frames.items():
         scored = frame.dropna(subset=["val_max_distance"])
-        left.plot(scored.iteration, scored.val_max_distance, marker="o", label=NAMES[variant])
-        right.plot(frame.iteration, frame.d_accuracy, label=NAMES[variant])
+        left.plot(scored.iteration, scored.val_max_distance, marker="o", label=name)
+        right.plot(frame.iteration, frame.d_accuracy, label=name)
     left.set(xlabel="iteration", ylabel="validation max distance (m)")
     right.axhline(0.5, color="grey", linestyle=":")
     right.set(xlabel="iteration", ylabel="discriminator accuracy")
@@ -348,7 +373,7 @@ def _seeds(group: pd.DataFrame) -> str:
     return ", ".join(map(str, sorted(group.terrain_seed.unique())))
 
 
-def _table_5_2(table: pd.DataFrame, reports_dir: Path, data_dir: Path) -> list[str]:
+def _table_5_2(table: pd.DataFrame, reports_dir: Path, data_dir: Path, titles: dict[str, str]) -> list[str]:
     runs_path = Path(data_dir) / "modular" / "runs.parquet"
     crowding = table[table.method == "crowding"]
     rows = []
@@ -364,8 +389,8 @@ def _table_5_2(table: pd.DataFrame, reports_dir: Path, data_dir: Path) -> list[s
     query_ms = read_json(bench).get("eggan.modular.query_ms") if bench.exists() else None
     if len(crowding):
         runtime = "not benchmarked (`make bench`)" if query_ms is None else f"{query_ms:.1f} ms per query"
-        rows.append(("EG-GAN-crowding", _ms(crowding.max_distance), _ms(crowding.distinct, 1), runtime,
-                     _seeds(crowding), *THESIS_TABLE_5_1["EG-GAN-crowding"][:2], THESIS_QUERY_MIN))
+        rows.append((titles["crowding"], _ms(crowding.max_distance), _ms(crowding.distinct, 1), runtime,
+                     _seeds(crowding), *THESIS_TABLE_5_1["crowding"][:2], THESIS_QUERY_MIN))
     lines = ["### Table 5.2: EG-GAN-crowding beside the GA runs", "",
              *markdown_table(["method", "max distance (m)", "distinct", "runtime", "test terrains", "thesis distance",
                               "thesis distinct", "thesis runtime (min)"], rows)]

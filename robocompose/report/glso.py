@@ -2,8 +2,9 @@
 best per method and task, the thesis's claims beside ours, and each task's best design (Fig. 7.2).
 
 Built from the `glso` stage's outputs (data/glso/steps.parquet, data/glso/rollouts/: each task's best design's
-rollout GIF and picture); every score is the
-real evaluator's (MPPI in pybullet at the profile's settings), the same for every method.
+rollout GIF and picture; reports/metrics/glso.json: every method's title and figure groups, the registry's as the
+stage wrote them: this module imports no registry, and a method without a title stops the report); every score
+is the real evaluator's (MPPI in pybullet at the profile's settings), the same for every method.
 """
 
 from __future__ import annotations
@@ -14,12 +15,26 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from robocompose.glso import FIG_8_1, FIG_8_2, LABELS, best_designs, best_so_far_curves, draw_curves
+from robocompose.glso import GROUPS, REFERENCE, best_designs, best_so_far_curves, draw_curves, group_titles
 from robocompose.io import read_table
+from robocompose.io.atomic import read_json
+from robocompose.io.errors import ArtifactError
 from robocompose.report.tables import markdown_table
 
 
-def _plot(stats: pd.DataFrame, tasks: list[str], methods: tuple[str, ...], title: str, path: Path) -> None:
+def method_titles(record: dict, ran: set[str], where: Path) -> list[dict]:
+    """The methods a stage recorded (`record["methods"]`: `registry.describe`), checked to name every method
+    that ran (`ran`); ArtifactError naming the file otherwise."""
+    methods = record.get("methods")
+    if not isinstance(methods, list):
+        raise ArtifactError(f"{where}: no record of the methods' titles (rerun its stage)")
+    unknown = sorted(ran - set(group_titles(methods)))
+    if unknown:
+        raise ArtifactError(f"{where}: no title for methods {unknown} (rerun its stage)")
+    return methods
+
+
+def _plot(stats: pd.DataFrame, tasks: list[str], methods: dict[str, str], title: str, path: Path) -> None:
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, len(tasks), figsize=(4.2 * len(tasks), 3.4), squeeze=False)
@@ -36,36 +51,38 @@ def _plot(stats: pd.DataFrame, tasks: list[str], methods: tuple[str, ...], title
     plt.close(fig)
 
 
-def _final_table(final: pd.DataFrame, tasks: list[str], methods: list[str]) -> list[str]:
+def _final_table(final: pd.DataFrame, tasks: list[str], titles: dict[str, str]) -> list[str]:
     rows = []
-    for method in methods:
+    for method, title in titles.items():
         cells = []
         for task in tasks:
             v = final[(final.task == task) & (final.method == method)]["best_so_far"]
             cells.append(f"{v.mean():.3f} [{v.min():.3f}, {v.max():.3f}] (n={len(v)})" if len(v) else "-")
-        rows.append((LABELS[method], *cells))
+        rows.append((title, *cells))
     return markdown_table(["method", *tasks], rows)
 
 
-def claims(final: pd.DataFrame, tasks: list[str]) -> list[str]:
-    """The thesis's two claims, checked on the mean final best over seeds, per task."""
+def claims(final: pd.DataFrame, tasks: list[str], methods: list[dict]) -> list[str]:
+    """The thesis's two claims, checked on the mean final best over seeds, per task (`methods`: the stage's
+    record of the registry, which names each figure group's members)."""
     mean = final.groupby(["task", "method"])["best_so_far"].mean()
+    titles = group_titles(methods)
+    others = {group: [x for x in group_titles(methods, group) if x != REFERENCE] for group in GROUPS}
     out = []
     for task in tasks:
         m = mean[task]
-        baselines = [x for x in FIG_8_1 if x in m.index and x != "glso"]
-        if "glso" in m.index and baselines:
-            winner = max(["glso", *baselines], key=lambda x: m[x])
-            held = winner == "glso"
+        baselines = [x for x in others["baselines"] if x in m.index]
+        if REFERENCE in m.index and baselines:
+            held = max([REFERENCE, *baselines], key=lambda x: m[x]) == REFERENCE
             out.append(f"- {task}: GLSO best of Fig. 8.1: **{'holds' if held else 'does not hold'}** "
-                       f"(GLSO {m['glso']:.3f}; best other {LABELS[max(baselines, key=m.get)]} "
+                       f"(GLSO {m[REFERENCE]:.3f}; best other {titles[max(baselines, key=m.get)]} "
                        f"{max(m[b] for b in baselines):.3f}).")
-        ablations = [x for x in ("glso_nopred", "glso_nogram") if x in m.index]
-        if "glso" in m.index and ablations:
-            held = len(ablations) == 2 and all(m[x] < m["glso"] for x in ablations)
+        ablations = [x for x in others["ablations"] if x in m.index]
+        if REFERENCE in m.index and ablations:
+            held = len(ablations) == len(others["ablations"]) and all(m[x] < m[REFERENCE] for x in ablations)
             verdict = "holds" if held else "does not hold"
-            out.append(f"- {task}: both ablations worse than GLSO: **{verdict}** ("
-                       + "; ".join(f"{LABELS[x]} {m[x]:.3f}" for x in ablations) + ").")
+            out.append(f"- {task}: all ablations worse than GLSO: **{verdict}** ("
+                       + "; ".join(f"{titles[x]} {m[x]:.3f}" for x in ablations) + ").")
     return out
 
 
@@ -75,12 +92,17 @@ def section(reports_dir: Path, data_dir: Path) -> str:
     if not steps_path.exists():
         return f"{title}\n\nNot run yet: missing {steps_path} (stage `glso`).\n"
     steps = read_table(steps_path, "glso_steps")
+    metrics_path = Path(reports_dir) / "metrics" / "glso.json"
+    record = method_titles(read_json(metrics_path), set(steps["method"]), metrics_path)
     tasks = list(dict.fromkeys(steps["task"]))
-    methods = [m for m in LABELS if m in set(steps["method"])]
+    titles = {m: t for m, t in group_titles(record).items() if m in set(steps["method"])}
     figures = Path(reports_dir) / "figures"
     stats = best_so_far_curves(steps)
-    _plot(stats, tasks, FIG_8_1, "Fig. 8.1: mean best so far over seeds, band = min-max", figures / "glso_fig8_1.png")
-    _plot(stats, tasks, FIG_8_2, "Fig. 8.2: GLSO and its ablations", figures / "glso_fig8_2.png")
+    for group, figure in GROUPS.items():
+        number = figure.removeprefix("Fig. ").replace(".", "_")
+        _plot(stats, tasks, group_titles(record, group),
+              f"{figure}: GLSO and its {group}, mean best so far over seeds, band = min-max",
+              figures / f"glso_fig{number}.png")
     final = steps.sort_values("step").groupby(["task", "method", "seed"], as_index=False).last()
     budget = int(steps["step"].max() + 1)
     seeds = sorted(set(steps["seed"]))
@@ -100,23 +122,23 @@ def section(reports_dir: Path, data_dir: Path) -> str:
              "below. Best so far counts simulated designs only.", "",
              *markdown_table(["method", "repeats", "not simulated (invalid score)",
                               "discarded before a call, per call"],
-                             [(LABELS[m], *share.loc[m, ["repeats", "invalid", "rejected"]]) for m in methods],
+                             [(t, *share.loc[m, ["repeats", "invalid", "rejected"]]) for m, t in titles.items()],
                              formats=[None, "{:.0%}", "{:.0%}", "{:.1f}"]), "",
              "![Fig. 8.1](figures/glso_fig8_1.png)", "", "![Fig. 8.2](figures/glso_fig8_2.png)", "",
              "Final best reward per method and task: mean [min, max] over seeds:", "",
-             *_final_table(final, tasks, methods), "",
+             *_final_table(final, tasks, titles), "",
              "The thesis's claims on this smoke run (mean final best over seeds; too few calls and seeds for a "
-             "verdict, which only the campaign below gives):", "", *claims(final, tasks)]
-    lines += _best_designs(steps, Path(data_dir) / "glso" / "rollouts", figures)
+             "verdict, which only the campaign below gives):", "", *claims(final, tasks, record)]
+    lines += _best_designs(steps, Path(data_dir) / "glso" / "rollouts", figures, titles)
     return "\n".join(lines) + "\n"
 
 
-def _best_designs(steps: pd.DataFrame, rollouts: Path, figures: Path) -> list[str]:
+def _best_designs(steps: pd.DataFrame, rollouts: Path, figures: Path, titles: dict[str, str]) -> list[str]:
     """Fig. 7.2: the picture of each task's best design, and its rollout GIF (both drawn by the `glso` stage)."""
     lines = ["", "Fig. 7.2: the best design found on each task (any method; MCAP logs for Foxglove beside the GIFs "
              "in `data/glso/rollouts/`):", ""]
     for row in best_designs(steps).itertuples():
-        caption = f"{row.task}: {LABELS[row.method]} seed {row.seed}, reward {row.score:.3f}, design {row.design_id}"
+        caption = f"{row.task}: {titles[row.method]} seed {row.seed}, reward {row.score:.3f}, design {row.design_id}"
         drawn = ((rollouts / f"{row.task}.png", f"glso_best_{row.task}.png", caption),
                  (rollouts / f"{row.task}.gif", f"glso_rollout_{row.task}.gif", f"{row.task} rollout"))
         for source, name, alt in drawn:
@@ -136,20 +158,22 @@ def _median_iqr(values: pd.Series) -> str:
     return f"{v.median():.3f} [{v.quantile(0.25):.3f}, {v.quantile(0.75):.3f}] (n={len(v)})"
 
 
-def campaign_verdicts(tests: pd.DataFrame, alpha: float) -> list[str]:
+def campaign_verdicts(tests: pd.DataFrame, alpha: float, methods: list[dict]) -> list[str]:
     """The thesis's claims, from the campaign's re-scored finals only: a claim holds when GLSO beats every
-    method of its family after Holm correction."""
+    method of its family (`methods`: the stage's record of the registry) after Holm correction."""
+    titles = group_titles(methods)
     out = []
     for (task, family), group in tests[tests["on"] == "rescored"].groupby(["task", "family"], sort=False):
-        claim = "GLSO best of Fig. 8.1" if family == "baselines" else "both ablations worse than GLSO (Fig. 8.2)"
-        missing = [LABELS[m] for m in (FIG_8_1 if family == "baselines" else FIG_8_2)
-                   if m != "glso" and m not in set(group["method"])]
+        claim = (f"GLSO best of {GROUPS[family]}" if family == "baselines"
+                 else f"all ablations worse than GLSO ({GROUPS[family]})")
+        missing = [t for m, t in group_titles(methods, family).items()
+                   if m != REFERENCE and m not in set(group["method"])]
         held = not missing and bool(group["glso_better"].all())
         floor = float(group["holm_floor"].max())
         caveat = (f" (with these seed counts the family's largest Holm-adjusted p is at least {floor:.3f}, not "
                   f"below {alpha}: this campaign cannot show it)") if not held and floor >= alpha else ""
         caveat += f" (no runs yet of {', '.join(missing)})" if missing else ""
-        detail = "; ".join(f"{LABELS[r.method]} p = {r.p_holm:.3f}" for r in group.itertuples())
+        detail = "; ".join(f"{titles[r.method]} p = {r.p_holm:.3f}" for r in group.itertuples())
         out.append(f"- {task}: {claim}: **{'holds' if held else 'not shown'}** ({detail}){caveat}.")
     return out
 
@@ -168,6 +192,8 @@ def campaign_section(reports_dir: Path) -> str:
                 "`robocompose glso-campaign run`, README). The searches above are a smoke run: the thesis's "
                 "claims get no verdict from them.\n")
     finals, tests = pd.DataFrame(summary["finals"]), pd.DataFrame(summary["tests"])
+    methods = method_titles(summary, set(finals["method"]), path)
+    titles = group_titles(methods)
     tasks = list(dict.fromkeys(finals["task"]))
     rung = f" at rung {summary['rung']} (the fidelity search rule's)" if summary.get("rung") else ""
     partial = (" The campaign is partial: every number and verdict below is interim until all planned runs are "
@@ -178,10 +204,10 @@ def campaign_section(reports_dir: Path) -> str:
              "![GLSO campaign](plots/glso_campaign.png)", ""]
     table = []
     for task in tasks:
-        for method in [m for m in LABELS if m in set(finals["method"])]:
+        for method in [m for m in titles if m in set(finals["method"])]:
             rows = finals[(finals["task"] == task) & (finals["method"] == method)]
             repeats = f"{rows['repeats'].median():.0f}" if "repeats" in rows else "-"
-            table.append((LABELS[method], task, _median_iqr(rows["search"]), _median_iqr(rows["rescored"]), repeats))
+            table.append((titles[method], task, _median_iqr(rows["search"]), _median_iqr(rows["rescored"]), repeats))
     lines += markdown_table(["method", "task", "final best at the search rung, median [IQR]", "re-scored, median [IQR]",
                              "calls on a repeated design, median"], table, align="llllr")
     if tests.empty:
@@ -190,8 +216,8 @@ def campaign_section(reports_dir: Path) -> str:
     lines += ["", "GLSO against each method: one-sided Mann-Whitney U (GLSO greater), Holm-corrected within its "
               "family; median difference GLSO - method with a bootstrap 95% interval.", ""]
     lines += markdown_table(["task", "on", "method", "n (GLSO / other)", "p", "p (Holm)", "median difference [95% CI]"],
-                            [(r.task, r.on, LABELS[r.method], f"{r.n_glso} / {r.n_other}", r.p, r.p_holm,
+                            [(r.task, r.on, titles[r.method], f"{r.n_glso} / {r.n_other}", r.p, r.p_holm,
                               f"{r.median_difference:+.3f} [{r.ci_low:+.3f}, {r.ci_high:+.3f}]")
                              for r in tests.itertuples()], formats=[None] * 4 + ["{:.3f}", "{:.3f}"])
-    lines += ["", "Verdicts (re-scored finals):", "", *campaign_verdicts(tests, 0.05), ""]
+    lines += ["", "Verdicts (re-scored finals):", "", *campaign_verdicts(tests, 0.05, methods), ""]
     return "\n".join(lines)

@@ -5,7 +5,7 @@ import inspect
 
 from robocompose.eggan.dqn import DQNConfig
 from robocompose.eggan.fit2form import Fit2formConfig
-from robocompose.eggan.learners import LEARNERS, baselines
+from robocompose.eggan.learners import LEARNERS, baselines, training_order, variants
 from robocompose.eggan.molgan import MolganConfig
 from robocompose.eggan.networks import NetworkConfig
 from robocompose.eggan.query import load_generator
@@ -17,8 +17,11 @@ NETWORK = NetworkConfig(latent=8, hidden=16)
 def test_the_registry_holds_each_worlds_learners_eggan_and_table_5_1s_three_learned_baselines():
     assert list(LEARNERS) == ["modular", "teams"]
     modular = LEARNERS["modular"]
-    assert list(modular) == ["eggan", "fit2form", "dqn", "molgan"]
-    assert list(baselines("modular")) == ["fit2form", "dqn", "molgan"] and modular["eggan"].training is None
+    assert list(modular) == ["fit2form", "dqn", "molgan", "ga", "crowding"]  # Table 5.1's order
+    assert list(baselines("modular")) == ["fit2form", "dqn", "molgan"]
+    assert {name: (v.title, v.evolution, v.training) for name, v in variants("modular").items()} == {
+        "ga": ("EG-GAN", "ga", None), "crowding": ("EG-GAN-crowding", "crowding", None)}
+    assert training_order("modular") == ("molgan", "ga", "crowding", "dqn", "fit2form")  # costliest first
     assert [modular[n].training.settings for n in baselines("modular")] == [Fit2formConfig, DQNConfig, MolganConfig]
     assert list(LEARNERS["teams"]) == ["eggan"] and baselines("teams") == {}
     for learner in baselines("modular").values():
@@ -32,7 +35,7 @@ def test_a_trained_eggan_generator_answers_through_its_registry_entry(tmp_path, 
     trained = train(match_problem, NETWORK, TrainConfig(iterations=4, batch=16, tasks=4, samples=4, log_every=2,
                                                         checkpoint_every=2))
     path = save_generator(trained.generator, match_problem, tmp_path / "g.pt", {})
-    learner = LEARNERS["modular"]["eggan"]
+    learner = LEARNERS["modular"]["crowding"]
     answer = learner.answer(learner.load(path, match_problem)[0], 16)
     designs = answer(match_problem, 1, 0, 3)
     assert len(designs) == len(set(map(match_problem.design_id, designs))) == 3

@@ -7,8 +7,8 @@ from robocompose.evaluation.evaluate import EvaluationConfig
 from robocompose.glso.bo import BOConfig
 from robocompose.glso.designs import random_grammar_design, run_stream
 from robocompose.glso.method import Proposal, SearchEnv
-from robocompose.glso.random_search import RandomConfig
-from robocompose.glso.registry import METHODS, Method, settings_sections
+from robocompose.glso.random_search import RandomConfig, RandomSearch
+from robocompose.glso.registry import METHODS, Method, describe, family, settings_sections
 from robocompose.glso.runs import GLSOConfig, RunSpec, run_search
 from robocompose.io.errors import InputError
 from robocompose.params import build_config
@@ -23,6 +23,13 @@ def test_the_registry_holds_the_thesis_methods_and_the_latent_ones_name_their_va
         assert callable(method.cls.propose) and callable(method.cls.tell), name
         assert list(inspect.signature(method.cls).parameters) == ["config", "seed", "budget", "env"], name
         assert dataclasses.is_dataclass(method.settings), name
+    assert [(m["title"], m["groups"]) for m in describe()] == [
+        ("GLSO", ["baselines", "ablations"]), ("GLSO_nopred", ["ablations"]), ("GLSO_nogram", ["ablations"]),
+        ("Random", ["baselines"]), ("GA", ["baselines"]), ("MCTS", ["baselines"]), ("GHS", ["baselines"])]
+    assert family("baselines") == ("random", "ga", "mcts", "ghs") and family("ablations") == (
+        "glso_nopred", "glso_nogram")  # the methods GLSO is compared with in Figs. 8.1 and 8.2
+    with pytest.raises(TypeError, match=r"figure groups \['baseline'\] are not of \['baselines', 'ablations'\]"):
+        Method(RandomSearch, RandomConfig, "random", "Typo", ("baseline",))
 
 
 def test_the_config_has_one_section_per_registered_settings_and_names_a_bad_field():
@@ -37,7 +44,7 @@ def test_the_config_has_one_section_per_registered_settings_and_names_a_bad_fiel
 
 
 def test_two_methods_may_share_a_section_only_with_one_settings_class(monkeypatch):
-    monkeypatch.setitem(METHODS, "clash", Method(METHODS["random"].cls, BOConfig, "random"))
+    monkeypatch.setitem(METHODS, "clash", Method(METHODS["random"].cls, BOConfig, "random", "Clash", ()))
     with pytest.raises(TypeError, match="section 'random' already holds RandomConfig"):
         settings_sections()
 
@@ -57,7 +64,7 @@ class FirstDesigns:
 
 
 def test_a_new_method_is_one_registry_line(monkeypatch, small_config, tmp_path):
-    monkeypatch.setitem(METHODS, "first", Method(FirstDesigns, RandomConfig, "random"))
+    monkeypatch.setitem(METHODS, "first", Method(FirstDesigns, RandomConfig, "random", "First", ("baselines",)))
     config = dataclasses.replace(small_config, methods=["first"], budget=4)
     checkpoint = tmp_path / "run.ckpt"
     steps = run_search(RunSpec("flat", "first", 0), config, EvaluationConfig(), objective_fn=fake_objective,

@@ -31,3 +31,27 @@ def test_bad_fields_are_named(section, message):
     base = yaml.safe_load(open("profiles/default.yaml"))["eggan_modular"]
     with pytest.raises(InputError, match=message):
         build_config(EgganModularParams, {**base, **section}, "params.yaml: eggan_modular")
+
+
+@pytest.mark.parametrize("baselines, message", [
+    ({"dqn": {"lr": 0.0}}, r"^params\.yaml: eggan_modular\.baselines\.dqn\.lr: expected a positive number"),
+    ({"molgan": {"colour": 1}}, r"^params\.yaml: eggan_modular\.baselines\.molgan\.colour: unknown field"),
+    ({"sgd": {}}, r"^params\.yaml: eggan_modular\.baselines: expected a settings mapping for each of "
+                  r"\['fit2form', 'dqn', 'molgan'\]"),
+])
+def test_a_bad_learner_setting_is_refused_in_one_line_when_the_section_is_built(baselines, message):
+    """Each learned baseline's settings are its registry entry's dataclass, checked with the section (so by
+    `robocompose profile`), not first when its trainer starts."""
+    base = yaml.safe_load(open("profiles/default.yaml"))["eggan_modular"]
+    merged = {name: {**values, **baselines.get(name, {})} for name, values in base["baselines"].items()}
+    merged.update({name: values for name, values in baselines.items() if name not in merged})
+    with pytest.raises(InputError, match=message) as err:
+        build_config(EgganModularParams, {**base, "baselines": merged}, "params.yaml: eggan_modular")
+    assert "\n" not in str(err.value)
+
+
+def test_every_learned_baseline_needs_its_settings():
+    base = yaml.safe_load(open("profiles/default.yaml"))["eggan_modular"]
+    del base["baselines"]["fit2form"]
+    with pytest.raises(InputError, match=r"eggan_modular\.baselines: expected a settings mapping for each of"):
+        build_config(EgganModularParams, base, "params.yaml: eggan_modular")

@@ -7,8 +7,11 @@ import json
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from robocompose.io import write_table
+from robocompose.io.errors import ArtifactError
+from robocompose.modular.eggan_experiments import method_info, realtime_methods
 from robocompose.report.eggan import section
 
 
@@ -23,13 +26,25 @@ def _table() -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def _stage_metrics(reports, realtime: dict | None = None, eggan: dict | None = None) -> None:
+    """The metrics of `modular_realtime` (each row's title and whether it is learned, as the stage writes them,
+    beside `realtime`) and of `train_eggan_modular` (`eggan`, else a training record per learner)."""
+    (reports / "metrics").mkdir(parents=True, exist_ok=True)
+    rows = {m: method_info(m) for m in realtime_methods()}
+    (reports / "metrics" / "modular_realtime.json").write_text(json.dumps({**rows, **(realtime or {})}))
+    trained = {m: {"method": info["title"], "real_evaluations": 100} for m, info in rows.items() if info["learned"]}
+    (reports / "metrics" / "eggan_modular.json").write_text(json.dumps(trained if eggan is None else eggan))
+
+
 def test_section_has_table_5_1_with_thesis_numbers_and_a_verdict(tmp_path):
     data, reports = tmp_path / "data", tmp_path / "reports"
     write_table(_table(), data / "modular" / "realtime.parquet", "modular_realtime")
-    (reports / "metrics").mkdir(parents=True)
-    (reports / "metrics" / "eggan_modular.json").write_text(json.dumps({"crowding": {
-        "method": "EG-GAN-crowding", "iterations": 10, "real_evaluations": 400,
-        "surrogate_heldout": {"mae": 1.0, "rmse": 1.2, "spearman": 0.6, "heldout": 80, "real_std": 2.0}}}))
+    _stage_metrics(reports)
+    metrics = json.loads((reports / "metrics" / "eggan_modular.json").read_text())
+    metrics["crowding"] = {"method": "EG-GAN-crowding", "iterations": 10, "real_evaluations": 400,
+                           "surrogate_heldout": {"mae": 1.0, "rmse": 1.2, "spearman": 0.6, "heldout": 80,
+                                                 "real_std": 2.0}}
+    (reports / "metrics" / "eggan_modular.json").write_text(json.dumps(metrics))
     text = section(reports, data)
     assert "| EG-GAN-crowding | 6.00 ± 0.00 | 4.0 ± 0.0 | 5.00 ± 0.00 | 1.00 ± 0.00 | 1 / 0 | 400 | 5.73 ± 0.22" in text
     assert "| Random sampling | 3.00" in text and "0.86 ± 0.81" in text  # the thesis's hand-crafted row
@@ -39,8 +54,8 @@ def test_section_has_table_5_1_with_thesis_numbers_and_a_verdict(tmp_path):
     assert f"{portfolio} 1 / 0 | - | - | - | - | - |" in text  # a row the thesis does not have
     assert "| Exhaustive optimum (oracle) | 7.00 ± 0.00 | 5.0 ± 0.0 | 6.00 ± 0.00 | 0.00 ± 0.00 |" in text
     assert "DQN builds" not in text  # no ceiling without the stage's metrics
-    dqn = next(line for line in text.splitlines() if line.startswith("| DQN based |"))
-    assert dqn.startswith("| DQN based | 5.50 ± 0.00 | 3.0 ± 0.0 |")
+    dqn = next(line for line in text.splitlines() if line.startswith("| DQN |"))
+    assert dqn.startswith("| DQN | 5.50 ± 0.00 | 3.0 ± 0.0 |")
     assert dqn.endswith("| 4.31 ± 0.26 | 2.7 ± 0.9 | 3.10 ± 0.92 | - |")  # the thesis's numbers beside ours
     assert "not built" not in text
     molgan = next(line for line in text.splitlines() if line.startswith("| MolGAN |"))
@@ -54,15 +69,12 @@ def test_section_has_table_5_1_with_thesis_numbers_and_a_verdict(tmp_path):
 def test_the_table_rows_and_dqns_ceiling_come_from_the_stage_metrics(tmp_path):
     data, reports = tmp_path / "data", tmp_path / "reports"
     write_table(_table(), data / "modular" / "realtime.parquet", "modular_realtime")
-    (reports / "metrics").mkdir(parents=True)
-    (reports / "metrics" / "eggan_modular.json").write_text("{}")
-    (reports / "metrics" / "modular_realtime.json").write_text(json.dumps({
-        "optimum": {"max_distance_mean": 7.0},
+    _stage_metrics(reports, {
         "portfolio_designs": {"pool_terrains": 40, "designs": ["wnbwnw", "bnbwnw"]},
         "dqn_symmetric_ceiling": {"terrains": 10, "designs": 64, "ceiling": 2.7876, "best_design": "wnwwnw",
-                                  "best_design_mean": 2.2283}}))
+                                  "best_design_mean": 2.2283}})
     text = section(reports, data)
-    assert "| DQN based (symmetric designs only: ceiling 2.79 m) | 5.50 ± 0.00 |" in text
+    assert "| DQN (symmetric designs only: ceiling 2.79 m) | 5.50 ± 0.00 |" in text
     assert "the best symmetric design of each terrain averages 2.79 m" in text and "`wnwwnw`, 2.23 m" in text
     assert "same 2 designs, those of highest mean fitness over the training pool's 40 exhaustive tables" in text
     assert "`wnbwnw`, `bnbwnw`" in text and "Exhaustive optimum (oracle): each test terrain's" in text
@@ -72,11 +84,26 @@ def test_section_says_what_is_missing(tmp_path):
     assert "Not run yet" in section(tmp_path / "reports", tmp_path / "data")
 
 
+def test_a_row_without_a_title_or_a_learner_without_training_stops_the_report(tmp_path):
+    """The rows and titles are the stages': a method the realtime metrics do not name, or a learner with no
+    training metrics, is an error naming it, never a row silently left out."""
+    data, reports = tmp_path / "data", tmp_path / "reports"
+    table = _table()
+    write_table(pd.concat([table, table[table.method == "ga"].assign(method="sgd")]),
+                data / "modular" / "realtime.parquet", "modular_realtime")
+    _stage_metrics(reports)
+    with pytest.raises(ArtifactError, match=r"modular_realtime\.json: no title for method 'sgd'"):
+        section(reports, data)
+    write_table(table, data / "modular" / "realtime.parquet", "modular_realtime")
+    _stage_metrics(reports, eggan={"crowding": {"method": "EG-GAN-crowding", "real_evaluations": 1}})
+    with pytest.raises(ArtifactError, match=r"EG-GAN is a learner, but eggan_modular\.json has no training metrics"):
+        section(reports, data)
+
+
 def test_fig_5_1_is_drawn_from_the_stage_records(tmp_path):
     data, reports = tmp_path / "data", tmp_path / "reports"
     write_table(_table(), data / "modular" / "realtime.parquet", "modular_realtime")
-    (reports / "metrics").mkdir(parents=True)
-    (reports / "metrics" / "eggan_modular.json").write_text("{}")
+    _stage_metrics(reports)
     assert "Fig. 5.1" not in section(reports, data)
     heights = np.zeros((50, 20), dtype=np.float32)
     heights[10:20, 5:8] = 0.125
@@ -95,16 +122,16 @@ def test_training_lines_flag_a_discriminator_at_chance_and_draw_the_validation_c
     data, reports = tmp_path / "data", tmp_path / "reports"
     write_table(_table(), data / "modular" / "realtime.parquet", "modular_realtime")
     (reports / "plots").mkdir(parents=True)
-    (reports / "metrics").mkdir(parents=True)
     common = {"fitness_source": "table", "iterations": 5000, "evaluation_budget": 20000, "surrogate_heldout": None}
-    (reports / "metrics" / "eggan_modular.json").write_text(json.dumps({
+    _stage_metrics(reports, eggan={
         "crowding": {**common, "method": "EG-GAN-crowding", "iterations_done": 1200, "real_evaluations": 19990,
-                     "training_terrains": {"train_max_distance": 3.1, "train_regret": 0.1},
+                     "evolution": "crowding", "training_terrains": {"train_max_distance": 3.1, "train_regret": 0.1},
                      "final": {"d_accuracy": 0.81, "pop_new": 0.7, "val_max_distance": 2.4, "val_regret": 0.3}},
-        "ga": {**common, "method": "EG-GAN", "iterations_done": 5000, "real_evaluations": 9000,
+        "ga": {**common, "method": "EG-GAN", "iterations_done": 5000, "real_evaluations": 9000, "evolution": "ga",
                "final": {"d_accuracy": 0.52, "val_max_distance": 2.0, "val_regret": 0.7}},
         "dqn": {**common, "method": "DQN", "iterations_done": 150, "real_evaluations": 2500,
-                "final": {"val_max_distance": 2.1, "val_regret": 0.6}}}))
+                "final": {"val_max_distance": 2.1, "val_regret": 0.6}},
+        **{m: {**common, "method": m, "real_evaluations": 1} for m in ("fit2form", "molgan")}})
     for variant in ("crowding", "ga"):
         pd.DataFrame({"iteration": [50, 100], "d_accuracy": [0.5, 0.6],
                       "val_max_distance": [np.nan, 2.0]}).to_csv(reports / "plots" / f"eggan_modular_{variant}.csv")
@@ -120,8 +147,7 @@ def test_training_lines_flag_a_discriminator_at_chance_and_draw_the_validation_c
 def test_the_pool_table_comes_from_the_pool_stage_metrics(tmp_path):
     data, reports = tmp_path / "data", tmp_path / "reports"
     write_table(_table(), data / "modular" / "realtime.parquet", "modular_realtime")
-    (reports / "metrics").mkdir(parents=True)
-    (reports / "metrics" / "eggan_modular.json").write_text("{}")
+    _stage_metrics(reports)
     split = {"terrains": 2, "distinct_optima": 2, "average_design": "llllll", "mean_regret": 3.0,
              "regret_ratio": 0.4615}
     (reports / "metrics" / "modular_pool.json").write_text(json.dumps({
@@ -135,8 +161,7 @@ def test_the_pool_table_comes_from_the_pool_stage_metrics(tmp_path):
 def test_the_pool_size_study_is_a_table_and_a_figure(tmp_path):
     data, reports = tmp_path / "data", tmp_path / "reports"
     write_table(_table(), data / "modular" / "realtime.parquet", "modular_realtime")
-    (reports / "metrics").mkdir(parents=True)
-    (reports / "metrics" / "eggan_modular.json").write_text("{}")
+    _stage_metrics(reports)
     rows = _table()
     rows = rows[rows.method.isin(["crowding", "portfolio"])]
     study = pd.concat([rows.assign(pool_terrains=n, seed=0, iterations_done=900, lookups=5000 * n,
@@ -162,8 +187,7 @@ def test_the_verdict_tests_crowding_against_the_others_paired_by_terrain(tmp_pat
                                                                                  else 0.0),
                          "distinct": 2, "ec_distance": base, "ec_failures": 0, "optimum": 9.0, "regret": 1.0})
     write_table(pd.DataFrame(rows), data / "modular" / "realtime.parquet", "modular_realtime")
-    (reports / "metrics").mkdir(parents=True)
-    (reports / "metrics" / "eggan_modular.json").write_text("{}")
+    _stage_metrics(reports)
     text = section(reports, data)
     assert "Paired by terrain (Wilcoxon signed-rank, 10 terrains), Holm-corrected over the 2 comparisons" in text
     header = "| EG-GAN-crowding vs | paired terrains | p | Holm p |"

@@ -1,9 +1,15 @@
+import json
+
 import pandas as pd
 import pytest
 from PIL import Image
 
 from robocompose.glso import best_so_far_curves
+from robocompose.glso.registry import describe
+from robocompose.io.errors import ArtifactError
 from robocompose.report.glso import claims, section
+
+METHODS = describe()  # the registry's record, as the stages write it into glso.json and glso_campaign.json
 
 
 def _steps(best: dict[tuple[str, int], list[float]]) -> pd.DataFrame:
@@ -23,9 +29,9 @@ def test_curves_summarise_the_seeds_at_each_call_count():
 
 def test_claims_say_plainly_whether_they_hold():
     final = _steps({("glso", 0): [4.5], ("random", 0): [4.6], ("glso_nopred", 0): [4.1], ("glso_nogram", 0): [4.0]})
-    text = "\n".join(claims(final, ["flat"]))
+    text = "\n".join(claims(final, ["flat"], METHODS))
     assert "GLSO best of Fig. 8.1: **does not hold**" in text and "Random 4.600" in text
-    assert "both ablations worse than GLSO: **holds**" in text
+    assert "all ablations worse than GLSO: **holds**" in text
 
 
 def test_section_without_runs_says_which_stage_to_run(tmp_path):
@@ -43,6 +49,12 @@ def test_section_draws_both_figures_the_table_and_the_best_design(tmp_path):
     steps = pd.concat([run_search(RunSpec("flat", m, s), config, EvaluationConfig(), objective_fn=fake_objective)
                        for m in ("random", "mcts", "ga") for s in (0, 1)], ignore_index=True)
     write_table(steps, tmp_path / "data" / "glso" / "steps.parquet", "glso_steps")
+    (tmp_path / "reports" / "metrics").mkdir(parents=True)
+    metrics = tmp_path / "reports" / "metrics" / "glso.json"
+    metrics.write_text(json.dumps({"methods": [m for m in METHODS if m["name"] != "mcts"]}))
+    with pytest.raises(ArtifactError, match=r"glso\.json: no title for methods \['mcts'\]"):
+        section(tmp_path / "reports", tmp_path / "data")  # never a method silently left out
+    metrics.write_text(json.dumps({"methods": METHODS}))
     text = section(tmp_path / "reports", tmp_path / "data")
     assert "flat rollout: not drawn yet" in text and "glso_best_flat.png" not in text
     rollouts = tmp_path / "data" / "glso" / "rollouts"
@@ -61,8 +73,6 @@ def test_section_draws_both_figures_the_table_and_the_best_design(tmp_path):
 
 
 def test_the_campaign_section_gives_verdicts_only_from_the_corrected_tests(tmp_path):
-    import json
-
     from robocompose.glso.campaign import compare
     from robocompose.report.glso import campaign_section
 
@@ -77,26 +87,26 @@ def test_the_campaign_section_gives_verdicts_only_from_the_corrected_tests(tmp_p
     tests = compare(finals, "search", 100, 0.05) + compare(finals, "rescored", 100, 0.05)
     (tmp_path / "metrics" / "glso_campaign.json").write_text(json.dumps(
         {"runs": 18, "planned": 31, "budget": 200, "rescore_seeds": [101, 102], "finals": finals.to_dict("records"),
-         "tests": tests}))
+         "tests": tests, "methods": METHODS}))
     text = campaign_section(tmp_path)
     assert "18 of 31 planned runs committed, 200 objective calls each; each" in text
     assert "The campaign is partial: every number and verdict below is interim" in text
     assert "| GLSO | flat | 5.200 [5.100, 5.300] (n=5) |" in text
     assert "GLSO best of Fig. 8.1: **not shown**" in text  # MCTS is not beaten
     assert "GLSO_nopred p = 0.018) (no runs yet of GLSO_nogram)" in text  # significant, but one ablation only
-    assert "both ablations worse than GLSO (Fig. 8.2): **not shown**" in text
+    assert "all ablations worse than GLSO (Fig. 8.2): **not shown**" in text
     assert "cannot show it" not in text  # 5 vs 5 and 5 vs 3 seeds can reach significance
     few = finals[(finals["method"] != "glso") | (finals["seed"] < 3)]  # 3 GLSO seeds: 3 vs 3 floors at 0.05
     tests = compare(few, "rescored", 100, 0.05)
     (tmp_path / "metrics" / "glso_campaign.json").write_text(json.dumps(
         {"runs": 16, "planned": 31, "budget": 200, "rescore_seeds": [101, 102], "finals": few.to_dict("records"),
-         "tests": tests}))
+         "tests": tests, "methods": METHODS}))
     assert "(with these seed counts the family's largest Holm-adjusted p is at least 0.050, not below 0.05: " \
            "this campaign cannot show it)" in campaign_section(tmp_path)
     alone = finals[finals["method"] == "glso"]
     (tmp_path / "metrics" / "glso_campaign.json").write_text(json.dumps(
         {"runs": 5, "planned": 5, "budget": 200, "rung": "s16_h16_e48", "rescore_seeds": [101, 102],
-         "finals": alone.to_dict("records"), "tests": []}))
+         "finals": alone.to_dict("records"), "tests": [], "methods": METHODS}))
     text = campaign_section(tmp_path)
     assert "200 objective calls each at rung s16_h16_e48 (the fidelity search rule's)" in text
     assert "partial" not in text and "Only GLSO has runs yet: nothing to compare." in text
