@@ -6,7 +6,8 @@ EG-GAN: the stage teams_eggan's generator and every committed generator piece of
 seed, NSGA-II (`matched_genome`, `matched_population`) stopped after the generation at which it has optimised as many
 distinct teams as EG-GAN's queries did there (the mean over the generators). Writes
 data/teams/{matched_nsga2,matched_fronts,heldout_fronts,heldout_picks}.parquet and reports/metrics/teams_heldout.json
-(the seeds and each method's mean held-out hypervolume); the matched runs' wall times go to reports/timings.json (not
+(the seeds, each method's mean held-out hypervolume, and the committed chip-count pieces of the current settings and
+code, robocompose.teams.chip_count); the matched runs' wall times go to reports/timings.json (not
 tracked by DVC).
 """
 
@@ -19,6 +20,7 @@ from robocompose.io.timings import timed
 from robocompose.params import load_section
 from robocompose.search.nsga2 import NSGA2Config
 from robocompose.stage import run_stage
+from robocompose.teams import chip_count
 from robocompose.teams.evaluator import teams_cache
 from robocompose.teams.experiments import budgeted_nsga2_runs, decomposed_chips
 from robocompose.teams.generators import read_pieces
@@ -40,6 +42,7 @@ def main() -> None:
     chips = decomposed_chips(read_table("data/regions.parquet", "regions"), "test")[:experiments.table_5_4_chips]
     nsga2 = read_table("data/teams/nsga2.parquet", "teams_nsga2")
     pieces, stale = read_pieces(params)
+    chip_pieces, stale_chip_pieces = chip_count.read_pieces(params)
     generators = {params.eggan.seed: (read_table("data/teams/eggan_queries.parquet", "teams_eggan_queries"),
                                       read_table("data/teams/eggan_fronts.parquet", "teams_eggan_fronts")), **pieces}
     spends = (pd.concat([queries for queries, _ in generators.values()])  # EG-GAN's spend: mean over generators
@@ -84,7 +87,9 @@ def main() -> None:
             "generators": sorted(generators), "stale_generator_pieces": stale,
             "heldout_hypervolume": {m: round(float(v), 4) for m, v in
                                     fronts.groupby("method").heldout_hypervolume.mean().items()},
-            "cost_noise_median": round(float((picks.heldout_sd / picks.heldout_mean).median()), 4)})
+            "cost_noise_median": round(float((picks.heldout_sd / picks.heldout_mean).median()), 4),
+            "chip_count": [{name: piece[name] for name in chip_count.SUMMARY} for piece in chip_pieces],
+            "stale_chip_count_pieces": stale_chip_pieces})
 
 
 if __name__ == "__main__":

@@ -105,6 +105,7 @@ def section(reports_dir: Path, data_dir: Path) -> str:
          "Not run yet: stages `teams_eggan` and `teams_heldout` (every front re-measured at held-out seeds)."),
         "",
         *(_training_notes(*training) if training is not None else []),
+        *(_chip_count(heldout[2]) if heldout is not None else []),
         "![Fig. 5.3: fronts on one test chip and two EG-GAN allocations](figures/teams_pareto.png)",
         "",
         "### Table 5.5: coverage cost (x 1e-2) at a deployment budget, reported at held-out seeds",
@@ -122,6 +123,27 @@ def section(reports_dir: Path, data_dir: Path) -> str:
         "![Trajectories of a front allocation](figures/teams_trajectories.png)",
         "",
     ])
+
+
+def _chip_count(metrics: dict) -> list[str]:
+    """How many training chips pay: the committed chip-count pieces (validation hypervolume per training chip count,
+    each a generator trained on that many chips and scored on the validation chips), or what is missing."""
+    pieces = pd.DataFrame(metrics.get("chip_count", []), columns=["train_chips", "seed", "validation_hypervolume",
+                                                                  "distinct_teams", "training_seconds"])
+    stale = metrics.get("stale_chip_count_pieces", [])
+    lines = ["**Training chips** (generators trained on N chips, scored on the validation chips at every search seed; "
+             "`robocompose teams chip-count`):", ""]
+    if not len(pieces):
+        return lines + [f"No piece of the current settings and code yet ({len(stale)} stale).", ""]
+    by_count = pieces.groupby("train_chips")
+    rows = [(n, _mean_std(group.validation_hypervolume), ", ".join(map(str, sorted(group.seed))),
+             f"{group.distinct_teams.mean():,.0f}", f"{group.training_seconds.mean() / 60:.1f}")
+            for n, group in by_count]
+    lines += markdown_table(["training chips", "validation hypervolume (mean ± sd over seeds)", "training seeds",
+                             "distinct teams optimised", "training (min)"], rows)
+    if stale:
+        lines += ["", f"{len(stale)} stale piece(s) of other settings or code, not used: {', '.join(stale)}."]
+    return lines + [""]
 
 
 def _purity_table(purity: pd.DataFrame, weight: float) -> str:

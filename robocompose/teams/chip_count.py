@@ -31,6 +31,7 @@ from robocompose.teams.params import TeamsParams
 
 PIECES = Path("measured/teams/chip_count")
 ENTRY = "robocompose.teams.chip_count:measure"
+SUMMARY = ("train_chips", "seed", "validation_hypervolume", "distinct_teams", "training_seconds")  # the report's
 
 
 def training_chips(params: TeamsParams, train_split: list[tuple[Chip, Decomposition]], n_chips: int

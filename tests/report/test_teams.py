@@ -52,3 +52,15 @@ def test_section_has_both_tables_beside_the_thesis_and_its_figures(tmp_path, mon
     for figure in ("teams_decomposition", "teams_pareto", "teams_trajectories", "teams_coverage"):
         assert f"figures/{figure}.png" in text
         assert (tmp_path / "reports" / "figures" / f"{figure}.png").stat().st_size > 1000
+
+
+def test_the_chip_count_table_averages_each_count_over_its_seeds_and_names_stale_pieces():
+    from robocompose.report.teams import _chip_count
+
+    pieces = [{"train_chips": n, "seed": seed, "validation_hypervolume": hv, "distinct_teams": 100,
+               "training_seconds": 120.0} for n, seed, hv in [(16, 0, 10.0), (16, 1, 11.0), (64, 0, 12.5)]]
+    lines = _chip_count({"chip_count": pieces, "stale_chip_count_pieces": ["measured/teams/chip_count/x.json"]})
+    rows = [line for line in lines if line.startswith("| 16") or line.startswith("| 64")]
+    assert "10.50 ± 0.50" in rows[0] and "0, 1" in rows[0] and "12.50 ± 0.00" in rows[1]
+    assert any("1 stale piece(s)" in line and "x.json" in line for line in lines)
+    assert any("No piece of the current settings" in line for line in _chip_count({}))
