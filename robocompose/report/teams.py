@@ -448,7 +448,32 @@ def _table_5_5_heldout(picks: pd.DataFrame, heldout_seeds: list[int]) -> str:
               "picks; the spread across generators (sd of each generator's mean x 1e-2): "
               + ", ".join(f"{by_generator[b].std() * 100:.3f} at <= {b}" if by_generator[b].size > 1 else
                           f"- at <= {b} (one generator)" for b in budgets if b in by_generator.index) + "."]
+    if "eggan" in titles:
+        lines += ["", *_table_5_5_tests(picks, budgets, titles)]
     return "\n".join(lines)
+
+
+def _table_5_5_tests(picks: pd.DataFrame, budgets: list[int], titles: pd.Series) -> list[str]:
+    """EG-GAN against every other row at every budget, paired by chip x seed on the held-out cost (Wilcoxon
+    signed-rank, Holm-corrected over all of them: one family)."""
+    from scipy.stats import wilcoxon
+
+    from robocompose.search.significance import holm
+
+    cost = picks.pivot_table(index=["budget", "chip_id", "seed"], columns="method", values="heldout_mean")
+    tests = {}
+    for method in [m for m in titles.index if m != "eggan"]:
+        for budget in budgets:
+            gap = (cost.loc[budget, "eggan"] - cost.loc[budget, method]).dropna()  # < 0: EG-GAN's pick costs less
+            if len(gap):
+                tests[(method, budget)] = (gap, wilcoxon(gap).pvalue if gap.abs().sum() > 0 else 1.0)
+    adjusted = holm({f"{m}@{b}": p for (m, b), (_, p) in tests.items()})
+    return ["EG-GAN against each row at each budget, paired by chip x seed on the held-out cost (Wilcoxon signed-rank, "
+            f"Holm-corrected over the {len(tests)} comparisons):", "",
+            *markdown_table(["method", "budget", "EG-GAN minus method (x 1e-2)", "EG-GAN lower", "p", "Holm p"],
+                            [(titles[m], f"<= {b}", f"{gap.mean() * 100:+.3f}", f"{int((gap < 0).sum())} of {len(gap)}",
+                              p, adjusted[f"{m}@{b}"]) for (m, b), (gap, p) in tests.items()],
+                            formats=[None, None, None, None, "{:.3g}", "{:.3g}"])]
 
 
 def _chip_background(source: str) -> tuple[np.ndarray, np.ndarray]:

@@ -44,6 +44,7 @@ def test_section_has_both_tables_beside_the_thesis_and_its_figures(tmp_path, mon
     assert "none of which any method searched or selected on" in text and "seed-to-seed noise" in text
     table_5_5 = text[text.index("### Table 5.5"):]
     assert table_5_5.split("\n")[2].startswith("**Dec + EG-GAN lowest at every budget, at held-out seeds")
+    assert "EG-GAN against each row at each budget" in table_5_5 and "| method | budget | EG-GAN minus method" in text
     assert "As the thesis measured it" in text and "| Dec + EG-GAN (best front point" in text
     assert "synthetic label chips" in text
     assert "| terrain-driven (weight 0.3) |" in text and "| random-seed Voronoi" in text
