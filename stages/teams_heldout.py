@@ -11,27 +11,17 @@ code, robocompose.teams.chip_count); the matched runs' wall times go to reports/
 tracked by DVC).
 """
 
-import pandas as pd
 import torch
 
 from robocompose.fanout.compute import ComputeConfig
 from robocompose.io import atomic_write_json, read_table, write_table
 from robocompose.io.timings import timed
 from robocompose.params import load_section
-from robocompose.search.nsga2 import NSGA2Config
 from robocompose.stage import run_stage
 from robocompose.teams import chip_count
-from robocompose.teams.evaluator import teams_cache
-from robocompose.teams.experiments import budgeted_nsga2_runs, decomposed_chips
+from robocompose.teams.experiments import decomposed_chips
 from robocompose.teams.generators import read_pieces
-from robocompose.teams.heldout import (
-    budget_picks,
-    front_points,
-    heldout_hypervolumes,
-    nsga2_method,
-    remeasured,
-    single_draw_costs,
-)
+from robocompose.teams.heldout import heldout_study
 from robocompose.teams.params import TeamsParams
 
 
@@ -40,54 +30,24 @@ def main() -> None:
     torch.set_num_threads(params.threads)
     experiments = params.experiments
     chips = decomposed_chips(read_table("data/regions.parquet", "regions"), "test")[:experiments.table_5_4_chips]
-    nsga2 = read_table("data/teams/nsga2.parquet", "teams_nsga2")
     pieces, stale = read_pieces(params)
     chip_pieces, stale_chip_pieces = chip_count.read_pieces(params)
     generators = {params.eggan.seed: (read_table("data/teams/eggan_queries.parquet", "teams_eggan_queries"),
                                       read_table("data/teams/eggan_fronts.parquet", "teams_eggan_fronts")), **pieces}
-    spends = (pd.concat([queries for queries, _ in generators.values()])  # EG-GAN's spend: mean over generators
-              .groupby(["chip_id", "seed"]).distinct_teams.mean())
+    nsga2 = (read_table("data/teams/nsga2.parquet", "teams_nsga2"), read_table("data/teams/fronts.parquet",
+                                                                               "teams_fronts"))
+    random = (read_table("data/teams/random_fronts.parquet", "teams_random_fronts"),
+              read_table("data/teams/random_points.parquet", "teams_random_points"))
     compute = load_section(ComputeConfig, "compute")
     with timed("teams_heldout") as timing, compute.executor("teams_heldout") as executor:
-        runs = [(chip, decomposition, NSGA2Config(population=experiments.matched_population,
-                                                  generations=experiments.generations,
-                                                  crossover_probability=experiments.crossover_probability,
-                                                  mutation_rate=experiments.mutation_rate, seed=seed),
-                 experiments.matched_genome)
-                for chip, decomposition in chips for seed in experiments.seeds]
-        spend = [round(spends[chip.chip_id, nsga2_config.seed]) for chip, _, nsga2_config, _ in runs]
-        matched, matched_fronts, timing["matched_runs"] = budgeted_nsga2_runs(runs, params.coverage, teams_cache(),
-                                                                              executor, spend)
-        points = front_points(read_table("data/teams/fronts.parquet", "teams_fronts"), matched_fronts,
-                              read_table("data/teams/random_points.parquet", "teams_random_points"),
-                              {seed: fronts for seed, (_, fronts) in generators.items()})
-        points = points[points.chip_id.isin([chip.chip_id for chip, _ in chips])]
-        points = remeasured(points, chips, params.coverage, experiments.heldout_seeds, executor)
-        spent = {**{(nsga2_method(r.genome, r.population, matched=False), r.chip_id, r.seed): r.distinct_teams
-                    for r in nsga2.itertuples()},
-                 **{(nsga2_method(r.genome, r.population, matched=True), r.chip_id, r.seed): r.distinct_teams
-                    for r in matched.itertuples()},
-                 **{(f"eggan:{generator}", r.chip_id, r.seed): r.distinct_teams
-                    for generator, (queries, _) in generators.items() for r in queries.itertuples()}}
-        random = read_table("data/teams/random_fronts.parquet", "teams_random_fronts")
-        spent |= {(f"random:{r.draws}", r.chip_id, r.seed): r.distinct_teams for r in random.itertuples()}
-        fronts = heldout_hypervolumes(points)
-        fronts["distinct_teams"] = [spent[key] for key in zip(fronts.method, fronts.chip_id, fronts.seed,
-                                                              strict=True)]
-        picks = budget_picks(points, experiments.budgets)
-        single = single_draw_costs(chips, params.coverage, experiments.seeds, experiments.budgets,
-                                   experiments.heldout_seeds, executor)
-        write_table(matched, "data/teams/matched_nsga2.parquet", "teams_nsga2")
-        write_table(matched_fronts, "data/teams/matched_fronts.parquet", "teams_fronts")
-        write_table(fronts, "data/teams/heldout_fronts.parquet", "teams_heldout_fronts")
-        picks = pd.concat([picks, single], ignore_index=True)
-        write_table(picks, "data/teams/heldout_picks.parquet", "teams_heldout_picks")
+        study = heldout_study(chips, params.coverage, experiments, nsga2, random, generators, executor)
+        timing["matched_runs"] = study.matched_seconds
+        write_table(study.matched, "data/teams/matched_nsga2.parquet", "teams_nsga2")
+        write_table(study.matched_fronts, "data/teams/matched_fronts.parquet", "teams_fronts")
+        write_table(study.fronts, "data/teams/heldout_fronts.parquet", "teams_heldout_fronts")
+        write_table(study.picks, "data/teams/heldout_picks.parquet", "teams_heldout_picks")
         atomic_write_json("reports/metrics/teams_heldout.json", {
-            "search_seeds": experiments.seeds, "heldout_seeds": experiments.heldout_seeds, "chips": len(chips),
-            "generators": sorted(generators), "stale_generator_pieces": stale,
-            "heldout_hypervolume": {m: round(float(v), 4) for m, v in
-                                    fronts.groupby("method").heldout_hypervolume.mean().items()},
-            "cost_noise_median": round(float((picks.heldout_sd / picks.heldout_mean).median()), 4),
+            **study.metrics, "stale_generator_pieces": stale,
             "chip_count": [{name: piece[name] for name in chip_count.SUMMARY} for piece in chip_pieces],
             "stale_chip_count_pieces": stale_chip_pieces})
 

@@ -21,19 +21,23 @@ batches of 256, 5 ms in batches of 1,024).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import pandas as pd
 import torch
 
 from robocompose.fanout.executor import Executor
+from robocompose.search.nsga2 import NSGA2Config
 from robocompose.teams.baselines import no_decomposition_costs
 from robocompose.teams.chips import Chip
 from robocompose.teams.decompose import Decomposition
 from robocompose.teams.ergodic import CoverageConfig
-from robocompose.teams.evaluator import AllocationEvaluator, chip_coverage
-from robocompose.teams.experiments import baseline_draws
+from robocompose.teams.evaluator import AllocationEvaluator, chip_coverage, teams_cache
+from robocompose.teams.experiments import baseline_draws, budgeted_nsga2_runs
 from robocompose.teams.genomes import GENOMES
 from robocompose.teams.nsga2 import team_hypervolume
+from robocompose.teams.params import ExperimentsConfig
 
 HELDOUT_BATCH = 1024  # teams optimised together: the per-team cost halves from 256 to 1,024
 PICK_COLUMNS = ["method", "title", "chip_id", "seed", "budget", "selected_cost", "heldout_mean", "heldout_sd",
@@ -181,3 +185,56 @@ def single_draw_costs(chips: list[tuple[Chip, Decomposition]], coverage: Coverag
     rows = [row for chip_rows in (executor or Executor(workers=1)).map(_single_draws_chip, tasks)
             for row in chip_rows]
     return pd.DataFrame(rows, columns=PICK_COLUMNS)
+
+
+@dataclass
+class Heldout:
+    """What stage teams_heldout writes."""
+
+    matched: pd.DataFrame  # "teams_nsga2" of NSGA-II stopped at EG-GAN's spend
+    matched_fronts: pd.DataFrame  # "teams_fronts" of those runs
+    fronts: pd.DataFrame  # "teams_heldout_fronts": every front's hypervolume at its search and the held-out seeds
+    picks: pd.DataFrame  # "teams_heldout_picks": Table 5.5's picks and single draws at the held-out seeds
+    metrics: dict
+    matched_seconds: list[dict]  # the matched runs' wall times (not reproducible: kept apart)
+
+
+def heldout_study(chips: list[tuple[Chip, Decomposition]], coverage: CoverageConfig, experiments: ExperimentsConfig,
+                  nsga2: tuple[pd.DataFrame, pd.DataFrame], random: tuple[pd.DataFrame, pd.DataFrame],
+                  generators: dict[int, tuple[pd.DataFrame, pd.DataFrame]], executor: Executor | None = None
+                  ) -> Heldout:
+    """Every front of Table 5.4 (NSGA-II's runs and fronts `nsga2`, the random fronts and their points `random`,
+    each EG-GAN generator's queries and fronts by training seed) and NSGA-II stopped at EG-GAN's spend, re-measured
+    at the held-out seeds on `chips`; Table 5.5's picks and single draws the same way."""
+    spends = (pd.concat([queries for queries, _ in generators.values()])  # EG-GAN's spend: mean over generators
+              .groupby(["chip_id", "seed"]).distinct_teams.mean())
+    runs = [(chip, decomposition, NSGA2Config(population=experiments.matched_population,
+                                              generations=experiments.generations,
+                                              crossover_probability=experiments.crossover_probability,
+                                              mutation_rate=experiments.mutation_rate, seed=seed),
+             experiments.matched_genome)
+            for chip, decomposition in chips for seed in experiments.seeds]
+    spend = [round(spends[chip.chip_id, nsga2_config.seed]) for chip, _, nsga2_config, _ in runs]
+    matched, matched_fronts, seconds = budgeted_nsga2_runs(runs, coverage, teams_cache(), executor, spend)
+    points = front_points(nsga2[1], matched_fronts, random[1], {seed: fronts for seed, (_, fronts) in
+                                                               generators.items()})
+    points = points[points.chip_id.isin([chip.chip_id for chip, _ in chips])]
+    points = remeasured(points, chips, coverage, experiments.heldout_seeds, executor)
+    spent = {**{(nsga2_method(r.genome, r.population, matched=False), r.chip_id, r.seed): r.distinct_teams
+                for r in nsga2[0].itertuples()},
+             **{(nsga2_method(r.genome, r.population, matched=True), r.chip_id, r.seed): r.distinct_teams
+                for r in matched.itertuples()},
+             **{(f"eggan:{generator}", r.chip_id, r.seed): r.distinct_teams
+                for generator, (queries, _) in generators.items() for r in queries.itertuples()},
+             **{(f"random:{r.draws}", r.chip_id, r.seed): r.distinct_teams for r in random[0].itertuples()}}
+    fronts = heldout_hypervolumes(points)
+    fronts["distinct_teams"] = [spent[key] for key in zip(fronts.method, fronts.chip_id, fronts.seed, strict=True)]
+    picks = pd.concat([budget_picks(points, experiments.budgets),
+                       single_draw_costs(chips, coverage, experiments.seeds, experiments.budgets,
+                                         experiments.heldout_seeds, executor)], ignore_index=True)
+    metrics = {"search_seeds": experiments.seeds, "heldout_seeds": experiments.heldout_seeds, "chips": len(chips),
+               "generators": sorted(generators),
+               "heldout_hypervolume": {m: round(float(v), 4) for m, v in
+                                       fronts.groupby("method").heldout_hypervolume.mean().items()},
+               "cost_noise_median": round(float((picks.heldout_sd / picks.heldout_mean).median()), 4)}
+    return Heldout(matched, matched_fronts, fronts, picks, metrics, seconds)
