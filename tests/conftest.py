@@ -258,6 +258,27 @@ def copy_project():
 # --- tiny trained generators (the compose commands and the service) ---
 
 
+def tiny_teams_params(experiments: dict | None = None, eggan: dict | None = None, chips: dict | None = None) -> str:
+    """params.yaml of a tiny teams world (4 synthetic chips, 2 of them test, K = 3), `experiments`, `eggan` and
+    `chips` overriding its sections' settings."""
+    import yaml
+
+    return yaml.safe_dump({
+        "teams": {"chips": {"n_synthetic": 4, "seed": 1, **(chips or {})}, "decompose": {"n_regions": 3, "test_fraction": 0.5},
+                  "coverage": {"iterations": 2, "n_observations": 4},
+                  "experiments": {"populations": [4, 6], "generations": 2, "table_5_4_chips": 1,
+                                  "table_5_5_chips": 1, "seeds": [0], "budgets": [3, 6], **(experiments or {})},
+                  "eggan": {"iterations": 2, "batch": 8, "tasks": 2, "samples": 16, "checkpoint_every": 1,
+                            "latent": 4, "fitness": {}, **(eggan or {})}},
+        "compute": {"workers": 1}})
+
+
+@pytest.fixture
+def teams_params():
+    """teams_params(experiments=None, eggan=None, chips=None): the YAML of `tiny_teams_params`."""
+    return tiny_teams_params
+
+
 @pytest.fixture(scope="session")
 def tiny_teams_model(tmp_path_factory):
     """A generator file from a two-iteration training on two small chips (K = 3)."""

@@ -4,27 +4,16 @@ from pathlib import Path
 from robocompose.report.teams import section
 
 STAGES = Path(__file__).resolve().parents[2] / "stages"
-TINY_PARAMS = """
-teams:
-  chips: {n_synthetic: 4, seed: 1}
-  decompose: {n_regions: 3, test_fraction: 0.5}
-  coverage: {iterations: 2, n_observations: 4}
-  experiments: {populations: [20, 50], genomes: [fractions, share_split], generations: 1, table_5_4_chips: 1,
-                table_5_5_chips: 1, seeds: [0],
-                budgets: [15, 30, 45]}
-  eggan: {iterations: 2, batch: 8, tasks: 2, samples: 16, checkpoint_every: 1, latent: 4, fitness: {}}
-compute: {workers: 1}
-"""
-
-
 def test_section_says_not_run_yet_without_stage_outputs(tmp_path):
     text = section(tmp_path / "reports", tmp_path / "data")
     assert "Not run yet" in text and "regions.parquet" in text
 
 
-def test_section_has_both_tables_beside_the_thesis_and_its_figures(tmp_path, monkeypatch):
+def test_section_has_both_tables_beside_the_thesis_and_its_figures(tmp_path, monkeypatch, teams_params):
     monkeypatch.chdir(tmp_path)
-    (tmp_path / "params.yaml").write_text(TINY_PARAMS)
+    (tmp_path / "params.yaml").write_text(teams_params({"populations": [20, 50], "genomes": ["fractions",
+                                                                                          "share_split"],
+                                                         "generations": 1, "budgets": [15, 30, 45]}))
     for stage in ("decompose", "teams_baselines", "teams_eggan", "teams_heldout"):
         runpy.run_path(str(STAGES / f"{stage}.py"), run_name="__main__")
     text = section(tmp_path / "reports", tmp_path / "data")

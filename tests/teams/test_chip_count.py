@@ -16,20 +16,11 @@ from robocompose.teams.decompose import decompose_chip
 from robocompose.teams.params import TeamsParams
 
 STAGES = Path(__file__).resolve().parents[2] / "stages"
-TINY_PARAMS = """
-teams:
-  chips: {n_synthetic: 6, seed: 1}
-  decompose: {n_regions: 3, test_fraction: 0.5}
-  coverage: {iterations: 2, n_observations: 4}
-  experiments: {seeds: [0, 1]}
-  eggan: {iterations: 10, batch: 8, tasks: 2, samples: 8, checkpoint_every: 5, latent: 4, fitness: {},
-          validation_chips: 1, validate_every: 5, validation_samples: 4}
-"""
-
-
 @pytest.fixture
-def params(tmp_path) -> TeamsParams:
-    (tmp_path / "params.yaml").write_text(TINY_PARAMS)
+def params(tmp_path, teams_params) -> TeamsParams:
+    (tmp_path / "params.yaml").write_text(teams_params(  # 6 chips, 1 of the 3 training ones for validation
+        {"seeds": [0, 1]}, {"iterations": 10, "batch": 8, "samples": 8, "checkpoint_every": 5, "validation_chips": 1,
+                            "validate_every": 5, "validation_samples": 4}, {"n_synthetic": 6}))
     return load_section(TeamsParams, "teams", path=tmp_path / "params.yaml")
 
 

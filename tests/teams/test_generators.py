@@ -14,20 +14,8 @@ from robocompose.teams.generators import piece_key
 from robocompose.teams.params import TeamsParams
 
 STAGES = Path(__file__).resolve().parents[2] / "stages"
-TINY_PARAMS = """
-teams:
-  chips: {n_synthetic: 4, seed: 1}
-  decompose: {n_regions: 3, test_fraction: 0.5}
-  coverage: {iterations: 2, n_observations: 4}
-  experiments: {populations: [4], generations: 2, table_5_4_chips: 1, table_5_5_chips: 1, seeds: [0],
-                budgets: [3, 6]}
-  eggan: {iterations: 2, batch: 8, tasks: 2, samples: 16, checkpoint_every: 1, latent: 4, fitness: {}}
-compute: {workers: 1}
-"""
-
-
-def test_the_piece_key_covers_every_setting_but_the_training_seed(tmp_path):
-    (tmp_path / "params.yaml").write_text(TINY_PARAMS)
+def test_the_piece_key_covers_every_setting_but_the_training_seed(tmp_path, teams_params):
+    (tmp_path / "params.yaml").write_text(teams_params({"populations": [4]}))
     params = load_section(TeamsParams, "teams", path=tmp_path / "params.yaml")
     key = piece_key(params)
     assert piece_key(dataclasses.replace(params, eggan=dataclasses.replace(params.eggan, seed=7))) == key
@@ -40,9 +28,10 @@ def test_the_piece_key_covers_every_setting_but_the_training_seed(tmp_path):
     assert piece_key(dataclasses.replace(params, experiments=heldout)) == key
 
 
-def test_a_committed_generator_stands_beside_the_stages_until_its_settings_change(tmp_path, monkeypatch, capsys):
+def test_a_committed_generator_stands_beside_the_stages_until_its_settings_change(tmp_path, monkeypatch, capsys,
+                                                                                teams_params):
     monkeypatch.chdir(tmp_path)
-    (tmp_path / "params.yaml").write_text(TINY_PARAMS)
+    (tmp_path / "params.yaml").write_text(teams_params({"populations": [4]}))
     for stage in ("decompose", "teams_baselines", "teams_eggan"):
         runpy.run_path(str(STAGES / f"{stage}.py"), run_name="__main__")
     args = parser().parse_args(["teams", "generator", "--seed", "1"])
@@ -62,7 +51,7 @@ def test_a_committed_generator_stands_beside_the_stages_until_its_settings_chang
     metrics = json.loads(Path("reports/metrics/teams_heldout.json").read_text())
     assert metrics["generators"] == [0, 1] and metrics["stale_generator_pieces"] == []
 
-    (tmp_path / "params.yaml").write_text(TINY_PARAMS.replace("latent: 4", "latent: 5"))  # a generator setting
+    (tmp_path / "params.yaml").write_text(teams_params({"populations": [4]}, {"latent": 5}))  # a generator setting
     runpy.run_path(str(STAGES / "teams_eggan.py"), run_name="__main__")
     runpy.run_path(str(STAGES / "teams_heldout.py"), run_name="__main__")
     fronts = pd.read_parquet("data/teams/heldout_fronts.parquet")

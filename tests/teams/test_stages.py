@@ -9,25 +9,13 @@ import pytest
 from robocompose.teams.chips import read_chip
 
 STAGES = Path(__file__).resolve().parents[2] / "stages"
-TINY_PARAMS = """
-teams:
-  chips: {n_synthetic: 4, seed: 1}
-  decompose: {n_regions: 3, test_fraction: 0.5}
-  coverage: {iterations: 2, n_observations: 4}
-  experiments: {populations: [4, 6], generations: 2, table_5_4_chips: 1, table_5_5_chips: 1, seeds: [0],
-                budgets: [3, 6]}
-  eggan: {iterations: 2, batch: 8, tasks: 2, samples: 16, checkpoint_every: 1, latent: 4, fitness: {}}
-compute: {workers: 1}  # processes: test_experiments.py
-"""
-
-
 def run_stage(name: str) -> None:
     runpy.run_path(str(STAGES / f"{name}.py"), run_name="__main__")
 
 
-def test_stages_write_their_tables_deterministically(tmp_path, monkeypatch):
+def test_stages_write_their_tables_deterministically(tmp_path, monkeypatch, teams_params):
     monkeypatch.chdir(tmp_path)
-    (tmp_path / "params.yaml").write_text(TINY_PARAMS)
+    (tmp_path / "params.yaml").write_text(teams_params())
     run_stage("decompose")
     regions_bytes = Path("data/regions.parquet").read_bytes()
     regions = pd.read_parquet("data/regions.parquet")
@@ -50,9 +38,9 @@ def test_stages_write_their_tables_deterministically(tmp_path, monkeypatch):
         assert Path(f"data/teams/{name}.parquet").read_bytes() == first[name], name
 
 
-def test_eggan_stage_trains_queries_and_resumes(tmp_path, monkeypatch):
+def test_eggan_stage_trains_queries_and_resumes(tmp_path, monkeypatch, teams_params):
     monkeypatch.chdir(tmp_path)
-    (tmp_path / "params.yaml").write_text(TINY_PARAMS)
+    (tmp_path / "params.yaml").write_text(teams_params())
     run_stage("decompose")
     run_stage("teams_eggan")
     queries = pd.read_parquet("data/teams/eggan_queries.parquet")
