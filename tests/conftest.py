@@ -264,7 +264,8 @@ def tiny_teams_params(experiments: dict | None = None, eggan: dict | None = None
     import yaml
 
     return yaml.safe_dump({
-        "teams": {"chips": {"n_synthetic": 4, "seed": 1, **(chips or {})}, "decompose": {"n_regions": 3, "test_fraction": 0.5},
+        "teams": {"chips": {"n_synthetic": 4, "seed": 1, **(chips or {})},
+                  "decompose": {"n_regions": 3, "test_fraction": 0.5},
                   "coverage": {"iterations": 2, "n_observations": 4},
                   "experiments": {"populations": [4, 6], "generations": 2, "table_5_4_chips": 1,
                                   "table_5_5_chips": 1, "seeds": [0], "budgets": [3, 6], **(experiments or {})},
