@@ -1,6 +1,6 @@
 """DVC stage `evaluator_fidelity`: the MPPI fidelity ladder's table and the default evaluator it selects.
 
-params (evaluator_fidelity) + reports/fidelity/designs.csv + reports/fidelity/scores/*.csv ->
+params (evaluator_fidelity) + measured/fidelity/designs.csv + measured/fidelity/scores/*.csv ->
 reports/fidelity/summary.csv, reports/metrics/evaluator_fidelity.json. With `measure: false` (default
 profile) it only summarises the committed score pieces (seconds); with `measure: true` (paper profile) it
 first scores every missing (task, rung, design) into the pieces (hours, resumable).
@@ -19,7 +19,7 @@ def main() -> None:
     with timed("evaluator_fidelity") as timing:
         timing["evaluations"] = fidelity.measure(config, designs) if config.measure else 0
         summary = fidelity.summarise(fidelity.read_scores(config.directory), designs, config.top)
-        fidelity.write_summary(summary, config.directory)
+        fidelity.write_summary(summary)
         atomic_write_json("reports/metrics/evaluator_fidelity.json",
                           fidelity.choose_default(summary, config.tasks, config.min_spearman,
                                                   config.search_spearman, config.ceiling_share))

@@ -1,6 +1,6 @@
 """DVC stage `glso_campaign`: the seeded GLSO campaign's statistics from its committed runs.
 
-params (glso_campaign) + reports/glso_campaign/ (finished runs, re-scores) -> reports/metrics/glso_campaign.json,
+params (glso_campaign) + measured/glso_campaign/ (finished runs, re-scores) -> reports/metrics/glso_campaign.json,
 reports/plots/glso_campaign.png. With `run: false` (default profile) it only summarises what is committed
 (seconds); with `run: true` (paper profile) it first runs every missing run and re-score (core-hours,
 resumable, over `compute:`).

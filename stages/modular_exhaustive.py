@@ -1,7 +1,7 @@
 """DVC stage `modular_exhaustive`: every modular design on every truth terrain (the ground truth), the terrain
 criterion (does the best design depend on the terrain?), and a picture of the first terrains with their best designs.
 
-params (compute, modular) + reports/modular/exhaustive/ (committed one-offs) -> data/modular/exhaustive.parquet,
+params (compute, modular) + measured/modular/exhaustive/ (committed one-offs) -> data/modular/exhaustive.parquet,
 reports/metrics/modular_exhaustive.json, reports/plots/modular_terrains.png. A terrain whose committed table was
 measured under the current settings, fitness rule and physics code is read from it; any other is simulated through
 the shared cache (saved every 32 results, so an interrupted run resumes).

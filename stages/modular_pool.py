@@ -1,7 +1,7 @@
 """DVC stage `modular_pool`: the training pool's exact ground truth, every design on every pool terrain (thesis
 5.1's training terrains, disjoint from the test terrains), for training every learner on exact fitness.
 
-params (compute, modular, eggan_modular.fitness, eggan_modular.pool_size.sizes) + reports/modular/pool/
+params (compute, modular, eggan_modular.fitness, eggan_modular.pool_size.sizes) + measured/modular/pool/
 (committed tables) -> data/modular/pool.parquet, reports/metrics/modular_pool.json. A terrain whose committed
 table was measured under the current settings, fitness rule and physics code is read from it; any other (the
 paper profile's settings) is simulated through the shared cache, resumably.

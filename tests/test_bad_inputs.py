@@ -355,12 +355,12 @@ def _bounds_png_header(path: Path, width: int, height: int) -> None:
 
 
 def _bounds_committed(folder: Path, change: Callable[[dict], object]) -> None:
-    """reports/modular/exhaustive/ of `folder`: the committed table of terrain 1000 and its record after `change`."""
+    """measured/modular/exhaustive/ of `folder`: the committed table of terrain 1000 and its record after `change`."""
     import json
     import shutil
 
-    source = ROOT / "reports" / "modular" / "exhaustive" / "blocks-1000.parquet"
-    target = folder / "reports" / "modular" / "exhaustive"
+    source = ROOT / "measured" / "modular" / "exhaustive" / "blocks-1000.parquet"
+    target = folder / "measured" / "modular" / "exhaustive"
     target.mkdir(parents=True)
     shutil.copy(source, target / source.name)
     record = json.loads(source.with_suffix(".json").read_text())
@@ -396,8 +396,9 @@ def _bounds_listener(folder: Path, kind: str) -> None:
 
 _BOUNDS_RULES = ",".join(["0"] * 10_001)
 _BOUNDS_ALLOCATION = ";".join(["0.1,0.1,0.1"] * 8)
-_BOUNDS_NOT_AN_OBJECT = ("reports/modular/exhaustive/blocks-1000.json: expected a JSON object", "found a list")
-_BOUNDS_UNKNOWN_KEY = ("reports/modular/exhaustive/blocks-1000.json: settings.gravity: unknown field; expected one of",)
+_BOUNDS_NOT_AN_OBJECT = ("measured/modular/exhaustive/blocks-1000.json: expected a JSON object", "found a list")
+_BOUNDS_UNKNOWN_KEY = ("measured/modular/exhaustive/blocks-1000.json: settings.gravity: unknown field; "
+                       "expected one of",)
 
 
 def _bounds_npy(path: Path, shape: tuple[int, int], height: float) -> None:

@@ -1,12 +1,13 @@
 """The evaluator fidelity ladder: how well a cheap MPPI setting ranks designs like the thesis's setting.
 
-One fixed design set (`reports/fidelity/designs.csv`) is scored under a ladder of MPPI settings (`LADDER`),
+One fixed design set (`measured/fidelity/designs.csv`) is scored under a ladder of MPPI settings (`LADDER`),
 from cheaper than the default profile up to the thesis's (512 first / 64 samples, horizon 16, 128 control
-steps). Every (task, rung, design) score is one line of a CSV piece `reports/fidelity/scores/<task>__<rung>.csv`,
+steps). Every (task, rung, design) score is one line of a CSV piece `measured/fidelity/scores/<task>__<rung>.csv`,
 appended as soon as it is measured, so a measurement of many CPU hours resumes where it stopped.
 `summarise` turns the pieces into one row per (task, rung): physics steps and seconds per evaluation,
 Spearman rank correlation with the thesis rung's scores, and whether the thesis rung's best design is in
-the rung's top 3. `choose_default` picks the cheapest rung that ranks like the thesis on every task.
+the rung's top 3 (the stage writes it to `reports/fidelity/summary.csv`: an output, not a measurement).
+`choose_default` picks the cheapest rung that ranks like the thesis on every task.
 
     robocompose evaluator-fidelity build-set    # once, after `dvc repro enumerate`: the design set (committed)
     robocompose fidelity-search                 # hours: searches at cheap rungs; their best designs join the set
@@ -68,6 +69,7 @@ SCORE_COLUMNS = ("task", "rung", "name", "design_id", "reward", "status", "objec
                  "evaluator")  # evaluator: `simulation_digest(task)` of the code that measured the row
 MEASURE_ORDER = ("reference", "search", "screened", "random")  # kinds of design, in `measure_order`
 DESIGNS_FILE, SUMMARY_FILE = "designs.csv", "summary.csv"
+SUMMARY_DIR = "reports/fidelity"  # the summary is the stage's output; the design set and pieces are measured/
 SCORES_DIR = "scores"
 SEARCH = "search"  # the kind of a design found by a search
 
@@ -94,7 +96,7 @@ def rung_config(name: str) -> MPPIConfig:
 class FidelityConfig:
     """The `evaluator_fidelity:` section of params.yaml."""
 
-    directory: str = "reports/fidelity"  # the design set and the score pieces (committed)
+    directory: str = "measured/fidelity"  # the design set and the score pieces (committed measurements)
     tasks: list[str] = field(default_factory=lambda: ["flat", "ridged"])  # measured in this order
     rungs: list[str] = field(default_factory=lambda: list(LADDER))  # measured in this order (thesis first)
     measure: bool = False  # False: summarise the committed pieces only; True: score what is missing first
@@ -164,7 +166,7 @@ def write_design_set(table: pd.DataFrame, directory: str | Path) -> Path:
     return atomic_write_text(Path(directory) / DESIGNS_FILE, table.to_csv(index=False, float_format="%.6f"))
 
 
-def write_summary(summary: pd.DataFrame, directory: str | Path) -> Path:
+def write_summary(summary: pd.DataFrame, directory: str | Path = SUMMARY_DIR) -> Path:
     return atomic_write_text(Path(directory) / SUMMARY_FILE, summary.to_csv(index=False, float_format="%.6g"))
 
 

@@ -57,7 +57,7 @@ CACHE_FILE = "eval_cache.parquet"  # under `checkpoints`: not committed, it only
 class CampaignConfig:
     """The `glso_campaign:` section of params.yaml."""
 
-    directory: str = "reports/glso_campaign"  # finished runs and re-scores (committed)
+    directory: str = "measured/glso_campaign"  # finished runs and re-scores (committed measurements)
     checkpoints: str = "data/glso_campaign"  # runs in progress (not committed)
     tasks: list[str] = field(default_factory=lambda: ["flat"])  # ridged after flat if time allows
     seeds: dict[str, int] = field(default_factory=lambda: {  # run seeds per method: 0 .. n-1

@@ -3,8 +3,8 @@
 Each of `evaluator_fidelity.search_methods` searches each task at each of `search_rungs` (`search_budget`
 objective calls, run seed and controller seed `evaluator_fidelity.seed`, GLSO with `search_init` random
 points first); the `search_top` best distinct simulated designs of every search join the design set
-(`reports/fidelity/designs.csv`) as kind `search`. Each search's step table is committed under
-`reports/fidelity/searches/` as the record of where its designs came from.
+(`measured/fidelity/designs.csv`) as kind `search`. Each search's step table is committed under
+`measured/fidelity/searches/` as the record of where its designs came from.
 
     robocompose fidelity-search      # hours: resumable (a checkpoint per search); then adds the designs
 """

@@ -42,8 +42,8 @@ class LandscapeConfig:
     designs: int = 400  # dataset designs projected
     evaluated: int = 32  # of those, scored on flat terrain by the evaluator
     seed: int = 0
-    searches: str = "reports/fidelity/searches"  # step tables of searches whose simulated designs join ("" = none)
-    campaign: str = "reports/glso_campaign"  # the GLSO campaign's finished runs: their designs join too ("" = none)
+    searches: str = "measured/fidelity/searches"  # step tables of searches whose simulated designs join ("" = none)
+    campaign: str = "measured/glso_campaign"  # the GLSO campaign's finished runs: their designs join too ("" = none)
     neighbours: int = 5  # k of the k-NN predictability
     shuffles: int = 1000  # permutations of the scores for its null distribution
     min_group: int = 30  # fewer scored designs of one (task, rung): no k-NN figure for it

@@ -52,12 +52,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
     exhaustive = commands.add_parser(
         "exhaustive", help="every design on each terrain, a table per terrain kept under "
-        "reports/modular/exhaustive/ (resumes: terrains whose table is there are skipped, a terrain half done "
+        "measured/modular/exhaustive/ (resumes: terrains whose table is there are skipped, a terrain half done "
         "resumes from the cache)")
     exhaustive.add_argument("--terrain-seed", type=non_negative_int, nargs="+", required=True,
                             help="one or more terrain seeds, measured in this order")
     exhaustive.add_argument("--out-dir", type=output_directory, default=None,
-                            help="where the table and its provenance record go (default reports/modular/exhaustive)")
+                            help="where the table and its provenance record go (default measured/modular/exhaustive)")
     exhaustive.add_argument("--candidates", type=input_file("candidates YAML"),
                             help="with --distribution: a YAML of candidate terrain distributions (as for probe)")
     exhaustive.add_argument("--distribution", help="measure under this candidate of --candidates instead of the "
@@ -84,7 +84,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "settings and compare bit for bit; with --rekey, a table whose sample all agrees takes the current physics "
         "digest (the proof that a code change left its numbers as they were); prints JSON per table")
     verify.add_argument("--dir", type=Path, default=None,
-                        help="a directory of blocks-<seed>.parquet tables (default reports/modular/exhaustive)")
+                        help="a directory of blocks-<seed>.parquet tables (default measured/modular/exhaustive)")
     verify.add_argument("--sample", type=int_at_least(1), default=20, help="designs re-simulated per table")
     verify.add_argument("--seed", type=non_negative_int, default=0, help="seed of the sample")
     verify.add_argument("--rekey", action="store_true", help="re-key the tables whose sample agrees exactly")
@@ -95,7 +95,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "criterion", help="the terrain criterion (distinct optima up to mirror, regret of the best-on-average "
         "design) of the exhaustive tables in a directory; prints JSON")
     criterion.add_argument("--dir", type=Path, default=None,
-                           help="a directory of blocks-<seed>.parquet tables (default reports/modular/exhaustive)")
+                           help="a directory of blocks-<seed>.parquet tables (default measured/modular/exhaustive)")
     criterion.set_defaults(handler=_criterion)
 
 

@@ -69,7 +69,7 @@ class FitnessConfig:
     source: str = "table"  # "table": the pool's exhaustive tables; "surrogate": real rollouts + a learned model
     train_seed_base: int = 20_000  # training terrain seeds: base .. base + train_terrains - 1
     train_terrains: int = 40
-    pool_dir: str = "reports/modular/pool"  # the pool's committed exhaustive tables (stage modular_pool reads them)
+    pool_dir: str = "measured/modular/pool"  # the pool's committed exhaustive tables (stage modular_pool reads them)
     pool: str = "data/modular/pool.parquet"  # table source: every pool terrain's table (stage modular_pool's output)
     validation_seed_base: int = 20_040  # the pool's validation terrains: base .. base + validation_terrains - 1
     validation_terrains: int = 8

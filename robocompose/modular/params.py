@@ -22,7 +22,7 @@ class ExperimentsConfig:
     # Held-out test terrains: seeds never used for training (a generator trains on seeds outside TEST_SEED_BLOCK).
     test_terrains: list[int] = field(default_factory=lambda: [1000, 1001, 1002, 1003])
     # Terrains with an exhaustive table (the regret reference and the terrain criterion); must hold every test
-    # terrain. Tables measured under the current settings are committed under reports/modular/exhaustive/.
+    # terrain. Tables measured under the current settings are committed under measured/modular/exhaustive/.
     truth_terrains: list[int] = field(default_factory=lambda: [1000, 1001, 1002, 1003])
     ga_seeds: list[int] = field(default_factory=lambda: [0, 1, 2])  # independent runs per terrain and method
     generations: int = 50

@@ -34,7 +34,7 @@ from robocompose.modular.terrain import TerrainConfig, generate_terrain
 from robocompose.modular.truth import exhaustive_terrain, read_record, terrain_criterion
 
 # One port string per mirror pair (truth.canonical): legs, wheels and leg-wheels alone; the optima and the
-# best-on-average design of the committed tables (reports/modular/exhaustive, H ~ U(0, 0.2)); mixes.
+# best-on-average design of the committed tables (measured/modular/exhaustive, H ~ U(0, 0.2)); mixes.
 PROBE_DESIGNS = (
     "llllll", "wwwwww", "bbbbbb",
     "wnwwww", "wbwwww", "wnbwnw", "wnwwnw", "bnbbnb", "bbbbwb", "bnbwnw", "bnbwww", "bbbbnb",

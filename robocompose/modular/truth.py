@@ -2,7 +2,7 @@
 
 - `exhaustive_terrain`: all 4096 port strings on one terrain under the fitness rule (the 1296 designs the original
   accepts simulated, the rest scored by the rule), through the shared cache, so a long table resumes.
-- Committed one-offs: a table is also kept under `reports/modular/exhaustive/blocks-<seed>.parquet` with a JSON
+- Committed one-offs: a table is also kept under `measured/modular/exhaustive/blocks-<seed>.parquet` with a JSON
   record of the settings, fitness rule and physics code it was measured with. The `modular_exhaustive` stage
   uses such a table when all three match the current ones, and simulates otherwise (a changed profile, e.g.
   `paper`, regenerates its own).
@@ -32,7 +32,7 @@ from robocompose.modular.evaluate import EvalSettings, FitnessRule, evaluate_des
 from robocompose.modular.robot import all_designs, mirror
 from robocompose.modular.terrain import TerrainConfig, generate_terrain
 
-COMMITTED_DIR = Path("reports/modular/exhaustive")
+COMMITTED_DIR = Path("measured/modular/exhaustive")
 # Issue 13's terrain criterion: on >= 8 terrains, >= 3 distinct optima (up to mirror) and the best-on-average
 # design's mean regret >= 10% of the mean optimum.
 CRITERION = {"terrains": 8, "distinct_optima": 3, "regret_ratio": 0.10}

@@ -207,7 +207,7 @@ def _pool_lines(path: Path) -> list[str]:
     sizes = ", ".join(f"{n} terrains: `{p['average_design']}` {p['mean_regret']:.2f} m"
                       for n, p in pool.get("by_size", {}).items())
     lines += ["", "Every design on every pool terrain, simulated once (`robocompose modular exhaustive`, committed "
-              f"under reports/modular/pool/); {pool['simulated_designs']} rollouts. Best fixed design and its regret "
+              f"under measured/modular/pool/); {pool['simulated_designs']} rollouts. Best fixed design and its regret "
               f"by pool size: {sizes or 'n/a'}.", ""]
     return lines
 

@@ -52,7 +52,7 @@ def test_landscape_scores_the_subset_with_the_evaluator(make_trees):
     assert full["reward"].iloc[:2].equals(nopred["reward"].iloc[:2])  # same designs, same scores
 
 
-SEARCH = Path(__file__).parents[2] / "reports" / "fidelity" / "searches" / "flat__s8_h8_e48__random.parquet"
+SEARCH = Path(__file__).parents[2] / "measured" / "fidelity" / "searches" / "flat__s8_h8_e48__random.parquet"
 
 
 def _search_tables(directory: Path) -> pd.DataFrame:

@@ -90,7 +90,7 @@ def test_pool_stage_gathers_the_committed_pool_and_summarises_each_split(tmp_pat
     params = load_section(ModularParams, "modular")
     for seed, module in ((20000, "w"), (20001, "l"), (20002, "b")):
         write_committed(synthetic_truth(lambda d, m=module: float(d.count(m)), seed), params.eval, params.fitness,
-                        seconds=1.0, directory=Path("reports/modular/pool"))
+                        seconds=1.0, directory=Path("measured/modular/pool"))
     runpy.run_path(str(STAGES / "modular_pool.py"), run_name="__main__")
     pool = read_table("data/modular/pool.parquet", "modular_exhaustive")
     assert sorted(pool.terrain_seed.unique()) == [20000, 20001, 20002] and (pool.sim_steps > 0).sum() > 0
