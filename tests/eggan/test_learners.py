@@ -43,7 +43,8 @@ def test_a_trained_eggan_generator_answers_through_its_registry_entry(tmp_path, 
 
 
 def test_a_generator_baseline_trains_saves_loads_and_answers_through_its_entry(tmp_path, match_problem):
-    """Fit2form on the toy problem (MolGAN and DQN need a modular problem: tests/modular/test_eggan_experiments.py)."""
+    """Fit2form on the toy problem (MolGAN and DQN need a modular problem:
+    tests/modular/experiments/test_generative.py)."""
     name, learner = "fit2form", LEARNERS["modular"]["fit2form"]
     config = learner.training.settings(iterations=2, tasks=2)
     model, rows = learner.training.train(match_problem, NETWORK, config, False)

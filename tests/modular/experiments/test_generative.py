@@ -16,8 +16,9 @@ import pytest
 from robocompose.eggan.dqn import load_dqn
 from robocompose.eggan.learners import dqn_answer
 from robocompose.fanout.executor import Executor
-from robocompose.modular import eggan_problem
-from robocompose.modular.eggan_experiments import (
+from robocompose.modular.eggan_params import EgganModularParams
+from robocompose.modular.evaluate import EvalSettings, FitnessRule
+from robocompose.modular.experiments.generative import (
     make_problem,
     method_title,
     realtime_methods,
@@ -27,13 +28,12 @@ from robocompose.modular.eggan_experiments import (
     training_scores,
     validation_scores,
 )
-from robocompose.modular.eggan_params import EgganModularParams
-from robocompose.modular.eggan_problem import ModularEgganProblem
-from robocompose.modular.evaluate import EvalSettings, FitnessRule
 from robocompose.modular.params import ExperimentsConfig, ModularParams
+from robocompose.modular.plugins import eggan_problem
+from robocompose.modular.plugins.eggan_problem import ModularEgganProblem
 from robocompose.modular.robot import PORT_XY
 from robocompose.params import build_config
-from tests.modular.test_eggan_problem import fake_pool, table_fitness
+from tests.modular.plugins.test_eggan_problem import fake_pool, table_fitness
 
 MODULAR = ModularParams(EvalSettings(control_steps=10), FitnessRule(), ExperimentsConfig())
 SECTION = {"fitness": {"source": "surrogate", "train_terrains": 6, "warmup": 20, "warmup_terrains": 4, "budget": 40,
