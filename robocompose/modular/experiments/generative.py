@@ -19,6 +19,10 @@ import math
 import time
 from pathlib import Path
 
+# The learners this module trains and loads through the registry, which names their modules without importing them:
+# imported here so that this module's import closure (its stages' code deps) holds their code. A test checks the list
+# against the registry (`robocompose.eggan.learners.ref_modules("modular")`).
+from robocompose.eggan import dqn, fit2form, molgan  # noqa: F401
 from robocompose.eggan.learners import LEARNERS, Answer, baselines, generator_answer, training_order, variants
 from robocompose.eggan.query import save_generator
 from robocompose.eggan.train import train

@@ -146,3 +146,13 @@ def test_learners_trained_side_by_side_write_the_bytes_they_write_one_after_anot
     assert runs[1][0] == runs[2][0]
     assert runs[1][1].keys() == runs[2][1].keys() and len(runs[1][1]) >= 10
     assert all(runs[1][1][name] == runs[2][1][name] for name in runs[1][1])
+
+
+def test_this_module_imports_every_learner_it_runs_through_the_registry():
+    """The registry names its learners' modules without importing them: this module, which trains and loads every
+    modular learner, imports them itself, so its import closure (its stages' code deps) holds their code."""
+    from robocompose.eggan.learners import ref_modules
+    from robocompose.io.provenance import import_closure, module_path
+
+    closure = import_closure("robocompose.modular.experiments.generative")
+    assert ref_modules("modular") and all(module_path(m) in closure for m in ref_modules("modular"))
