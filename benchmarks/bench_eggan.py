@@ -23,9 +23,9 @@ from robocompose.eggan.networks import Discriminator, Generator, NetworkConfig
 from robocompose.eggan.query import load_generator, top_distinct
 from robocompose.eggan.train import TrainConfig, train_step
 from robocompose.modular.compose import SHIPPED_MODEL
-from robocompose.modular.eggan_problem import FitnessConfig, ModularEgganProblem
 from robocompose.modular.evaluate import EvalSettings, FitnessRule, rollout
 from robocompose.modular.params import ExperimentsConfig, ModularParams
+from robocompose.modular.plugins.eggan_problem import FitnessConfig, ModularEgganProblem
 from robocompose.modular.robot import all_designs
 from robocompose.modular.terrain import generate_terrain
 

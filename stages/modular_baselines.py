@@ -8,7 +8,7 @@ each run's runtime is the measured simulation time of the evaluations it asked f
 
 from robocompose.io import atomic_write_json, read_table, write_table
 from robocompose.io.timings import timed
-from robocompose.modular.experiments import baseline_runs
+from robocompose.modular.experiments.baselines import baseline_runs
 from robocompose.modular.params import ModularParams
 from robocompose.params import load_section
 from robocompose.stage import run_stage

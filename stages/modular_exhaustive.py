@@ -12,8 +12,8 @@ from pathlib import Path
 from robocompose.fanout.compute import ComputeConfig
 from robocompose.io import atomic_write_json, write_table
 from robocompose.io.timings import timed
+from robocompose.modular.experiments.pictures import plot_terrains
 from robocompose.modular.params import ModularParams
-from robocompose.modular.pictures import plot_terrains
 from robocompose.modular.truth import exhaustive_metrics, truth_summary, truth_tables
 from robocompose.params import load_section
 from robocompose.stage import run_stage

@@ -1,5 +1,5 @@
 """DVC stage `modular_pool_size`: held-out score against the training pool's size (beyond the thesis), for
-EG-GAN-crowding and the terrain-agnostic portfolio (`robocompose.modular.pool_size`).
+EG-GAN-crowding and the terrain-agnostic portfolio (`robocompose.modular.experiments.pool_size`).
 
 params (compute, modular, eggan_modular) + data/modular/pool.parquet + data/modular/exhaustive.parquet ->
 data/modular/pool_size.parquet (every test query per pool size), reports/metrics/modular_pool_size.json (per size and
@@ -13,8 +13,8 @@ from robocompose.fanout.compute import ComputeConfig
 from robocompose.io import atomic_write_json, read_table, write_table
 from robocompose.io.timings import timed
 from robocompose.modular.eggan_params import EgganModularParams
+from robocompose.modular.experiments.pool_size import pool_size_study
 from robocompose.modular.params import ModularParams
-from robocompose.modular.pool_size import pool_size_study
 from robocompose.params import load_section
 from robocompose.stage import run_stage
 

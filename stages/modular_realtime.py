@@ -15,12 +15,12 @@ from pathlib import Path
 from robocompose.eggan.query import load_generator
 from robocompose.io import atomic_write_json, read_table, write_table
 from robocompose.io.timings import timed
-from robocompose.modular.eggan_experiments import make_problem, method_info, realtime_proposers
 from robocompose.modular.eggan_params import EgganModularParams
-from robocompose.modular.figure_5_1 import figure_5_1
+from robocompose.modular.experiments.figure_5_1 import figure_5_1
+from robocompose.modular.experiments.generative import make_problem, method_info, realtime_proposers
+from robocompose.modular.experiments.protocol import realtime_table, summarise
+from robocompose.modular.experiments.table_designs import portfolio, symmetric_ceiling, top_designs
 from robocompose.modular.params import ModularParams
-from robocompose.modular.protocol import realtime_table, summarise
-from robocompose.modular.table_designs import portfolio, symmetric_ceiling, top_designs
 from robocompose.params import load_section
 from robocompose.stage import run_stage
 

@@ -12,8 +12,8 @@ from pathlib import Path
 from robocompose.fanout.compute import ComputeConfig
 from robocompose.io import atomic_write_json
 from robocompose.io.timings import timed
-from robocompose.modular.eggan_experiments import train_all
 from robocompose.modular.eggan_params import EgganModularParams
+from robocompose.modular.experiments.generative import train_all
 from robocompose.modular.params import ModularParams
 from robocompose.params import load_section
 from robocompose.stage import run_stage

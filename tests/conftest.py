@@ -313,9 +313,9 @@ def tiny_modular_model(tmp_path_factory):
 
     from robocompose.eggan.networks import Generator, NetworkConfig
     from robocompose.eggan.query import save_generator
-    from robocompose.modular.eggan_problem import FitnessConfig, ModularEgganProblem
     from robocompose.modular.evaluate import EvalSettings, FitnessRule
     from robocompose.modular.params import ExperimentsConfig, ModularParams
+    from robocompose.modular.plugins.eggan_problem import FitnessConfig, ModularEgganProblem
 
     torch.manual_seed(0)
     problem = ModularEgganProblem(ModularParams(EvalSettings(), FitnessRule(), ExperimentsConfig()), FitnessConfig())

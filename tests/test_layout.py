@@ -9,6 +9,9 @@
   `latent.train`, nor `search/` the grammar through another concept. Where a forbidden concept or library is
   reached through a project module, the problem names that module's import line and the chain.
 - Nothing reaches up into report/: no file outside it imports it.
+- Inside a world folder, its rooms (`ROOMS`): the world itself (the folder's own files) reaches neither its plug-ins
+  nor its experiments, and the plug-ins do not reach the experiments; the folder's entry files (command line,
+  query, params sections) stand on all three.
 """
 
 from __future__ import annotations
@@ -46,6 +49,10 @@ MUST_NOT = {
 LIBRARIES = {"torch", "pybullet"}  # third-party names the table forbids (pybullet_data etc. count as pybullet)
 FLOOR_FILES = {"params", "stage", "arguments", "dvc_deps"}  # top-level files on the floor with io/
 ROOF_FILES = {"cli"}  # the command line: may import every concept but report/
+# A world folder's rooms, lowest first: the world itself (the folder's own files but its entry files), its plug-ins
+# for search/ and eggan/, its experiments. A room imports only rooms on or below its own row.
+ROOMS = {"modular": {"rooms": ("world", "plugins", "experiments"),
+                     "entry": {"cli", "compose", "params", "eggan_params"}}}
 
 
 
@@ -169,6 +176,62 @@ def problems(root: Path) -> list[tuple[str, str, str]]:
 def test_the_code_keeps_design_md_import_table():
     found = problems(ROOT)
     assert not found, "\n".join(text for _, _, text in found)
+
+
+def room(module: str) -> str | None:
+    """The room of a module of a world folder in `ROOMS` ("world", a sub-package's name); None for an entry file, the
+    folder's __init__ and modules of other concepts."""
+    parts = module.split(".")
+    if len(parts) < 3 or parts[1] not in ROOMS:
+        return None
+    rooms = ROOMS[parts[1]]
+    if len(parts) == 3:
+        return None if parts[2] in rooms["entry"] else "world"
+    return parts[2] if parts[2] in rooms["rooms"] else None
+
+
+def room_problems(root: Path) -> list[str]:
+    """"file:line imports module: why" for every import (or chain of imports) from a room to a room above it."""
+    tree = Tree(root)
+    found = []
+    for module, path in tree.files.items():
+        home = room(module)
+        if home is None:
+            continue
+        order = ROOMS[concept(module)]["rooms"]
+        for line, target in tree.edges[module]:
+            stack, seen = [(target, (target,))], set()
+            while stack:  # the chain from this import to a room above `home`, if any
+                name, chain = stack.pop(0)
+                if name in seen or name not in tree.files or concept(name) != concept(module):
+                    continue
+                seen.add(name)
+                if room(name) is not None and order.index(room(name)) > order.index(home):
+                    via = f" (reached through {' -> '.join(chain)})" if len(chain) > 1 else ""
+                    found.append(f"{path.relative_to(root).as_posix()}:{line} imports {target}: the {home} of "
+                                 f"{concept(module)}/ must not import its {room(name)}{via}")
+                    break
+                stack += [(n, (*chain, n)) for _, n in tree.edges[name]]
+    return found
+
+
+def test_the_worlds_keep_their_rooms():
+    found = room_problems(ROOT)
+    assert not found, "\n".join(found)
+
+
+def test_the_room_checker_names_the_file_line_and_chain(tmp_path):
+    root = _tree(tmp_path, {**CLEAN, "modular/robot.py": "import json\n",
+                            "modular/evaluate.py": "from robocompose.modular.plugins import problem\n",
+                            "modular/plugins/problem.py": "def f():\n    from robocompose.modular.robot import json\n",
+                            "modular/plugins/eggan_problem.py": "from robocompose.modular.experiments import runs\n",
+                            "modular/experiments/runs.py": "from robocompose.modular.plugins import problem\n",
+                            "modular/cli.py": "from robocompose.modular.experiments import runs\n"})
+    assert room_problems(root) == [
+        "robocompose/modular/evaluate.py:1 imports robocompose.modular.plugins.problem: the world of modular/ must not "
+        "import its plugins",
+        "robocompose/modular/plugins/eggan_problem.py:1 imports robocompose.modular.experiments.runs: the plugins of "
+        "modular/ must not import its experiments"]
 
 
 def test_the_report_reaches_no_simulation_no_model_code():

@@ -21,17 +21,17 @@ from robocompose.glso.registry import METHODS, Method, describe
 from robocompose.glso.runs import GLSOConfig, RunSpec, run_search
 from robocompose.io import write_table
 from robocompose.io.errors import InputError
-from robocompose.modular.eggan_experiments import make_problem, method_info, realtime_proposers, train_baseline
 from robocompose.modular.eggan_params import EgganModularParams
 from robocompose.modular.evaluate import EvalSettings, FitnessRule
+from robocompose.modular.experiments.generative import make_problem, method_info, realtime_proposers, train_baseline
+from robocompose.modular.experiments.protocol import realtime_table
+from robocompose.modular.experiments.table_designs import portfolio, top_designs
 from robocompose.modular.params import ExperimentsConfig, ModularParams
-from robocompose.modular.protocol import realtime_table
-from robocompose.modular.table_designs import portfolio, top_designs
 from robocompose.params import build_config
 from robocompose.report import eggan as eggan_report
 from robocompose.report import glso as glso_report
 from tests.glso.conftest import fake_objective
-from tests.modular.test_eggan_problem import fake_pool
+from tests.modular.plugins.test_eggan_problem import fake_pool
 
 
 class FirstDesigns:

@@ -11,24 +11,47 @@ world choosing its evolution (a modular EG-GAN variant names its own: `evolution
 plus one line under its world in `LEARNERS`. The entry is the only list of it: its title (which the stages write
 into their artifacts for the report), its settings' dataclass (checked when a profile is written), its place in
 the tables (registry order) and in the training queue (`cost`) all live there.
+
+Importing the registry imports no learner's own module: an entry names its loader, trainer, writer and settings as
+`"package.module:name"` (`Ref`), and the module is imported on first use (`importlib`, which the import closure
+does not follow), so a stage's import closure, and the code deps dvc.yaml derives from it, holds only the learners
+it imports itself (the teams generator does not depend on DQN's code). A module that runs a world's learners
+through the registry imports their modules itself (`robocompose.modular.experiments.generative`).
 """
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import torch
 
-from robocompose.eggan.dqn import DQNConfig, best_designs, load_dqn, save_dqn, train_dqn
-from robocompose.eggan.fit2form import Fit2formConfig, train_fit2form
-from robocompose.eggan.molgan import MolganConfig, train_molgan
 from robocompose.eggan.problem import Design, EgganProblem, Task
 from robocompose.eggan.query import generate, load_generator, save_generator, top_distinct
 
 Answer = Callable[[EgganProblem, Task, int, int], list[Design]]  # (problem, task, query seed, k) -> designs
 Draws = Callable[[EgganProblem, Task, int], list[Design]]  # (problem, task, query seed) -> the designs drawn
+Ref = str  # "package.module:name": a definition of a learner's own module, imported on first use
+
+
+def import_ref(ref: Any) -> Any:
+    """The definition a `Ref` names (importing its module now, on first use); any other value as it is."""
+    if not isinstance(ref, str):
+        return ref
+    module, _, name = ref.partition(":")
+    return getattr(importlib.import_module(module), name)
+
+
+class _Resolved:
+    """A frozen dataclass whose `LAZY` fields may hold a `Ref`: reading such a field gives the definition it names."""
+
+    LAZY: tuple[str, ...] = ()
+
+    def __getattribute__(self, name: str) -> Any:
+        value = object.__getattribute__(self, name)
+        return import_ref(value) if name in type(self).LAZY else value
 
 
 def generator_answer(generator: torch.nn.Module, samples: int) -> Answer:
@@ -53,6 +76,8 @@ def dqn_answer(net: torch.nn.Module, samples: int) -> Answer:
     """Whitman's DQN's answer: its greedy design, then the designs a best-first search on its Q reaches next
     (`robocompose.eggan.dqn.best_designs`); the same for every query of a task (no draws: `samples` unused)."""
 
+    best_designs = import_ref("robocompose.eggan.dqn:best_designs")
+
     def answer(problem: EgganProblem, task: Task, query_seed: int, k: int) -> list[Design]:
         return [design for design, _ in best_designs(net, problem, task, k)]
 
@@ -60,20 +85,23 @@ def dqn_answer(net: torch.nn.Module, samples: int) -> Answer:
 
 
 @dataclass(frozen=True)
-class Training:
-    """How a learned baseline trains: its settings' dataclass, its trainer, its file writer, its own metrics."""
+class Training(_Resolved):
+    """How a learned baseline trains: its settings' dataclass, its trainer, its file writer (each the definition or
+    its `Ref`), its own metrics."""
 
-    settings: type
-    train: Callable  # (problem, network, settings, progress) -> (model, log rows)
-    save: Callable  # (model, problem, path, meta) -> path
+    LAZY = ("settings", "train", "save")
+    settings: type | Ref
+    train: Callable | Ref  # (problem, network, settings, progress) -> (model, log rows)
+    save: Callable | Ref  # (model, problem, path, meta) -> path
     metrics: Callable[[Any, list[dict]], dict]  # (settings, log rows) -> metrics beside the common ones
 
 
 @dataclass(frozen=True)
-class Learner:
+class Learner(_Resolved):
+    LAZY = ("load", "answer")
     title: str  # the thesis's name of the method
-    load: Callable  # (path, problem) -> (model, info)
-    answer: Callable[[Any, int], Answer | Draws]  # (model, samples per draw) -> its answer in its world's way
+    load: Callable | Ref  # (path, problem) -> (model, info)
+    answer: Callable[[Any, int], Answer | Draws] | Ref  # (model, samples per draw) -> its answer in its world's way
     training: Training | None = None  # None: trained by robocompose.eggan.train (EG-GAN)
     evolution: str | None = None  # an EG-GAN variant's evolution method (its world's `evolution_methods`)
     cost: int = 1  # relative training time: a stage that trains learners side by side starts the costliest first
@@ -84,14 +112,16 @@ LEARNERS: dict[str, dict[str, Learner]] = {
     # Costs rank the training times on the default profile, slowest highest (MolGAN; Fit2form fastest).
     "modular": {
         "fit2form": Learner("Fit2form", load_generator, generator_answer,
-                            Training(Fit2formConfig, train_fit2form, save_generator, lambda settings, rows: {}),
-                            cost=1),
-        "dqn": Learner("DQN", load_dqn, dqn_answer,
-                       Training(DQNConfig, train_dqn, save_dqn,
+                            Training("robocompose.eggan.fit2form:Fit2formConfig",
+                                     "robocompose.eggan.fit2form:train_fit2form", save_generator,
+                                     lambda settings, rows: {}), cost=1),
+        "dqn": Learner("DQN", "robocompose.eggan.dqn:load_dqn", dqn_answer,
+                       Training("robocompose.eggan.dqn:DQNConfig", "robocompose.eggan.dqn:train_dqn",
+                                "robocompose.eggan.dqn:save_dqn",
                                 lambda settings, rows: {"episodes": rows[-1]["episodes"]}), cost=2),
         "molgan": Learner("MolGAN", load_generator, generator_answer,
-                          Training(MolganConfig, train_molgan, save_generator,
-                                   lambda settings, rows: {"lam": settings.lam}), cost=5),
+                          Training("robocompose.eggan.molgan:MolganConfig", "robocompose.eggan.molgan:train_molgan",
+                                   save_generator, lambda settings, rows: {"lam": settings.lam}), cost=5),
         "ga": Learner("EG-GAN", load_generator, generator_answer, evolution="ga", cost=4),
         "crowding": Learner("EG-GAN-crowding", load_generator, generator_answer, evolution="crowding", cost=3),
     },
@@ -117,3 +147,11 @@ def training_order(world: str) -> tuple[str, ...]:
     order among equals), so that workers started in this order finish close together."""
     trained = {**variants(world), **baselines(world)}
     return tuple(sorted(trained, key=lambda name: -trained[name].cost))
+
+
+def ref_modules(world: str) -> tuple[str, ...]:
+    """The learners' own modules that `world`'s entries name (`Ref`s), sorted: what a module running them all
+    through the registry imports itself, so that its import closure holds them."""
+    refs = [getattr(entry, "__dict__", {}).get(field) for learner in LEARNERS[world].values()
+            for entry, fields in ((learner, Learner.LAZY), (learner.training, Training.LAZY)) for field in fields]
+    return tuple(sorted({ref.partition(":")[0] for ref in refs if isinstance(ref, str)}))

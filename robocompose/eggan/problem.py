@@ -4,7 +4,7 @@ EG-GAN is generic: a problem supplies the task distribution, the tensor forms of
 design is drawn from the generator's output, the evolution that turns generated designs into "real" ones
 (thesis Algorithms 2 and 3), and one or more objectives. The trainer (`robocompose.eggan.train`) never looks
 inside a task or a design; it only hands them back to the problem. Each world implements this protocol in its
-own package (`robocompose.modular.eggan_problem`, the teams problem in `robocompose.teams`), so this package
+own package (`robocompose.modular.plugins.eggan_problem`, the teams problem in `robocompose.teams`), so this package
 imports neither.
 
 Conventions

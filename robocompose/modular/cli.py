@@ -147,7 +147,7 @@ def _evaluate(args: argparse.Namespace) -> None:
 
 def _ga(args: argparse.Namespace) -> None:
     from robocompose.arguments import command_compute
-    from robocompose.modular.experiments import run_method
+    from robocompose.modular.experiments.baselines import run_method
 
     params = _params(args.params)
     compute = command_compute(args, args.params)
@@ -163,7 +163,7 @@ def _exhaustive(args: argparse.Namespace) -> None:
     from robocompose.arguments import command_compute
     from robocompose.io import read_table
     from robocompose.io.errors import InputError
-    from robocompose.modular.terrain_study import candidate_settings
+    from robocompose.modular.experiments.terrain_study import candidate_settings
     from robocompose.modular.truth import (
         COMMITTED_DIR,
         committed_path,
@@ -203,8 +203,14 @@ def _exhaustive(args: argparse.Namespace) -> None:
 def _probe(args: argparse.Namespace) -> None:
     from robocompose.arguments import command_compute
     from robocompose.io import atomic_write_text
+    from robocompose.modular.experiments.terrain_study import (
+        PROBE_DESIGNS,
+        candidate_settings,
+        criteria,
+        probe_table,
+        rounded,
+    )
     from robocompose.modular.robot import parse_design
-    from robocompose.modular.terrain_study import PROBE_DESIGNS, candidate_settings, criteria, probe_table, rounded
     from robocompose.params import read_params
 
     params = _params(args.params)
@@ -243,7 +249,7 @@ def _verify(args: argparse.Namespace) -> None:
 
 
 def _criterion(args: argparse.Namespace) -> None:
-    from robocompose.modular.terrain_study import directory_criterion
+    from robocompose.modular.experiments.terrain_study import directory_criterion
     from robocompose.modular.truth import COMMITTED_DIR
 
     per_terrain, totals = directory_criterion(args.dir or COMMITTED_DIR)

@@ -25,8 +25,8 @@ if TYPE_CHECKING:
     import numpy as np
 
     from robocompose.eggan.networks import Generator
-    from robocompose.modular.eggan_problem import ModularEgganProblem
     from robocompose.modular.params import ModularParams
+    from robocompose.modular.plugins.eggan_problem import ModularEgganProblem
     from robocompose.modular.terrain import TerrainConfig
 
 SHIPPED_MODEL = Path(__file__).resolve().parent / "pretrained" / "eggan.pt"
@@ -125,9 +125,9 @@ def check_heightmap(heights: np.ndarray, terrain: TerrainConfig, where: str, lab
 
 def _ship(args: argparse.Namespace) -> None:
     from robocompose.eggan.query import load_generator, save_generator
-    from robocompose.modular.eggan_problem import FitnessConfig, ModularEgganProblem
     from robocompose.modular.evaluate import EvalSettings, FitnessRule
     from robocompose.modular.params import ExperimentsConfig, ModularParams
+    from robocompose.modular.plugins.eggan_problem import FitnessConfig, ModularEgganProblem
 
     problem = ModularEgganProblem(ModularParams(EvalSettings(), FitnessRule(), ExperimentsConfig()), FitnessConfig())
     generator, info = load_generator(args.source, problem)
@@ -155,7 +155,7 @@ class ModularComposer:
     def load(cls, path: Path | None, params: ModularParams) -> ModularComposer:
         """The generator at `path` (default: the shipped one) for the modular problem of `params`."""
         from robocompose.eggan.query import load_generator
-        from robocompose.modular.eggan_problem import FitnessConfig, ModularEgganProblem
+        from robocompose.modular.plugins.eggan_problem import FitnessConfig, ModularEgganProblem
 
         path = Path(path or SHIPPED_MODEL)
         problem = ModularEgganProblem(params, FitnessConfig())

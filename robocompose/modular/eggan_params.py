@@ -9,7 +9,7 @@ from robocompose.eggan.learners import baselines, variants
 from robocompose.eggan.networks import NetworkConfig
 from robocompose.eggan.train import TrainConfig
 from robocompose.io.errors import InputError, check_field
-from robocompose.modular.eggan_problem import FitnessConfig
+from robocompose.modular.plugins.eggan_problem import FitnessConfig
 from robocompose.params import build_config
 
 
@@ -32,7 +32,7 @@ class ProtocolConfig:
 
 @dataclass(frozen=True)
 class PoolSizeConfig:
-    """The pool-size study (`robocompose.modular.pool_size`)."""
+    """The pool-size study (`robocompose.modular.experiments.pool_size`)."""
 
     sizes: list[int] = field(default_factory=lambda: [8, 16, 32, 40])  # training terrains (capped at the pool's)
     iterations: int = 1000  # EG-GAN-crowding iterations per size (or until the look-up budget is spent)

@@ -10,7 +10,7 @@ Deviation from the reference: H ~ U(0, 0.08) there. Under those heights 10.5 cm 
 and one wheeled design is best on every terrain (nothing for a terrain-conditioned generator to learn); under
 H ~ U(0, 0.2) leg-wheel designs are still near-optimal everywhere (the best design on average loses 4% of the
 mean optimum); under H ~ U(0, 0.4) near-flat terrains favour wheels, rough ones leg-wheels and legs, and the
-best design depends on the terrain (`robocompose.modular.terrain_study`; docs/modular.md). The
+best design depends on the terrain (`robocompose.modular.experiments.terrain_study`; docs/modular.md). The
 original code itself carries a commented "high" setting of 0.15 m.
 """
 

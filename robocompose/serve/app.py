@@ -273,7 +273,7 @@ def design_png(design: str, terrain_seed: int | None, config: TerrainConfig) -> 
     """PNG of `design` at its start pose on the block terrain of `terrain_seed` (None: flat ground)."""
     from PIL import Image
 
-    from robocompose.modular.pictures import design_picture
+    from robocompose.modular.experiments.pictures import design_picture
     from robocompose.modular.terrain import Terrain, generate_terrain
 
     terrain = (Terrain(-1, np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0), config) if terrain_seed is None

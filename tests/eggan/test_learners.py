@@ -2,14 +2,19 @@
 the baselines train through their registry entry. The toy problem of conftest.py stands in for both worlds."""
 
 import inspect
+import json
+import os
+import subprocess
+import sys
 
 from robocompose.eggan.dqn import DQNConfig
 from robocompose.eggan.fit2form import Fit2formConfig
-from robocompose.eggan.learners import LEARNERS, baselines, training_order, variants
+from robocompose.eggan.learners import LEARNERS, baselines, import_ref, ref_modules, training_order, variants
 from robocompose.eggan.molgan import MolganConfig
 from robocompose.eggan.networks import NetworkConfig
 from robocompose.eggan.query import load_generator
 from robocompose.eggan.train import TrainConfig, train
+from robocompose.io.provenance import ROOT, import_closure
 
 NETWORK = NetworkConfig(latent=8, hidden=16)
 
@@ -43,7 +48,8 @@ def test_a_trained_eggan_generator_answers_through_its_registry_entry(tmp_path, 
 
 
 def test_a_generator_baseline_trains_saves_loads_and_answers_through_its_entry(tmp_path, match_problem):
-    """Fit2form on the toy problem (MolGAN and DQN need a modular problem: tests/modular/test_eggan_experiments.py)."""
+    """Fit2form on the toy problem (MolGAN and DQN need a modular problem:
+    tests/modular/experiments/test_generative.py)."""
     name, learner = "fit2form", LEARNERS["modular"]["fit2form"]
     config = learner.training.settings(iterations=2, tasks=2)
     model, rows = learner.training.train(match_problem, NETWORK, config, False)
@@ -67,3 +73,33 @@ def test_a_teams_learner_draws_one_design_per_noise_vector_fixed_by_the_query_se
     assert len(designs) == 12 and designs == draws(match_problem, 1, 7)
     assert designs == generate(trained.generator, match_problem, 1, 12, seed=7)[0].designs
     assert designs != draws(match_problem, 1, 8)
+
+
+LEARNER_MODULES = ("robocompose.eggan.dqn", "robocompose.eggan.fit2form", "robocompose.eggan.molgan")
+
+
+def test_the_registry_imports_a_learners_module_only_when_the_learner_is_used():
+    """Importing the registry imports no learner's own module; reading an entry's trainer imports that learner's
+    module alone (in a fresh interpreter: this one has imported them all already)."""
+    code = ("import json, sys\n"
+            "from robocompose.eggan.learners import LEARNERS\n"
+            f"modules = {LEARNER_MODULES!r}\n"
+            "before = [m for m in modules if m in sys.modules]\n"
+            "settings = LEARNERS['modular']['dqn'].training.settings\n"
+            "print(json.dumps([before, [m for m in modules if m in sys.modules], settings.__name__]))\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT,
+                          env={**os.environ, "PYTHONPATH": str(ROOT)}, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert json.loads(done.stdout.splitlines()[-1]) == [[], ["robocompose.eggan.dqn"], "DQNConfig"]
+
+
+def test_a_stage_that_runs_no_learned_baseline_does_not_depend_on_their_code():
+    """The registry names its learners' modules as strings, which the import closure (dvc.yaml's code deps) does not
+    follow: the teams generator's stages hold none of them, the registry's names are the modules it ships."""
+    files = {path.relative_to(ROOT).as_posix() for path in import_closure(ROOT / "stages" / "teams_eggan.py")}
+    assert "robocompose/eggan/learners.py" in files
+    assert not {m.replace(".", "/") + ".py" for m in LEARNER_MODULES} & files
+    assert not {m.replace(".", "/") + ".py" for m in LEARNER_MODULES} & {
+        path.relative_to(ROOT).as_posix() for path in import_closure("robocompose.eggan.learners")}
+    assert ref_modules("modular") == LEARNER_MODULES and ref_modules("teams") == ()
+    assert import_ref("robocompose.eggan.dqn:DQNConfig") is DQNConfig and import_ref(train) is train

@@ -1,8 +1,8 @@
 import pandas as pd
 import pytest
 
-from robocompose.modular import eggan_problem
 from robocompose.modular.evaluate import Result
+from robocompose.modular.plugins import eggan_problem
 from robocompose.modular.robot import all_designs, valid_in_original
 
 

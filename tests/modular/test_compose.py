@@ -15,9 +15,9 @@ from robocompose.eggan.query import load_generator, model_code_digest, save_gene
 from robocompose.io import InputError
 from robocompose.io.torch_file import save_torch
 from robocompose.modular.compose import SHIPPED_MODEL, parse_caps
-from robocompose.modular.eggan_problem import FitnessConfig, ModularEgganProblem
 from robocompose.modular.evaluate import EvalSettings, FitnessRule, rollout
 from robocompose.modular.params import ExperimentsConfig, ModularParams
+from robocompose.modular.plugins.eggan_problem import FitnessConfig, ModularEgganProblem
 from robocompose.modular.terrain import generate_terrain
 
 PARAMS = ModularParams(EvalSettings(), FitnessRule(), ExperimentsConfig())

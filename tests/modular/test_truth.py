@@ -188,7 +188,7 @@ def test_rollouts_reproduce_the_committed_tables_to_the_byte(terrain_seed, desig
 ])
 def test_every_reader_of_a_committed_table_refuses_a_bad_record_the_same_way(tmp_path, change, message):
     from robocompose.io.errors import InputError
-    from robocompose.modular.terrain_study import directory_criterion
+    from robocompose.modular.experiments.terrain_study import directory_criterion
     from robocompose.modular.truth import read_record
 
     path = write_committed(exhaustive_terrain(1007, TINY, RULE, None, None, designs=["nnnnnn", "llllll"]), TINY,

@@ -11,7 +11,7 @@ import pytest
 
 from robocompose.io import write_table
 from robocompose.io.errors import ArtifactError
-from robocompose.modular.eggan_experiments import method_info, realtime_methods
+from robocompose.modular.experiments.generative import method_info, realtime_methods
 from robocompose.report.eggan import section
 
 

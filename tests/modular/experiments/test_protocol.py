@@ -5,12 +5,12 @@ import pandas as pd
 import pytest
 
 from robocompose.io.errors import InputError
-from robocompose.modular.eggan_experiments import make_problem
 from robocompose.modular.eggan_params import EgganModularParams
-from robocompose.modular.protocol import random_proposer, realtime_table, table_proposers
-from robocompose.modular.table_designs import top_designs
+from robocompose.modular.experiments.generative import make_problem
+from robocompose.modular.experiments.protocol import random_proposer, realtime_table, table_proposers
+from robocompose.modular.experiments.table_designs import top_designs
 from robocompose.params import build_config
-from tests.modular.test_eggan_experiments import MODULAR, SECTION
+from tests.modular.experiments.test_generative import MODULAR, SECTION
 
 
 def test_the_protocol_answers_from_the_tables_with_the_portfolio_and_the_oracle(fake_rollouts, synthetic_truth):

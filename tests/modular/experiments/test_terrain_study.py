@@ -6,8 +6,8 @@ import pytest
 from robocompose.fanout.cache import EvaluationCache
 from robocompose.io.errors import InputError
 from robocompose.modular.evaluate import EvalSettings, FitnessRule
+from robocompose.modular.experiments.terrain_study import candidate_settings, criteria, directory_criterion, probe_table
 from robocompose.modular.terrain import generate_terrain
-from robocompose.modular.terrain_study import candidate_settings, criteria, directory_criterion, probe_table
 from robocompose.modular.truth import exhaustive_terrain, write_committed
 
 TINY = EvalSettings(control_steps=3, settle_steps=10)

@@ -22,10 +22,10 @@ from robocompose.eggan.learners import generator_answer
 from robocompose.eggan.train import train
 from robocompose.fanout.executor import Executor
 from robocompose.modular.eggan_params import EgganModularParams, PoolSizeConfig
-from robocompose.modular.eggan_problem import ModularEgganProblem
+from robocompose.modular.experiments.protocol import realtime_table, table_proposers, training_scores
+from robocompose.modular.experiments.table_designs import portfolio
 from robocompose.modular.params import ModularParams
-from robocompose.modular.protocol import realtime_table, table_proposers, training_scores
-from robocompose.modular.table_designs import portfolio
+from robocompose.modular.plugins.eggan_problem import ModularEgganProblem
 
 
 def study_sizes(config: PoolSizeConfig, train_terrains: int) -> list[int]:

@@ -10,10 +10,10 @@ import pandas as pd
 from robocompose.fanout.executor import Executor
 from robocompose.modular.eggan_params import EgganModularParams, PoolSizeConfig
 from robocompose.modular.evaluate import EvalSettings, FitnessRule
+from robocompose.modular.experiments.pool_size import pool_size_study, study_sizes
 from robocompose.modular.params import ExperimentsConfig, ModularParams
-from robocompose.modular.pool_size import pool_size_study, study_sizes
 from robocompose.params import build_config
-from tests.modular.test_eggan_problem import fake_pool
+from tests.modular.plugins.test_eggan_problem import fake_pool
 
 MODULAR = ModularParams(EvalSettings(control_steps=10), FitnessRule(), ExperimentsConfig())
 

@@ -8,9 +8,9 @@ import numpy as np
 
 from robocompose.eggan.networks import Generator
 from robocompose.eggan.query import generate, rank_distinct
-from robocompose.modular.eggan_problem import ModularEgganProblem
 from robocompose.modular.evaluate import FitnessRule
-from robocompose.modular.experiments import emergency_constraints, satisfies
+from robocompose.modular.experiments.baselines import emergency_constraints, satisfies
+from robocompose.modular.plugins.eggan_problem import ModularEgganProblem
 
 SAMPLES, RANKED = 64, 10  # one query: 64 samples, the ten most probable distinct designs
 

@@ -16,8 +16,9 @@ import pytest
 from robocompose.eggan.dqn import load_dqn
 from robocompose.eggan.learners import dqn_answer
 from robocompose.fanout.executor import Executor
-from robocompose.modular import eggan_problem
-from robocompose.modular.eggan_experiments import (
+from robocompose.modular.eggan_params import EgganModularParams
+from robocompose.modular.evaluate import EvalSettings, FitnessRule
+from robocompose.modular.experiments.generative import (
     make_problem,
     method_title,
     realtime_methods,
@@ -27,13 +28,12 @@ from robocompose.modular.eggan_experiments import (
     training_scores,
     validation_scores,
 )
-from robocompose.modular.eggan_params import EgganModularParams
-from robocompose.modular.eggan_problem import ModularEgganProblem
-from robocompose.modular.evaluate import EvalSettings, FitnessRule
 from robocompose.modular.params import ExperimentsConfig, ModularParams
+from robocompose.modular.plugins import eggan_problem
+from robocompose.modular.plugins.eggan_problem import ModularEgganProblem
 from robocompose.modular.robot import PORT_XY
 from robocompose.params import build_config
-from tests.modular.test_eggan_problem import fake_pool, table_fitness
+from tests.modular.plugins.test_eggan_problem import fake_pool, table_fitness
 
 MODULAR = ModularParams(EvalSettings(control_steps=10), FitnessRule(), ExperimentsConfig())
 SECTION = {"fitness": {"source": "surrogate", "train_terrains": 6, "warmup": 20, "warmup_terrains": 4, "budget": 40,
@@ -146,3 +146,13 @@ def test_learners_trained_side_by_side_write_the_bytes_they_write_one_after_anot
     assert runs[1][0] == runs[2][0]
     assert runs[1][1].keys() == runs[2][1].keys() and len(runs[1][1]) >= 10
     assert all(runs[1][1][name] == runs[2][1][name] for name in runs[1][1])
+
+
+def test_this_module_imports_every_learner_it_runs_through_the_registry():
+    """The registry names its learners' modules without importing them: this module, which trains and loads every
+    modular learner, imports them itself, so its import closure (its stages' code deps) holds their code."""
+    from robocompose.eggan.learners import ref_modules
+    from robocompose.io.provenance import import_closure, module_path
+
+    closure = import_closure("robocompose.modular.experiments.generative")
+    assert ref_modules("modular") and all(module_path(m) in closure for m in ref_modules("modular"))

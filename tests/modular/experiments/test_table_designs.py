@@ -6,9 +6,9 @@ import pandas as pd
 import pytest
 
 from robocompose.io.errors import InputError
-from robocompose.modular.eggan_problem import ModularEgganProblem
+from robocompose.modular.experiments.table_designs import portfolio, symmetric_ceiling, top_designs
+from robocompose.modular.plugins.eggan_problem import ModularEgganProblem
 from robocompose.modular.robot import all_designs
-from robocompose.modular.table_designs import portfolio, symmetric_ceiling, top_designs
 from tests.modular.test_truth import _table
 
 

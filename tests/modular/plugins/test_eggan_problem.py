@@ -19,9 +19,9 @@ from robocompose.eggan.surrogate import SurrogateConfig, spearman
 from robocompose.eggan.train import TrainConfig, train
 from robocompose.io import write_table
 from robocompose.io.errors import InputError
-from robocompose.modular.eggan_problem import FitnessConfig, ModularEgganProblem
 from robocompose.modular.evaluate import EvalSettings, FitnessRule
 from robocompose.modular.params import ExperimentsConfig, ModularParams
+from robocompose.modular.plugins.eggan_problem import FitnessConfig, ModularEgganProblem
 from robocompose.modular.robot import all_designs
 
 PARAMS = ModularParams(EvalSettings(control_steps=10), FitnessRule(), ExperimentsConfig())

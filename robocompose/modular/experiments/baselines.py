@@ -30,7 +30,7 @@ from robocompose.fanout.executor import Executor
 from robocompose.io.errors import InputError
 from robocompose.modular.evaluate import Result
 from robocompose.modular.params import ModularParams
-from robocompose.modular.problem import ModularProblem
+from robocompose.modular.plugins.search_problem import ModularProblem
 from robocompose.modular.robot import MODULE_LETTERS, N_PORTS, index_to_design
 from robocompose.search.crowding import CrowdingConfig, run_crowding
 from robocompose.search.ga import GAConfig, run_ga

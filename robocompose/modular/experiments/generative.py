@@ -7,8 +7,8 @@ pool's validation terrains (`validation_scores`) goes into its log and metrics, 
 (`training_scores`) into its metrics. A model is saved with its params, metrics and provenance.
 
 Table 5.1's methods (`realtime_methods`, `realtime_proposers`): the learned ones from their model files, random
-sampling and the rows from tables (`robocompose.modular.protocol`, which runs the test protocol). Every learned
-row is an entry of `robocompose.eggan.learners.LEARNERS["modular"]`, the only list of them: its title and
+sampling and the rows from tables (`robocompose.modular.experiments.protocol`, which runs the test protocol).
+Every learned row is an entry of `robocompose.eggan.learners.LEARNERS["modular"]`, the only list of them: its title and
 whether it trained are written beside its results (`method_info`) for the report.
 """
 
@@ -19,15 +19,25 @@ import math
 import time
 from pathlib import Path
 
+# The learners this module trains and loads through the registry, which names their modules without importing them:
+# imported here so that this module's import closure (its stages' code deps) holds their code. A test checks the list
+# against the registry (`robocompose.eggan.learners.ref_modules("modular")`).
+from robocompose.eggan import dqn, fit2form, molgan  # noqa: F401
 from robocompose.eggan.learners import LEARNERS, Answer, baselines, generator_answer, training_order, variants
 from robocompose.eggan.query import save_generator
 from robocompose.eggan.train import train
 from robocompose.fanout.cache import EvaluationCache
 from robocompose.fanout.executor import Executor
 from robocompose.modular.eggan_params import EgganModularParams
-from robocompose.modular.eggan_problem import ModularEgganProblem
+from robocompose.modular.experiments.protocol import (
+    Proposer,
+    random_proposer,
+    table_proposers,
+    training_scores,
+    validation_scores,
+)
 from robocompose.modular.params import ModularParams
-from robocompose.modular.protocol import Proposer, random_proposer, table_proposers, training_scores, validation_scores
+from robocompose.modular.plugins.eggan_problem import ModularEgganProblem
 from robocompose.params import build_config
 
 

@@ -4,7 +4,7 @@ import pytest
 
 from robocompose.fanout.cache import EvaluationCache
 from robocompose.modular.evaluate import EvalSettings, FitnessRule
-from robocompose.modular.experiments import (
+from robocompose.modular.experiments.baselines import (
     METHODS,
     baseline_runs,
     ec_answers,

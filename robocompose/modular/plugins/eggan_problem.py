@@ -54,7 +54,7 @@ from robocompose.io.errors import InputError, check_field
 from robocompose.io.provenance import code_digest
 from robocompose.modular.evaluate import evaluate_designs
 from robocompose.modular.params import ModularParams
-from robocompose.modular.problem import ModularProblem
+from robocompose.modular.plugins.search_problem import ModularProblem
 from robocompose.modular.robot import MODULE_LETTERS, N_PORTS, all_designs, design_to_index, parse_design
 from robocompose.modular.terrain import GRID_X, GRID_Y, TerrainConfig, generate_terrain, height_map
 

@@ -6,11 +6,11 @@ import numpy as np
 import torch
 
 from robocompose.eggan.networks import Generator, NetworkConfig
-from robocompose.modular.eggan_problem import FitnessConfig, ModularEgganProblem
 from robocompose.modular.evaluate import EvalSettings, FitnessRule
-from robocompose.modular.experiments import satisfies
-from robocompose.modular.figure_5_1 import RANKED, figure_5_1
+from robocompose.modular.experiments.baselines import satisfies
+from robocompose.modular.experiments.figure_5_1 import RANKED, figure_5_1
 from robocompose.modular.params import ExperimentsConfig, ModularParams
+from robocompose.modular.plugins.eggan_problem import FitnessConfig, ModularEgganProblem
 
 
 def test_records_hold_the_encoding_valid_ranked_designs_and_the_constraint_survivors():

@@ -11,8 +11,8 @@ terrain -> candidate designs) on every held-out test terrain and query (`realtim
 - regret = the terrain's exhaustive optimum minus max distance.
 
 Beside the thesis's rows, two from tables (`table_proposers`): the terrain-agnostic portfolio (the designs best on
-average over the training pool, `robocompose.modular.table_designs.portfolio`) and the exhaustive optimum (each
-test terrain's fittest designs, `table_designs.top_designs`: an oracle upper bound, not a method).
+average over the training pool, `robocompose.modular.experiments.table_designs.portfolio`) and the exhaustive
+optimum (each test terrain's fittest designs, `table_designs.top_designs`: an oracle upper bound, not a method).
 """
 
 from __future__ import annotations
@@ -25,11 +25,11 @@ import pandas as pd
 
 from robocompose.io.errors import InputError
 from robocompose.modular.eggan_params import EgganModularParams
-from robocompose.modular.eggan_problem import ModularEgganProblem
 from robocompose.modular.evaluate import Result
-from robocompose.modular.experiments import DELTA, EPSILON, _seed, ec_answers, emergency_constraints
+from robocompose.modular.experiments.baselines import DELTA, EPSILON, _seed, ec_answers, emergency_constraints
 from robocompose.modular.params import ModularParams
-from robocompose.modular.problem import hamming
+from robocompose.modular.plugins.eggan_problem import ModularEgganProblem
+from robocompose.modular.plugins.search_problem import hamming
 from robocompose.search.metrics import distinct_solutions
 
 # (problem, terrain seed, query seed, candidates) -> candidate designs, best first

@@ -1,7 +1,7 @@
 import numpy as np
 
 from robocompose.modular.evaluate import EvalSettings, FitnessRule
-from robocompose.modular.problem import ModularProblem, hamming
+from robocompose.modular.plugins.search_problem import ModularProblem, hamming
 
 
 def problem(**kw):
