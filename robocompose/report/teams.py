@@ -142,9 +142,9 @@ def _chip_count(metrics: dict) -> list[str]:
     lines += markdown_table(["training chips", "validation hypervolume (mean ± sd over seeds)", "training seeds",
                              "distinct teams optimised", "training (min)"], rows)
     means = by_count.validation_hypervolume.mean()
-    lines += ["", f"At the same training length (iterations, tasks per iteration), {means.idxmax()} training chips score "
-              f"highest ({means.max():.2f}); each count's generators are scored on the same validation chips, none of "
-              "which any count trains on."]
+    lines += ["", f"At the same training length (iterations, tasks per iteration), {means.idxmax()} training chips "
+              f"score highest ({means.max():.2f}); each count's generators are scored on the same validation chips, "
+              "none of which any count trains on."]
     if stale:
         lines += ["", f"{len(stale)} stale piece(s) of other settings or code, not used: {', '.join(stale)}."]
     return lines + [""]
