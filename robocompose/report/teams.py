@@ -260,6 +260,13 @@ def _seconds(method: str, timings: dict, eggan: Eggan) -> pd.Series:
     return runs[(runs.genome == rest[0]) & (runs.population == int(rest[1]))].seconds
 
 
+def _seconds_cell(seconds: pd.Series) -> str:
+    """Wall times as mean ± sd, or the one run's, or "-"."""
+    if len(seconds) == 1:
+        return f"{seconds.iloc[0]:.1f} (one run)"
+    return _mean_std(seconds, digits=1) if len(seconds) else "-"
+
+
 def _generators_as_one(table: pd.DataFrame, keys: list[str], value: str) -> tuple[pd.DataFrame, pd.Series]:
     """`table` with the rows of every EG-GAN generator ("eggan:<seed>") replaced by their mean per `keys` (method
     "eggan"), and each generator's mean `value` (the spread across generators)."""
@@ -286,7 +293,7 @@ def _table_5_4(fronts: pd.DataFrame, timings: dict, eggan: Eggan, training: dict
     rows = [(titles[m], THESIS_HYPERVOLUME.get(m, "-"), THESIS_MINUTES.get(m, "-"),
              _mean_std(by_method[m].hypervolume), _mean_std(by_method[m].heldout_hypervolume),
              f"{by_method[m].distinct_teams.mean():,.0f}",
-             _mean_std(seconds[m], digits=1) if len(seconds[m]) else "-", len(by_method[m])) for m in methods]
+             _seconds_cell(seconds[m]), len(by_method[m])) for m in methods]
     lines = markdown_table(["method", "thesis HV", "thesis runtime (min)", "HV at its search seed",
                             "HV re-measured at held-out seeds", "distinct teams optimised (mean)",
                             "time to a measured front (s)", "chip x seed"], rows)
@@ -307,10 +314,6 @@ def _table_5_4(fronts: pd.DataFrame, timings: dict, eggan: Eggan, training: dict
                      f"front (higher on {int((random_gap > 0).sum())} of {len(random_gap)} chip x seed pairs), and "
                      f"measures its front {speed:,.1f}x faster than that NSGA-II row "
                      f"({seconds['eggan'].mean():.1f} s against {seconds[best].mean():.1f} s).")
-    notes.append("Time to a measured front: EG-GAN's per query (the generator, then the optimiser on its answer), "
-                 "every chip x seed; an NSGA-II row's from that row run alone from an empty team-cost memo on the "
-                 "first chip and seed (the stage steps a chip's NSGA-II rows together over one memo, a saving a "
-                 "user running one of them would not have).")
     tests = {}
     for m in methods:
         if m == "eggan":
@@ -344,7 +347,9 @@ def _table_5_4(fronts: pd.DataFrame, timings: dict, eggan: Eggan, training: dict
     notes.append("Spend: the distinct teams a method had the ergodic optimiser plan (one team = one region's robots), "
                  "what measuring its answer costs; EG-GAN's own training spent "
                  f"{training.get('distinct_teams', 'its budget of')} teams once for all chips. Time to a "
-                 "measured front: NSGA-II, a run from an empty memo; EG-GAN, the query (noise, forward pass, "
+                 "measured front: an NSGA-II row's is that row run alone from an empty team-cost memo on the first "
+                 "chip and seed (the stage steps a chip's NSGA-II rows together over one memo, a saving a user "
+                 "running one of them would not have); EG-GAN's, per chip x seed, the query (noise, forward pass, "
                  f"rounding: {forward.mean():.2f} ms of it) plus the optimiser on every distinct allocation it "
                  "draws. One thread each. The NSGA-II row at EG-GAN's spend stops after the generation at which it "
                  "has optimised as many teams as EG-GAN's query did on that chip and seed.")
