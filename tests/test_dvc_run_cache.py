@@ -9,7 +9,6 @@ shapes and records the experiment.
 from __future__ import annotations
 
 import json
-import os
 import re
 import subprocess
 import sys
@@ -18,20 +17,8 @@ from pathlib import Path
 import pytest
 import yaml
 
-# Small settings for the stages these tests run (the rest of params.yaml is the default profile).
-TINY = {
-    "compute": {"workers": 1},
-    "enumerate": {"n": 40, "seed": 0, "chunk": 8},
-    "nogram": {"n": 8, "seed": 1},
-    "teams": {"chips": {"n_synthetic": 4}, "decompose": {"n_regions": 3},
-              "coverage": {"iterations": 3, "n_observations": 5},
-              "experiments": {"table_5_4_chips": 1, "table_5_5_chips": 1, "budgets": [5]},
-              "eggan": {"iterations": 20, "batch": 8, "samples": 8, "checkpoint_every": 10, "validation_chips": 1}},
-    "train_vae": {"model": {"hidden": 16, "latent": 4, "predictor_hidden": 8, "max_nodes": 50},
-                  "train": {"steps": 60, "batch_size": 8, "log_every": 10, "eval_every": 30, "eval_designs": 4,
-                            "checkpoint_every": 30, "beta_start": 20, "beta_every": 20, "lr_decay_every": 30},
-                  "metrics": {"prior_samples": 8}, "extra": {"n": 8}},
-}
+from tests.tiny_project import TINY, dvc_env
+
 TARGETS = ["train_vae@full", "teams_eggan"]  # and what they need: enumerate, vae_designs, decompose
 STAGES = {"enumerate", "vae_designs", "train_vae@full", "decompose", "teams_eggan"}
 OUTPUTS = ["data/designs.parquet", "data/vae_extra_designs.parquet", "models/vae_full.pt", "models/vae_full.mcap",
@@ -40,10 +27,8 @@ OUTPUTS = ["data/designs.parquet", "data/vae_extra_designs.parquet", "models/vae
 
 
 def env(project: Path, tmp_path: Path) -> dict:
-    return {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}",
-            "PYTHONPATH": str(project), "DVC_NO_ANALYTICS": "1", "DO_NOT_TRACK": "1", "MPLBACKEND": "Agg",
-            "DVC_SITE_CACHE_DIR": str(tmp_path / "dvc-site"), "GIT_AUTHOR_NAME": "t", "GIT_AUTHOR_EMAIL": "t@t",
-            "GIT_COMMITTER_NAME": "t", "GIT_COMMITTER_EMAIL": "t@t"}
+    return dvc_env(project, DVC_SITE_CACHE_DIR=str(tmp_path / "dvc-site"), GIT_AUTHOR_NAME="t",
+                   GIT_AUTHOR_EMAIL="t@t", GIT_COMMITTER_NAME="t", GIT_COMMITTER_EMAIL="t@t")
 
 
 def run(project: Path, tmp_path: Path, *command: str) -> str:
