@@ -128,8 +128,7 @@ def section(reports_dir: Path, data_dir: Path) -> str:
 def _chip_count(metrics: dict) -> list[str]:
     """How many training chips pay: the committed chip-count pieces (validation hypervolume per training chip count,
     each a generator trained on that many chips and scored on the validation chips), or what is missing."""
-    pieces = pd.DataFrame(metrics.get("chip_count", []), columns=["train_chips", "seed", "validation_hypervolume",
-                                                                  "distinct_teams", "training_seconds"])
+    pieces = pd.DataFrame(metrics.get("chip_count", []))  # teams_heldout's summary (teams.chip_count.SUMMARY)
     stale = metrics.get("stale_chip_count_pieces", [])
     lines = ["**Training chips** (generators trained on N chips, scored on the validation chips at every search seed; "
              "`robocompose teams chip-count`):", ""]

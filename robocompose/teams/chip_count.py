@@ -22,11 +22,11 @@ import numpy as np
 
 from robocompose.io import InputError, atomic_write_json
 from robocompose.io.atomic import read_json
-from robocompose.io.provenance import result_digest, settings_digest
 from robocompose.teams.chips import Chip, synthetic_chip
 from robocompose.teams.decompose import Decomposition, decompose_chip
 from robocompose.teams.eggan_problem import EvolutionConfig
 from robocompose.teams.generative import split_validation, train_generator, training_summary, validation_hypervolume
+from robocompose.teams.generators import generator_key
 from robocompose.teams.params import TeamsParams
 
 PIECES = Path("measured/teams/chip_count")
@@ -77,12 +77,7 @@ def measure(params: TeamsParams, train_split: list[tuple[Chip, Decomposition]], 
 
 def piece_key(params: TeamsParams) -> str:
     """Every setting that shapes a piece but the chip count and the training seed, and the code of `measure`."""
-    settings = {name: dataclasses.asdict(getattr(params, name)) for name in ("chips", "decompose", "coverage")}
-    settings["eggan"] = {**dataclasses.asdict(params.eggan), "seed": None}
-    settings["experiments"] = {name: getattr(params.experiments, name)
-                               for name in ("crossover_probability", "mutation_rate", "seeds")}
-    settings["threads"] = params.threads
-    return settings_digest([settings, result_digest(ENTRY)])
+    return generator_key(params, ("crossover_probability", "mutation_rate", "seeds"), ENTRY)
 
 
 def write_piece(piece: dict, params: TeamsParams, root: Path = PIECES) -> Path:

@@ -75,13 +75,19 @@ def train_and_query(params: TeamsParams, seed: int, train_chips: list[tuple[Chip
 def piece_key(params: TeamsParams) -> str:
     """What a generator piece must share with the current run to stand beside it: every setting that shapes a
     generator or its queries but the training seed, and the code they come from."""
-    experiments = dataclasses.asdict(params.experiments)
+    return generator_key(params, ("crossover_probability", "mutation_rate", "table_5_4_chips", "table_5_5_chips",
+                                  "seeds"), ENTRY)
+
+
+def generator_key(params: TeamsParams, experiments: tuple[str, ...], entry: str) -> str:
+    """The key of a committed measurement made by training generators: every setting of the chips, decomposition,
+    coverage and EG-GAN but the training seed, the `experiments` settings named, the threads, and the code of
+    `entry`."""
     settings = {name: dataclasses.asdict(getattr(params, name)) for name in ("chips", "decompose", "coverage")}
     settings["eggan"] = {**dataclasses.asdict(params.eggan), "seed": None}
-    settings["experiments"] = {name: experiments[name] for name in (
-        "crossover_probability", "mutation_rate", "table_5_4_chips", "table_5_5_chips", "seeds")}
+    settings["experiments"] = {name: getattr(params.experiments, name) for name in experiments}
     settings["threads"] = params.threads
-    return settings_digest([settings, result_digest(ENTRY)])
+    return settings_digest([settings, result_digest(entry)])
 
 
 def write_piece(generated: Generated, params: TeamsParams, seed: int, root: Path = PIECES) -> Path:
