@@ -1,14 +1,15 @@
 """DVC stage `modular_baselines`: GA-20, GA-50, GA-crowding and random sampling on every test terrain (thesis
 Table 5.2; the default profile: the 10 committed terrains 1000-1009 x 3 seeds, ~10 s on 2 busy cores).
 
-params (modular) + data/modular/exhaustive.parquet -> data/modular/runs.parquet, reports/metrics/modular_baselines.json.
+params (modular) + data/modular/exhaustive.parquet -> data/modular/runs.parquet, reports/metrics/modular_baselines.json
+(each method's means and its title).
 Every fitness is read from the test terrain's exhaustive table (the simulator's measured result for every design);
 each run's runtime is the measured simulation time of the evaluations it asked for (its cost without a cache).
 """
 
 from robocompose.io import atomic_write_json, read_table, write_table
 from robocompose.io.timings import timed
-from robocompose.modular.experiments.baselines import baseline_runs
+from robocompose.modular.experiments.baselines import METHODS, baseline_runs
 from robocompose.modular.params import ModularParams
 from robocompose.params import load_section
 from robocompose.stage import run_stage
@@ -25,8 +26,9 @@ def main() -> None:
     means = runs.groupby("method")[["best_distance", "distinct", "regret", "ec_distance", "sim_seconds"]].mean()
     failures = runs.groupby("method")[["ec_failures"]].sum().join(
         runs.best_distance.isna().groupby(runs.method).sum().rename("failed_runs"))
-    atomic_write_json("reports/metrics/modular_baselines.json", {
-        method: {**means.loc[method].round(4).to_dict(), **{k: int(v) for k, v in failures.loc[method].items()}}
+    atomic_write_json("reports/metrics/modular_baselines.json", {  # with each method's title: the report names it
+        method: {**means.loc[method].round(4).to_dict(), **{k: int(v) for k, v in failures.loc[method].items()},
+                 "title": METHODS[method]}
         for method in means.index})
 
 

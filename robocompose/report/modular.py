@@ -18,6 +18,7 @@ import pandas as pd
 
 from robocompose.io import read_table
 from robocompose.io.atomic import read_json
+from robocompose.io.errors import ArtifactError
 from robocompose.report.tables import markdown_table
 
 # Thesis Table 5.2 (learned modular controller): max distance (m), distinct solutions, runtime (min), each mean +- std.
@@ -28,7 +29,16 @@ THESIS_TABLE_5_2 = {"ga20": ("4.21 ± 1.43", "1.8 ± 0.8", "25.4 ± 0.7"),
 # and random sampling with the hand-crafted controller ("effect of the controller").
 THESIS_RANDOM = ("0.72 ± 0.64", "0.63 ± 0.69")
 THESIS_RANDOM_HANDCRAFTED = "0.86 ± 0.81"
-NAMES = {"ga20": "GA-20", "ga50": "GA-50", "crowding": "GA-crowding", "random": "Random sampling"}
+
+
+def _titles(baselines: dict, runs: pd.DataFrame, where: Path) -> dict[str, str]:
+    """Each method that ran -> its title, in the order the runs list them (the stage's registry order), as
+    `modular_baselines` recorded them; ArtifactError naming the file if one has none."""
+    methods = list(pd.unique(runs.method))
+    untitled = [m for m in methods if "title" not in baselines.get(m, {})]
+    if untitled:
+        raise ArtifactError(f"{where}: no title for methods {untitled} (rerun stage `modular_baselines`)")
+    return {method: baselines[method]["title"] for method in methods}
 
 
 def _mean_std(values: pd.Series, digits: int = 2) -> str:
@@ -53,7 +63,8 @@ def _failures(group: pd.DataFrame) -> str:
 def section(reports_dir: Path, data_dir: Path, modular: dict) -> str:
     """Markdown for the modular-robot section; `modular`: the `modular:` params the stages ran with."""
     paths = {"metrics": Path(reports_dir) / "metrics" / "modular_exhaustive.json",
-             "runs": Path(data_dir) / "modular" / "runs.parquet"}
+             "runs": Path(data_dir) / "modular" / "runs.parquet",
+             "baselines": Path(reports_dir) / "metrics" / "modular_baselines.json"}
     missing = [str(p) for p in paths.values() if not p.exists()]
     if missing:
         return ("## Modular robot design (thesis 5.1)\n\nNot run yet: missing " + ", ".join(missing)
@@ -61,6 +72,7 @@ def section(reports_dir: Path, data_dir: Path, modular: dict) -> str:
     truth = read_json(paths["metrics"])
     runs = read_table(paths["runs"], "modular_runs")
     runs["regret"] = runs.optimum - runs.best_distance
+    names = _titles(read_json(paths["baselines"]), runs, paths["baselines"])
     summary = pd.DataFrame([{"terrain_seed": int(seed), "optimum": optimum, "best_design": truth["best_design"][seed],
                              "near_optimal": truth["near_optimal"][seed], "simulated": truth["simulated"][seed]}
                             for seed, optimum in truth["optimum"].items()])
@@ -86,7 +98,7 @@ def section(reports_dir: Path, data_dir: Path, modular: dict) -> str:
     ]
     lines += _criterion_lines(truth)
     rate = _steps_per_second(reports_dir)
-    rows = [(NAMES[method], _mean_std(group.best_distance), _mean_std(group.distinct, 1), _mean_std(group.regret),
+    rows = [(names[method], _mean_std(group.best_distance), _mean_std(group.distinct, 1), _mean_std(group.regret),
              _failures(group), int(group.evaluations.mean()),
              _mean_std(group.sim_steps / rate / 60, 1) if rate else "n/a (run `make bench`)",
              _mean_std(group.sim_seconds / 60, 1), *THESIS_TABLE_5_2[method])
@@ -110,7 +122,8 @@ def section(reports_dir: Path, data_dir: Path, modular: dict) -> str:
         "",
         *markdown_table(["method", "max distance (m)", "failed runs", "max distance under emergency constraints (m)",
                          "EC answers without a distance", "EC optimum (m)", "thesis distance", "thesis EC distance"],
-                        _random_rows(runs[runs.method == "random"], modular["experiments"]["ec_draws"])),
+                        _random_rows(runs[runs.method == "random"], names.get("random", ""),
+                                     modular["experiments"]["ec_draws"])),
         "",
         "Emergency constraints: each draw caps one module type (leg, wheel or leg-wheel) at 0, 1 or 2; a method "
         "answers with its best valid output design that satisfies the cap, else a random valid satisfying design. "
@@ -125,18 +138,18 @@ def section(reports_dir: Path, data_dir: Path, modular: dict) -> str:
     rows = []
     for row in summary[summary.terrain_seed.isin(runs.terrain_seed)].itertuples():
         regrets = []
-        for method in NAMES:
+        for method in names:
             group = runs[(runs.method == method) & (runs.terrain_seed == row.terrain_seed)]
             regrets.append(_mean_std(group.regret) if len(group) else "n/a")
         rows.append((row.terrain_seed, row.simulated, row.optimum, row.best_design, row.near_optimal, *regrets))
     lines += markdown_table(["terrain seed", "simulated designs", "optimum (m)", "best design", "designs within 0.5 m",
-                             *(f"{NAMES[m]} regret (m)" for m in NAMES)], rows,
+                             *(f"{names[m]} regret (m)" for m in names)], rows,
                             formats=[None, None, "{:.2f}", "`{}`"])
     found = runs.assign(hit=runs.regret <= 1e-9).groupby("method").hit.mean()
     lines += [
         "",
         "Share of runs that found the exact optimum: "
-        + ", ".join(f"{NAMES[m]} {found[m]:.0%}" for m in NAMES if m in found) + ".",
+        + ", ".join(f"{names[m]} {found[m]:.0%}" for m in names if m in found) + ".",
         "",
         _status_line(truth["statuses"]),
     ]
@@ -148,12 +161,13 @@ def section(reports_dir: Path, data_dir: Path, modular: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _random_rows(random_runs: pd.DataFrame, ec_draws: int) -> list[tuple]:
-    """Table 5.1's random-sampling row (none before the runs exist)."""
+def _random_rows(random_runs: pd.DataFrame, title: str, ec_draws: int) -> list[tuple]:
+    """Table 5.1's random-sampling row (none before the runs exist), with the designs each run drew."""
     if random_runs.empty:
         return []
     answers = len(random_runs) * ec_draws
-    return [("Random sampling (10 designs)", _mean_std(random_runs.best_distance), _failures(random_runs),
+    designs = int(random_runs.evaluations.median())
+    return [(f"{title} ({designs} designs)", _mean_std(random_runs.best_distance), _failures(random_runs),
              _mean_std(random_runs.ec_distance), f"{int(random_runs.ec_failures.sum())} of {answers}",
              _mean_std(random_runs.ec_optimum), *THESIS_RANDOM)]
 

@@ -1,8 +1,11 @@
 import json
 
 import pandas as pd
+import pytest
 
 from robocompose.io import write_table
+from robocompose.io.errors import ArtifactError
+from robocompose.modular.experiments.baselines import METHODS
 from robocompose.modular.robot import all_designs
 from robocompose.modular.terrain import TerrainConfig
 from robocompose.modular.truth import exhaustive_metrics
@@ -29,8 +32,11 @@ def _tables(data):
             rows.append({"method": method, "terrain_seed": 1011, "seed": seed, "best_design": "wwwwww",
                          "best_distance": None if (method, seed) == ("random", 1) else best, "distinct": 2,
                          "ec_distance": 1.0, "ec_failures": seed, "ec_optimum": 2.0, "optimum": 6.0,
-                         "evaluations": 1000, "sim_steps": 6_000_000, "sim_seconds": 1200.0})
+                         "evaluations": 10 if method == "random" else 1000, "sim_steps": 6_000_000,
+                         "sim_seconds": 1200.0})
     write_table(pd.DataFrame(rows), data / "modular" / "runs.parquet", "modular_runs")
+    (data.parent / "reports" / "metrics" / "modular_baselines.json").write_text(json.dumps(
+        {method: {"title": title} for method, title in METHODS.items()}))  # what the stage records beside its means
 
 
 def test_section_says_not_run_yet_without_stage_outputs(tmp_path):
@@ -66,3 +72,12 @@ def test_section_shows_the_criterion_and_ours_beside_the_thesis_counting_failure
     (tmp_path / "reports" / "plots" / "modular_terrains.png").write_bytes(b"png")
     assert "![test terrains and their best designs](plots/modular_terrains.png)" in section(
         tmp_path / "reports", tmp_path / "data", MODULAR)
+
+
+def test_section_refuses_a_baselines_record_without_a_method_title(tmp_path):
+    _tables(tmp_path / "data")
+    record = tmp_path / "reports" / "metrics" / "modular_baselines.json"
+    record.write_text(json.dumps({"ga20": {"title": "GA-20"}}))  # written before the stage recorded titles
+    with pytest.raises(ArtifactError, match=r"modular_baselines.json: no title for methods \['ga50', 'crowding', "
+                                            r"'random'\]"):
+        section(tmp_path / "reports", tmp_path / "data", MODULAR)
