@@ -4,9 +4,11 @@ params (compute, glso, evaluation) + models/vae_{full,nopred,nogram}.pt -> data/
 tables), data/glso/runs/ (per run; persistent), data/glso/rollouts/<task>.{mcap,gif,png} (each task's best design
 replayed, and its picture at rest),
 reports/metrics/glso.json (with every registered method's title and figure groups: the report names the methods
-from there). Each run's checkpoint, data/glso/checkpoints/<run>.ckpt (its step rows as JSON; the
-run replays them to resume), is not a DVC output: it only saves time (its key covers the run, the settings and
-the code): a killed stage resumes every run where it stopped.
+from there; and the rung and MPPI settings the runs used). Every run, and the replay of each task's best design,
+scores at `glso.rung`'s MPPI settings if one is named, else at `evaluation.mppi` (`GLSOConfig.evaluator`). Each
+run's checkpoint, data/glso/checkpoints/<run>.ckpt (its step rows as JSON; the run replays them to resume), is not
+a DVC output: it only saves time (its key covers the run, the settings, the evaluator's settings hash and the
+code): a killed stage resumes every run where it stopped.
 """
 
 from pathlib import Path
@@ -26,8 +28,8 @@ OUT = Path("data/glso")
 
 
 def main() -> None:
-    evaluation = load_section(EvaluationConfig, "evaluation")
     config = load_section(GLSOConfig, "glso")
+    evaluation = config.evaluator(load_section(EvaluationConfig, "evaluation"))  # the runs' and the replays'
     compute = load_section(ComputeConfig, "compute")
     with timed("glso") as timing, compute.executor() as executor:
         steps, timing["run_seconds"] = run_all(config, evaluation, OUT, executor, compute.cache)
@@ -42,6 +44,7 @@ def main() -> None:
             "final_best": summarise(steps), "budget": config.budget, "seeds": config.seeds, "methods": describe(),
             "best_design": {row.task: {"method": row.method, "seed": int(row.seed), "design_id": row.design_id,
                                        "score": round(float(row.score), 4)} for row in best.itertuples()},
+            "rung": config.rung, "mppi": evaluation.mppi.as_dict(),
             "settings_hash": {task: evaluation.settings_hash(task) for task in config.tasks}})
 
 

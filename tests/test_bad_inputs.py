@@ -331,6 +331,9 @@ PARAMS = [
          change="doc['enumerate']['n'] = 'many'"),
     Case("glso: bo.init a word", ("params.yaml: glso.bo.init: expected int, found 'six'",), stage="glso",
          change="doc['glso']['bo']['init'] = 'six'"),
+    Case("glso: an unknown rung", ("params.yaml: glso.rung: expected \"\" (the evaluator's evaluation.mppi) or a "
+                                   "fidelity rung of ['thesis', 's8_h8_e48',", "found 'fast'"), stage="glso",
+         change="doc['glso']['rung'] = 'fast'"),
     Case("train_vae: predictor not a bool", ("params.yaml: train_vae.variants.full.predictor: expected bool",),
          stage="train_vae", change="doc['train_vae']['variants']['full']['predictor'] = 'yes'"),
     Case("vae_landscape: evaluated zero", ("params.yaml: train_vae.landscape: need 0 < evaluated",),

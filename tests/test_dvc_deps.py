@@ -54,6 +54,9 @@ NOT_READ = {
     "teams_eggan": {"measured/teams/generators": "it imports robocompose.teams.generators for train_and_query; "
                                                  "the pieces are written by `robocompose teams generator` and read "
                                                  "by teams_heldout"},
+    "glso": {path: "runs.py imports robocompose.evaluation.fidelity for the ladder's rungs (glso.rung); the design "
+                   "set and the summary are the evaluator_fidelity stage's"
+             for path in ("measured/fidelity/designs.csv", "reports/fidelity/summary.csv")},
 }
 
 

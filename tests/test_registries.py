@@ -56,7 +56,8 @@ def test_a_registered_glso_method_runs_and_reaches_the_reports_tables_and_figure
                        for m in config.methods], ignore_index=True)
     write_table(steps, tmp_path / "data" / "glso" / "steps.parquet", "glso_steps")
     (tmp_path / "reports" / "metrics").mkdir(parents=True)
-    (tmp_path / "reports" / "metrics" / "glso.json").write_text(json.dumps({"methods": describe()}))  # the stage's
+    (tmp_path / "reports" / "metrics" / "glso.json").write_text(json.dumps(  # the stage's record
+        {"methods": describe(), "rung": "", "mppi": EvaluationConfig().mppi.as_dict()}))
     text = glso_report.section(tmp_path / "reports", tmp_path / "data")
     rows = [line for line in text.splitlines() if line.startswith("| First designs | ")]
     assert len(rows) == 2 and rows[0].startswith("| First designs | 0% |")  # the accounting table ...

@@ -11,7 +11,7 @@ TINY = {  # merged into the default profile: every stage at a few seconds
     "nogram": {"n": 12, "seed": 1},
     "evaluation": {"mppi": {"samples": 4, "first_samples": 4, "horizon": 4, "episode": 4}},
     "glso": {"methods": ["random", "ga", "glso"], "seeds": [0], "budget": 6, "bo": {"init": 3},
-             "ga": {"population": 4}},
+             "ga": {"population": 4}, "rung": ""},  # the tiny evaluation above, not the default's ladder rung
     "teams": {"chips": {"n_synthetic": 4}, "decompose": {"n_regions": 3},
               "coverage": {"iterations": 3, "n_observations": 5},
               "experiments": {"table_5_4_chips": 1, "table_5_5_chips": 1, "budgets": [5]},

@@ -122,8 +122,9 @@ def run_path(config: CampaignConfig, spec: RunSpec) -> Path:
 
 
 def search_config(config: CampaignConfig, glso: GLSOConfig) -> GLSOConfig:
-    """The `glso:` settings with the campaign's budget, GLSO init, GA population and GHS epsilon ends."""
-    return dataclasses.replace(glso, budget=config.budget, bo=dataclasses.replace(glso.bo, init=config.init),
+    """The `glso:` settings with the campaign's budget, GLSO init, GA population and GHS epsilon ends, and no
+    `glso.rung` (the smoke run's): the campaign's jobs carry the evaluator at the campaign's own rung."""
+    return dataclasses.replace(glso, budget=config.budget, rung="", bo=dataclasses.replace(glso.bo, init=config.init),
                                ga=dataclasses.replace(glso.ga, population=config.population),
                                ghs=dataclasses.replace(glso.ghs, eps_end=config.ghs_eps_end,
                                                        eps_sample_end=config.ghs_eps_end))

@@ -18,7 +18,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     glso.add_argument("--budget", type=int, default=None, help="objective calls (default: glso.budget)")
     glso.add_argument("--seed", type=int, default=0, help="run seed")
     glso.add_argument("--model", default=None, help="the VAE of a latent method (default: glso.models)")
-    glso.add_argument("--params", default="params.yaml", help="params file (sections glso, evaluation, compute)")
+    glso.add_argument("--params", default="params.yaml",
+                      help="params file (sections glso, evaluation, compute; the run scores at glso.rung's MPPI "
+                           "settings if one is named)")
     glso.add_argument("--checkpoint", default=None,
                       help="save to this checkpoint file, or resume from it if it holds this run's checkpoint")
     glso.add_argument("--out", default=None, help="write the step table here (a .parquet file)")
@@ -159,7 +161,7 @@ def _glso(args: argparse.Namespace) -> int:
         if args.budget < 1:
             raise InputError(f"--budget: expected a positive number of objective calls, found {args.budget}")
         config = dataclasses.replace(config, budget=args.budget)
-    evaluation = load_section(EvaluationConfig, "evaluation", args.params)
+    evaluation = config.evaluator(load_section(EvaluationConfig, "evaluation", args.params))
     compute = load_section(ComputeConfig, "compute", args.params).overridden(args)
     model = None if args.model is None else Path(args.model)
     if model is not None and not model.exists():

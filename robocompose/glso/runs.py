@@ -17,6 +17,12 @@ design seen again in a run costs a call and returns its cached score (evaluation
 `best_so_far` is the best reward of a simulated design so far (NaN before the first): an invalid score
 never counts as a result.
 
+The evaluator: `run_search`, `run_all` and `record_best` score with the `evaluation` they are given. For the
+`glso:` section's runs (the stage, `robocompose glso`) that is `GLSOConfig.evaluator`: the `evaluation:`
+section at `glso.rung`'s MPPI settings when a rung is named (the default profile's smoke run: a cheap ladder
+rung), else as it is. The campaign and the fidelity searches hand in their own rung's evaluator and ignore
+`glso.rung`.
+
 Methods: `registry.METHODS` names them; each is a `method.SearchMethod` with its settings in `glso.<section>`.
 
 Resumption: after every call the run's rows (plain data, JSON) are written atomically to the checkpoint
@@ -29,9 +35,10 @@ the run, so after the replay it is in the state it had when the checkpoint was w
 any point ends with the same table as an uninterrupted run. Replaying costs the method's own work again
 (GP fits, network steps), not the simulations. The tables hold no wall times (`run_job` returns a run's
 seconds; the stage keeps them in reports/timings.json). The checkpoint key covers the run, the budget, the
-method's settings, the evaluator's settings hash, the VAE file and the code; the stage starts a stale
-checkpoint (or one whose replay proposes other designs) over with one warning line, a checkpoint file the
-user names (`robocompose glso --checkpoint`) must hold this run or be new.
+method's settings, the settings hash of the evaluator the run uses (its MPPI: a checkpoint written at one rung
+is never resumed at another), the VAE file and the code; the stage starts a stale checkpoint (or one whose
+replay proposes other designs) over with one warning line, a checkpoint file the user names (`robocompose
+glso --checkpoint`) must hold this run or be new.
 """
 
 from __future__ import annotations
@@ -51,6 +58,7 @@ import numpy as np
 import pandas as pd
 
 from robocompose.evaluation.evaluate import OK, EvalJob, EvaluationConfig, cached_evaluations, objective
+from robocompose.evaluation.fidelity import LADDER, rung_config
 from robocompose.fanout.cache import EvaluationCache
 from robocompose.fanout.executor import Executor
 from robocompose.glso import best_designs
@@ -74,6 +82,10 @@ class RunSettings:
     seeds: list = field(default_factory=lambda: [0, 1, 2])  # run seeds (thesis: 3)
     budget: int = 550  # objective calls per run (GLSO: 50 random + 500 BO steps)
     models: str = "models/vae_{variant}.pt"  # where the VAE of each latent method is ({variant}: full, ...)
+    # The fidelity rung (`evaluation.fidelity.LADDER`) whose MPPI settings score the runs' designs and replay the
+    # best ones (`evaluator`); "" = the evaluator's own `evaluation.mppi`. A cheap rung suits a smoke run that only
+    # checks every method runs end to end.
+    rung: str = ""
 
     def __post_init__(self) -> None:
         for section, cls in settings_sections().items():
@@ -86,6 +98,13 @@ class RunSettings:
         check_field(self.budget >= 1, "budget", "at least 1 objective call", self.budget)
         check_field(bool(self.seeds), "seeds", "at least one run seed", self.seeds)
         check_field("{variant}" in self.models, "models", "a path with {variant} in it", self.models)
+        check_field(self.rung == "" or self.rung in LADDER, "rung",
+                    f'"" (the evaluator\'s evaluation.mppi) or a fidelity rung of {list(LADDER)}', self.rung)
+
+    def evaluator(self, evaluation: EvaluationConfig) -> EvaluationConfig:
+        """The evaluator of the runs: `evaluation` (the `evaluation:` section) with `rung`'s MPPI settings, or as
+        it is if `rung` is "". Its settings hash is in every run's checkpoint key."""
+        return dataclasses.replace(evaluation, mppi=rung_config(self.rung)) if self.rung else evaluation
 
     def model_path(self, method: str) -> Path | None:
         """The VAE file a method searches (None for a method without one)."""
@@ -194,10 +213,12 @@ def run_search(spec: RunSpec, config: GLSOConfig, evaluation: EvaluationConfig,
                cache: EvaluationCache | None = None) -> pd.DataFrame:
     """One run of `config.budget` objective calls: its step table (resumed from `checkpoint` if it matches).
 
-    `objective_fn(tree)` returns an evaluator row {reward, status, ...} (default: the real evaluator through
-    `cache`, memory only if None); `on_step(row)` sees each new row after it is checkpointed; `model_path`
-    overrides the latent method's VAE file. `named_checkpoint`: the user named `checkpoint`, so a file there
-    that is not this run's checkpoint is an InputError (else it is started over with a warning).
+    `evaluation` is the run's evaluator as given (`config.rung` is not read here: `GLSOConfig.evaluator` applies
+    it for the `glso:` section's runs). `objective_fn(tree)` returns an evaluator row {reward, status, ...}
+    (default: the real evaluator through `cache`, memory only if None); `on_step(row)` sees each new row after it
+    is checkpointed; `model_path` overrides the latent method's VAE file. `named_checkpoint`: the user named
+    `checkpoint`, so a file there that is not this run's checkpoint is an InputError (else it is started over
+    with a warning).
     """
     import torch
     from threadpoolctl import threadpool_limits
@@ -282,8 +303,9 @@ def run_specs(config: GLSOConfig) -> list[RunSpec]:
 
 def run_all(config: GLSOConfig, evaluation: EvaluationConfig, out_dir: Path, executor: Executor | None = None,
             cache: str = "") -> tuple[pd.DataFrame, dict[str, float]]:
-    """Every (task, method, seed) run, fanned out over `executor`, evaluating through the cache file `cache`:
-    all step tables, concatenated in run order, and each run's wall seconds by run name (reports/timings.json)."""
+    """Every (task, method, seed) run, fanned out over `executor`, scored by `evaluation` (`config.evaluator`'s)
+    through the cache file `cache`: all step tables, concatenated in run order, and each run's wall seconds by run
+    name (reports/timings.json)."""
     from tqdm import tqdm
 
     for method in config.methods:
@@ -311,7 +333,8 @@ def summarise(steps: pd.DataFrame) -> dict:
 
 def record_best(steps: pd.DataFrame, evaluation: EvaluationConfig, out_dir: Path,
                 executor: Executor | None = None, gif_size: tuple[int, int] = (320, 240)) -> pd.DataFrame:
-    """Replay each task's best design into out_dir/<task>.mcap and .gif; the rows replayed."""
+    """Replay each task's best design at `evaluation` (the evaluator its run used) into out_dir/<task>.mcap and
+    .gif; the rows replayed."""
     from robocompose.evaluation.evaluate import EvalJob
     from robocompose.evaluation.references import record_rollout
 

@@ -3,8 +3,9 @@ best per method and task, the thesis's claims beside ours, and each task's best 
 
 Built from the `glso` stage's outputs (data/glso/steps.parquet, data/glso/rollouts/: each task's best design's
 rollout GIF and picture; reports/metrics/glso.json: every method's title and figure groups, the registry's as the
-stage wrote them: this module imports no registry, and a method without a title stops the report); every score
-is the real evaluator's (MPPI in pybullet at the profile's settings), the same for every method.
+stage wrote them: this module imports no registry, and a method without a title stops the report; and the MPPI
+setting the runs used, `glso.rung`'s or `evaluation.mppi`); every score is the real evaluator's (MPPI in pybullet
+at that setting), the same for every method.
 """
 
 from __future__ import annotations
@@ -32,6 +33,18 @@ def method_titles(record: dict, ran: set[str], where: Path) -> list[dict]:
     if unknown:
         raise ArtifactError(f"{where}: no title for methods {unknown} (rerun its stage)")
     return methods
+
+
+def _evaluator_setting(record: dict, where: Path) -> str:
+    """The MPPI setting the runs used, in words, from the stage's record (`rung`, `mppi`); ArtifactError naming
+    the file if it has none."""
+    mppi = record.get("mppi")
+    if not isinstance(mppi, dict) or not isinstance(record.get("rung"), str):
+        raise ArtifactError(f"{where}: no record of the MPPI setting its runs used (rerun its stage)")
+    setting = f"MPPI {mppi['samples']} samples, horizon {mppi['horizon']}, {mppi['episode']} control steps"
+    if record["rung"]:
+        return f"fidelity rung **{record['rung']}** (`glso.rung`: {setting}), not the evaluator's `evaluation.mppi`"
+    return f"the evaluator's setting, `evaluation.mppi` ({setting})"
 
 
 def _plot(stats: pd.DataFrame, tasks: list[str], methods: dict[str, str], title: str, path: Path) -> None:
@@ -93,7 +106,9 @@ def section(reports_dir: Path, data_dir: Path) -> str:
         return f"{title}\n\nNot run yet: missing {steps_path} (stage `glso`).\n"
     steps = read_table(steps_path, "glso_steps")
     metrics_path = Path(reports_dir) / "metrics" / "glso.json"
-    record = method_titles(read_json(metrics_path), set(steps["method"]), metrics_path)
+    metrics = read_json(metrics_path)
+    record = method_titles(metrics, set(steps["method"]), metrics_path)
+    setting = _evaluator_setting(metrics, metrics_path)
     tasks = list(dict.fromkeys(steps["task"]))
     titles = {m: t for m, t in group_titles(record).items() if m in set(steps["method"])}
     figures = Path(reports_dir) / "figures"
@@ -111,8 +126,8 @@ def section(reports_dir: Path, data_dir: Path) -> str:
                                         rejected=("rejected", "mean"))
     lines = [title, "",
              f"Every method had the same budget of **{budget} objective calls** per run, the same evaluator and "
-             f"controller seed; seeds {seeds}, tasks {tasks}. The thesis: 500 evaluations per method and task, "
-             "3 seeds, all four tasks; it reports curves only (no numbers).", "",
+             f"controller seed; seeds {seeds}, tasks {tasks}. Every call scored at {setting}. The thesis: 500 "
+             "evaluations per method and task, 3 seeds, all four tasks; it reports curves only (no numbers).", "",
              "The accounting rule, one for every method: a call is every design sent to the evaluator, an MPPI "
              "episode or the evaluator's verdict that the design cannot be simulated (which the method is told as "
              "its original's invalid score: GLSO 3.8 / 4.0, RoboGrammar's -2.0 for MCTS, GHS, random search and "

@@ -45,6 +45,19 @@ def test_the_campaign_runs_its_own_budget_init_population_and_ghs_epsilons_over_
     assert runs.ghs.eps_decay == smoke.ghs.eps_decay and runs.mcts == smoke.mcts  # the rest is the profile's
 
 
+def test_the_campaign_runs_at_its_own_rung_whatever_glso_rung_says(tmp_path, monkeypatch):
+    """glso.rung is the smoke run's: the campaign's jobs (settings, evaluator, so run keys and manifest) are the
+    same with it as without it, at the campaign's rung."""
+    monkeypatch.setitem(fidelity.LADDER, "tiny", (2, 2, 2, 3))
+    config = CampaignConfig(directory=str(tmp_path / "campaign"), checkpoints=str(tmp_path / "ckpt"),
+                            seeds={"random": 1, "mcts": 1}, budget=3, init=1)
+    plain = campaign.campaign_jobs(config, GLSOConfig(), EvaluationConfig(), "tiny")
+    smoke = campaign.campaign_jobs(config, GLSOConfig(rung="s8_h8_e48"), EvaluationConfig(), "tiny")
+    assert smoke == plain  # the manifest written by the first call accepts the second: one evaluator
+    for job in smoke:
+        assert job.evaluation.mppi == fidelity.rung_config("tiny") and job.glso.rung == ""
+
+
 def _finals(values: dict[str, list[float]]) -> pd.DataFrame:
     return pd.DataFrame([{"task": "flat", "method": m, "seed": i, "search": v, "rescored": v - 1.0}
                          for m, vs in values.items() for i, v in enumerate(vs)])

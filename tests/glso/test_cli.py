@@ -15,7 +15,7 @@ def params(tmp_path, tiny_models):
 
     path = tmp_path / "params.yaml"  # every section (a missing one is an error), these knobs changed
     path.write_text(yaml.safe_dump(merge(read_params(ROOT / "profiles" / "default.yaml"), {
-        "glso": {"tasks": ["flat"], "seeds": [0], "budget": 9, "models": tiny_models, "bo": {"init": 2}},
+        "glso": {"tasks": ["flat"], "seeds": [0], "budget": 9, "models": tiny_models, "bo": {"init": 2}, "rung": ""},
         "evaluation": {"mppi": {"samples": 2, "first_samples": 2, "horizon": 2, "episode": 2}},
         "compute": {"cache": ""}})))
     return str(path)
@@ -55,6 +55,25 @@ def test_cli_runs_the_search_on_a_dask_worker_and_prints_what_a_local_run_prints
 
 def _search_argv(params, *extra):
     return ["glso", "--task", "flat", "--method", "random", "--budget", "3", "--params", params, *extra]
+
+
+def test_cli_scores_at_glso_rung_when_one_is_named(params, tmp_path, capsys, monkeypatch):
+    from pathlib import Path
+
+    import yaml
+
+    from robocompose.evaluation import fidelity
+    from robocompose.evaluation.evaluate import EvaluationConfig
+    from robocompose.fanout.cache import EvaluationCache
+
+    monkeypatch.setitem(fidelity.LADDER, "tiny", (2, 2, 2, 3))
+    document = yaml.safe_load(Path(params).read_text())
+    document["glso"]["rung"], document["compute"]["cache"] = "tiny", str(tmp_path / "cache.parquet")
+    Path(params).write_text(yaml.safe_dump(document))
+    assert main(_search_argv(params)) == 0
+    scored = EvaluationCache(tmp_path / "cache.parquet").frame()
+    assert len(scored) > 0  # every design the run sent, at the rung's MPPI (not evaluation.mppi's)
+    assert set(scored["settings_hash"]) == {EvaluationConfig(mppi=fidelity.rung_config("tiny")).settings_hash("flat")}
 
 
 @pytest.mark.parametrize("out, message", [

@@ -150,6 +150,29 @@ def test_a_checkpoint_of_other_settings_is_started_over(small_config, tmp_path):
     assert resumed.equals(fresh)
 
 
+def test_a_checkpoint_made_at_one_rung_is_started_over_at_another(small_config, tmp_path):
+    """glso.rung changes the runs' evaluator, and with it the checkpoint key: a run at another rung replays
+    nothing of the checkpoint and spends its whole budget again; at the same rung it resumes without a call."""
+    import dataclasses
+
+    spec, checkpoint = RunSpec("flat", "random", 0), tmp_path / "run.ckpt"
+    calls = []
+
+    def counted(tree) -> dict:
+        calls.append(tree.design_id)
+        return fake_objective(tree)
+
+    cheap = dataclasses.replace(small_config, rung="s8_h8_e48")
+    first = run_search(spec, cheap, cheap.evaluator(EVALUATION), objective_fn=counted, checkpoint=checkpoint)
+    assert len(calls) == cheap.budget
+    again = run_search(spec, cheap, cheap.evaluator(EVALUATION), objective_fn=counted, checkpoint=checkpoint)
+    assert again.equals(first) and len(calls) == cheap.budget  # resumed: no call
+    other = dataclasses.replace(small_config, rung="s16_h8_e48")
+    with pytest.warns(UserWarning, match="a checkpoint of another run or other code"):
+        run_search(spec, other, other.evaluator(EVALUATION), objective_fn=counted, checkpoint=checkpoint)
+    assert len(calls) == 2 * cheap.budget
+
+
 SCRIPT = """
 import time
 import warnings

@@ -1,4 +1,5 @@
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -112,10 +113,60 @@ def test_summary_takes_the_final_best_over_seeds():
     ({"tasks": ["moon"]}, "moon"),
     ({"budget": 0}, "budget: expected at least 1"),
     ({"bo": {"xi": "big"}}, "glso.bo.xi"),
+    ({"rung": "fast"}, r"glso.rung: expected \"\" \(the evaluator's evaluation.mppi\) or a fidelity rung of "
+                       r"\['thesis', 's8_h8_e48', .*\], found 'fast'$"),
+    ({"rung": "thesis_seed1"}, "glso.rung: .*found 'thesis_seed1'"),  # a repeat's seed offset would be lost
 ])
 def test_bad_config_names_the_field(values, message):
     with pytest.raises((ValueError, KeyError), match=message):
         build_config(GLSOConfig, values, "glso")
+
+
+def test_the_runs_evaluator_is_the_evaluation_section_at_glso_rung():
+    from robocompose.evaluation.fidelity import rung_config
+
+    evaluation = EvaluationConfig(mppi=MPPIConfig(samples=2, first_samples=2, horizon=2, episode=2), seed=3)
+    assert GLSOConfig().evaluator(evaluation) == evaluation  # rung "": the evaluator's own setting
+    cheap = GLSOConfig(rung="s8_h8_e48").evaluator(evaluation)
+    assert cheap == EvaluationConfig(mppi=rung_config("s8_h8_e48"), seed=3)  # the controller seed is kept
+    assert cheap.settings_hash("flat") != evaluation.settings_hash("flat")
+
+
+def test_the_stage_scores_and_replays_at_glso_rung_and_records_it(tiny_models, tmp_path, monkeypatch):
+    """glso.rung set: every call and the best design's replay run at the rung's MPPI, not evaluation.mppi, and
+    reports/metrics/glso.json (which the report reads) records the rung, its MPPI settings and its hash."""
+    import json
+    import runpy
+
+    import yaml
+
+    from robocompose.evaluation import fidelity
+    from robocompose.evaluation.evaluate import evaluate
+    from robocompose.io.provenance import ROOT
+    from robocompose.params import merge, read_params
+    from robocompose.report.glso import section
+
+    monkeypatch.setitem(fidelity.LADDER, "tiny", (2, 2, 2, 3))
+    monkeypatch.chdir(tmp_path)
+    Path("params.yaml").write_text(yaml.safe_dump(merge(read_params(ROOT / "profiles" / "default.yaml"), {
+        "compute": {"workers": 1, "cache": "data/cache.parquet"},
+        "glso": {"tasks": ["flat"], "methods": ["random"], "seeds": [0], "budget": 2, "models": tiny_models,
+                 "rung": "tiny"},
+        "evaluation": {"mppi": {"samples": 2, "first_samples": 2, "horizon": 2, "episode": 2}}})))
+    runpy.run_path(str(ROOT / "stages" / "glso.py"), run_name="__main__")
+    at_rung = EvaluationConfig(mppi=fidelity.rung_config("tiny"))
+    metrics = json.loads(Path("reports/metrics/glso.json").read_text())
+    assert metrics["rung"] == "tiny" and metrics["mppi"] == at_rung.mppi.as_dict()
+    assert metrics["settings_hash"] == {"flat": at_rung.settings_hash("flat")}
+    cached = EvaluationCache("data/cache.parquet").frame()
+    assert len(cached) > 0 and set(cached["settings_hash"]) == {at_rung.settings_hash("flat")}
+    best = read_table("data/glso/steps.parquet", "glso_steps").sort_values("reward").iloc[-1]
+    tree = DesignTree(tuple(best["parents"]), tuple(best["tokens"]))
+    row = cached[cached["design_id"] == best["design_id"]].iloc[0]
+    assert row["sim_steps"] == evaluate(tree, "flat", at_rung, 0)["sim_steps"] != evaluate(
+        tree, "flat", TINY, 0)["sim_steps"]  # episodes of 3 control steps, not evaluation.mppi's 2
+    assert "Every call scored at fidelity rung **tiny** (`glso.rung`: MPPI 2 samples, horizon 2, 3 control " \
+           "steps), not the evaluator's `evaluation.mppi`." in section(Path("reports"), Path("data"))
 
 
 def test_run_all_fans_the_runs_out_resumes_them_and_replays_each_tasks_best(tiny_models, tmp_path):

@@ -55,7 +55,18 @@ def test_section_draws_both_figures_the_table_and_the_best_design(tmp_path):
     with pytest.raises(ArtifactError, match=r"glso\.json: no title for methods \['mcts'\]"):
         section(tmp_path / "reports", tmp_path / "data")  # never a method silently left out
     metrics.write_text(json.dumps({"methods": METHODS}))
+    with pytest.raises(ArtifactError, match=r"glso\.json: no record of the MPPI setting its runs used"):
+        section(tmp_path / "reports", tmp_path / "data")  # a record of older code: the stage reruns
+    mppi = {"samples": 16, "first_samples": 64, "horizon": 16, "episode": 48}
+    metrics.write_text(json.dumps({"methods": METHODS, "rung": "", "mppi": mppi}))
     text = section(tmp_path / "reports", tmp_path / "data")
+    assert "Every call scored at the evaluator's setting, `evaluation.mppi` (MPPI 16 samples, horizon 16, 48 " \
+           "control steps)." in text
+    metrics.write_text(json.dumps({"methods": METHODS, "rung": "s8_h8_e48",
+                                   "mppi": {**mppi, "samples": 8, "horizon": 8}}))
+    text = section(tmp_path / "reports", tmp_path / "data")
+    assert "Every call scored at fidelity rung **s8_h8_e48** (`glso.rung`: MPPI 8 samples, horizon 8, 48 control " \
+           "steps), not the evaluator's `evaluation.mppi`." in text
     assert "flat rollout: not drawn yet" in text and "glso_best_flat.png" not in text
     rollouts = tmp_path / "data" / "glso" / "rollouts"
     rollouts.mkdir()
