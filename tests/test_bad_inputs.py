@@ -336,6 +336,9 @@ PARAMS = [
          change="doc['glso']['rung'] = 'fast'"),
     Case("train_vae: predictor not a bool", ("params.yaml: train_vae.variants.full.predictor: expected bool",),
          stage="train_vae", change="doc['train_vae']['variants']['full']['predictor'] = 'yes'"),
+    Case("train_vae: a variant missing", ("params.yaml: train_vae.variants: expected the variants dvc.yaml declares "
+                                          "outputs for: full, nopred, nogram, found ['full', 'nogram']",),
+         stage="train_vae", change="del doc['train_vae']['variants']['nopred']"),
     Case("vae_landscape: evaluated zero", ("params.yaml: train_vae.landscape: need 0 < evaluated",),
          stage="vae_landscape", change="doc['train_vae']['landscape']['evaluated'] = 0"),
     Case("modular_realtime: protocol queries zero", ("params.yaml: eggan_modular.protocol.queries: expected a "

@@ -35,9 +35,8 @@ KNOWN_READS = {
     "modular_pool_size": {"data/modular/pool.parquet"},
     "modular_realtime": {"data/modular/pool.parquet"},
     "vae_designs": {"data/designs.parquet", "data/designs_nogram.parquet"},
-    **{f"train_vae@{variant}": {"data/designs.parquet", "data/designs_nogram.parquet",  # train_vae.variants
-                                "data/vae_extra_designs.parquet", "data/vae_extra_nogram.parquet"}
-       for variant in ("full", "nopred", "nogram")},
+    "train_vae": {"data/designs.parquet", "data/designs_nogram.parquet",  # train_vae.variants
+                  "data/vae_extra_designs.parquet", "data/vae_extra_nogram.parquet"},
     "vae_landscape": {"models/vae_full.pt", "models/vae_nopred.pt", "data/designs.parquet"},
     "glso": {"models/vae_full.pt", "models/vae_nopred.pt", "models/vae_nogram.pt"},  # glso.models
     "report": {"data/teams/chips", "data/rollouts", "reports/benchmarks.json", "reports/training"},
@@ -61,7 +60,7 @@ NOT_READ = {
 
 
 def dvc_stages(root: Path = ROOT) -> dict:
-    """name -> DVC's own parse of each stage of root/dvc.yaml (matrix stages expanded: `train_vae@full`)."""
+    """name -> DVC's own parse of each stage of root/dvc.yaml (a matrix stage expanded: NAME@ITEM)."""
     from dvc.repo import Repo
 
     with Repo(str(root)) as repo:

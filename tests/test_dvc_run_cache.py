@@ -19,11 +19,11 @@ import yaml
 
 from tests.tiny_project import TINY, dvc_env
 
-TARGETS = ["train_vae@full", "teams_eggan"]  # and what they need: enumerate, vae_designs, decompose
-STAGES = {"enumerate", "vae_designs", "train_vae@full", "decompose", "teams_eggan"}
+TARGETS = ["train_vae", "teams_eggan"]  # and what they need: enumerate, vae_designs, decompose
+STAGES = {"enumerate", "vae_designs", "train_vae", "decompose", "teams_eggan"}
 OUTPUTS = ["data/designs.parquet", "data/vae_extra_designs.parquet", "models/vae_full.pt", "models/vae_full.mcap",
-           "reports/training/vae_full", "data/regions.parquet", "data/teams/chips", "models/teams_eggan.pt",
-           "data/teams/eggan_fronts.parquet", "reports/metrics/teams_eggan.json"]
+           "models/vae_nogram.pt", "reports/training", "data/regions.parquet", "data/teams/chips",
+           "models/teams_eggan.pt", "data/teams/eggan_fronts.parquet", "reports/metrics/teams_eggan.json"]
 
 
 def env(project: Path, tmp_path: Path) -> dict:

@@ -22,13 +22,14 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from robocompose.latent.params import VARIANTS
 from tests.tiny_project import TINY, dvc_env
 
 ROOT = Path(__file__).resolve().parents[1]
 
 FAULTS = {
     "kill-enumerate": "kill -9 of the enumerate stage mid-run, then `dvc repro`",
-    "kill-train-vae": "kill -9 of the train_vae@full stage after a checkpoint, then `dvc repro`",
+    "kill-train-vae": "kill -9 of the train_vae stage after a checkpoint, then `dvc repro`",
     "kill-glso": "kill -9 of the glso stage after its first search run, then `dvc repro`",
     "kill-eggan": "kill -9 of the teams_eggan stage (EG-GAN training) after a checkpoint, then `dvc repro`",
     "kill-dask-worker": "SIGKILL of a Dask worker process during a map",
@@ -136,7 +137,7 @@ def project(tmp_path_factory: pytest.TempPathFactory, copy_project) -> Path:
 
 
 ENUMERATE_OUTS = ["data/designs.parquet", "data/designs_nogram.parquet", "reports/metrics/enumerate.json"]
-TRAIN_OUTS = ["models/vae_full.pt", "models/vae_full.mcap", "reports/training/vae_full"]
+TRAIN_OUTS = [*(f"models/vae_{variant}.{kind}" for variant in VARIANTS for kind in ("pt", "mcap")), "reports/training"]
 
 
 @pytest.mark.slow
@@ -167,16 +168,20 @@ def test_killed_enumerate_stage_reruns_to_the_same_bytes(project: Path) -> None:
 @pytest.mark.slow
 @injects("kill-train-vae")
 def test_killed_train_vae_stage_resumes_to_the_same_bytes(project: Path) -> None:
+    """Killed once its first variant (`full`; the variants train one after another here, workers 1) wrote a
+    checkpoint, `dvc repro` resumes it and trains the others: every variant's model, logs, curves and metrics are
+    byte-identical to an uninterrupted run's."""
     dvc(project, "repro", "vae_designs")  # (and enumerate, if the test above did not run)
-    checkpoint = project / "models" / "checkpoints" / "vae_full" / "last.pt"
-    kill_stage(project, "train_vae@full", lambda _: checkpoint.exists())
+    checkpoints = project / "models" / "checkpoints"
+    kill_stage(project, "train_vae", lambda _: (checkpoints / "vae_full" / "last.pt").exists())
     assert not (project / "models" / "vae_full.pt").exists()
-    assert "resuming from" in dvc(project, "repro", "train_vae@full")
+    assert "resuming from" in dvc(project, "repro", "train_vae")
     resumed = outputs(project, TRAIN_OUTS)
-    for file in checkpoint.parent.iterdir():  # the uninterrupted run starts without a checkpoint
+    for file in checkpoints.glob("vae_*/*"):  # the uninterrupted run starts without a checkpoint
         file.unlink()
-    dvc(project, "repro", "-f", "-s", "train_vae@full")
-    assert outputs(project, TRAIN_OUTS) == resumed and "models/vae_full.pt" in resumed
+    dvc(project, "repro", "-f", "-s", "train_vae")
+    assert outputs(project, TRAIN_OUTS) == resumed
+    assert {f"models/vae_{variant}.pt" for variant in VARIANTS} <= set(resumed)
 
 
 GLSO_OUTS = ["data/glso/steps.parquet", "data/glso/runs", "data/glso/rollouts", "reports/metrics/glso.json"]

@@ -1,7 +1,8 @@
 """Stage wall times, kept apart from DVC-tracked outputs so that those stay byte-reproducible.
 
 Each stage records its duration (and any speed figures) under its name in reports/timings.json, a
-file DVC does not track; the report shows them.
+file DVC does not track; the report shows them. A stage that runs several jobs side by side records each job's
+own figures too, under STAGE@JOB (`train_vae@full`), from the stage's process as each job finishes: one writer.
 """
 
 from __future__ import annotations
@@ -26,9 +27,20 @@ class Timing(dict):
     def elapsed(self) -> float:
         return time.perf_counter() - self._start
 
+    def figures(self) -> dict:
+        """The figures put in, and the wall time so far (`seconds`)."""
+        return {**self, "seconds": round(self.elapsed(), 1)}
+
 
 def read_timings(path: Path = TIMINGS_FILE) -> dict:
     return read_json(path) if path.exists() else {}
+
+
+def record(name: str, figures: dict, path: Path = TIMINGS_FILE) -> None:
+    """Put `figures` under `name` in the timings file, keeping every other entry."""
+    timings = read_timings(path)
+    timings[name] = figures
+    atomic_write_json(path, timings)
 
 
 @contextmanager
@@ -36,7 +48,4 @@ def timed(stage: str, path: Path = TIMINGS_FILE) -> Iterator[Timing]:
     """Record `stage`'s wall time (and the figures put in the yielded dict) when it finishes."""
     timing = Timing()
     yield timing
-    timing["seconds"] = round(timing.elapsed(), 1)
-    timings = read_timings(path)
-    timings[stage] = dict(timing)
-    atomic_write_json(path, timings)
+    record(stage, timing.figures(), path)

@@ -247,10 +247,11 @@ def write_logs(rows: list[dict], live: Live, mcap_path: Path) -> None:
 
 
 def train(model_config: VAEConfig, config: TrainConfig, designs: Designs, checkpoint: Path, live: Live,
-          mcap_path: Path, extra: Designs | None = None, progress: bool = False) -> tuple[GraphVAE, Designs, Designs]:
+          mcap_path: Path, extra: Designs | None = None,
+          progress: str | None = None) -> tuple[GraphVAE, Designs, Designs]:
     """Train (resuming from `checkpoint` when it holds a run of the same settings), logging to `live` (a fresh
     `training_log`); returns the model and the (train, held-out) designs. `extra` designs join the training
-    split (any that are held out are dropped)."""
+    split (any that are held out are dropped). `progress`: a label, then a tqdm bar of the steps (on stderr)."""
     torch.set_num_threads(config.threads)
     train_idx, test_idx = split(len(designs.ids), config.holdout, config.seed)
     train_set, test_set = designs.subset(train_idx), designs.subset(test_idx)
@@ -280,7 +281,7 @@ def train(model_config: VAEConfig, config: TrainConfig, designs: Designs, checkp
     from tqdm import tqdm
 
     running: dict[str, float] = {}
-    bar = tqdm(total=config.steps, initial=start, disable=not progress, desc="train_vae", mininterval=5.0)
+    bar = tqdm(total=config.steps, initial=start, disable=progress is None, desc=progress, mininterval=5.0)
     for step in range(start, config.steps):
         model.train()
         idx = batch_indices(step, len(train_set.ids), config.batch_size, config.seed)

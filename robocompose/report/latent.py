@@ -1,7 +1,8 @@
 """Report section for the graph VAE (thesis 7.1): variant metrics, training curves, the latent landscape.
 
-Built from the `train_vae@*` stages' training logs (reports/training/vae_*/: dvclive curves and metrics.json), the
-`vae_landscape` stage's output and reports/benchmarks.json.
+Built from the `train_vae` stage's training logs (reports/training/vae_*/: dvclive curves and metrics.json) and each
+variant's wall time (`train_vae@VARIANT` in reports/timings.json), the `vae_landscape` stage's output and
+reports/benchmarks.json.
 """
 
 from __future__ import annotations

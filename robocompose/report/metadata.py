@@ -24,7 +24,7 @@ def _git(*args: str, cwd: Path = Path(".")) -> str:
 
 
 def pipeline(root: Path = Path(".")) -> tuple[list[str], list[str]]:
-    """The DVC stages in dvc.yaml order (matrix stages expanded, `train_vae@full`) and the paths DVC writes
+    """The DVC stages in dvc.yaml order (a matrix stage expanded, NAME@ITEM) and the paths DVC writes
     while it runs them: dvc.lock and every stage's outputs."""
     from dvc.repo import Repo
 

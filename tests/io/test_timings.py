@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 
 from robocompose.io.provenance import ROOT
-from robocompose.io.timings import read_timings, timed
+from robocompose.io.timings import Timing, read_timings, record, timed
 
 
 def test_timed_records_each_stage_and_keeps_others(tmp_path):
@@ -17,6 +17,17 @@ def test_timed_records_each_stage_and_keeps_others(tmp_path):
     recorded = read_timings(path)
     assert recorded["other"] == {"seconds": 3.0}
     assert recorded["stage"]["rate"] == 2.5 and recorded["stage"]["seconds"] >= 0
+
+
+def test_a_job_of_a_stage_records_its_own_figures_beside_the_stage(tmp_path):
+    path = tmp_path / "timings.json"
+    job = Timing()  # timed where the job runs (a worker), recorded by the stage's process
+    job["steps_per_s"] = 4.0
+    with timed("stage", path):
+        record("stage@job", job.figures(), path)
+    recorded = read_timings(path)
+    assert set(recorded) == {"stage", "stage@job"}
+    assert recorded["stage@job"]["steps_per_s"] == 4.0 and recorded["stage@job"]["seconds"] >= 0
 
 
 def test_a_failed_stage_records_nothing(tmp_path):

@@ -1,10 +1,18 @@
-"""Small grammar and no-grammar design sets (random derivations / random trees, no simulation)."""
+"""Small grammar and no-grammar design sets (random derivations / random trees, no simulation), a designs table
+writer, and a tiny VAE."""
+
+from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from robocompose.dataset.nogram import random_graph
 from robocompose.grammar.derivation import random_derivation
+from robocompose.io import write_table
+from robocompose.latent.model import VAEConfig
+
+TINY = VAEConfig(hidden=16, latent=4, predictor_hidden=8, max_nodes=30)
 
 
 def grammar_trees(n: int, seed: int = 0, min_links: int = 1) -> list:
@@ -31,3 +39,19 @@ def trees() -> list:
 def nogram_trees() -> list:
     rng = np.random.default_rng(0)
     return [random_graph(rng) for _ in range(30)]
+
+
+def write_designs_table(path: Path, trees: list) -> Path:
+    """A `designs` table of `trees` at `path` (contact vectors: the link count, 16 times)."""
+    rows = [{"design_id": t.design_id, "rules": [], "parents": list(t.parents), "tokens": list(t.tokens),
+             "n_links": t.n_links, "n_joints": t.n_joints, "contacts": [float(t.n_links)] * 16}
+            for t in trees]
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_table(pd.DataFrame(rows), path, "designs")
+    return path
+
+
+@pytest.fixture
+def write_designs(make_trees):
+    """write_designs(path, n, seed): a designs table of n random grammar designs (>= 3 links each)."""
+    return lambda path, n, seed=0: write_designs_table(path, make_trees(n, seed, min_links=3))

@@ -10,13 +10,11 @@ import time
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 import pytest
 import torch
 
-from robocompose.io import read_mcap, write_table
+from robocompose.io import read_mcap
 from robocompose.latent.curves import LOG_FIELDS, read_curves
-from robocompose.latent.model import VAEConfig
 from robocompose.latent.train import (
     TrainConfig,
     batch_indices,
@@ -32,21 +30,7 @@ from robocompose.latent.train import (
     training_log,
     write_logs,
 )
-
-TINY = VAEConfig(hidden=16, latent=4, predictor_hidden=8, max_nodes=30)
-
-
-@pytest.fixture
-def write_designs(make_trees):
-    return lambda path, n, seed=0: _write_designs(path, make_trees(n, seed, min_links=3))
-
-
-def _write_designs(path: Path, trees: list) -> Path:
-    rows = [{"design_id": t.design_id, "rules": [], "parents": list(t.parents), "tokens": list(t.tokens),
-             "n_links": t.n_links, "n_joints": t.n_joints, "contacts": [float(t.n_links)] * 16}
-            for t in trees]
-    write_table(pd.DataFrame(rows), path, "designs")
-    return path
+from tests.latent.conftest import TINY
 
 
 def test_schedules_follow_the_reference():
