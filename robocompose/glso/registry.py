@@ -70,9 +70,11 @@ def family(group: str) -> tuple[str, ...]:
 
 
 def describe() -> list[dict]:
-    """Every registered method's name, title and figure groups, in registry order: what the stages write into
-    their artifacts so that the report (no torch, so no registry) can name and group the methods."""
-    return [{"name": name, "title": method.title, "groups": list(method.groups)} for name, method in METHODS.items()]
+    """Every registered method's name, title, figure groups and VAE variant (None without one), in registry
+    order: what the stages write into their artifacts so that the report (no torch, so no registry) can name and
+    group the methods, and title each VAE by the method that searches it."""
+    return [{"name": name, "title": method.title, "groups": list(method.groups), "variant": method.variant}
+            for name, method in METHODS.items()]
 
 
 def settings_sections() -> dict[str, type]:

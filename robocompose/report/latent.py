@@ -1,8 +1,9 @@
 """Report section for the graph VAE (thesis 7.1): variant metrics, training curves, the latent landscape.
 
 Built from the `train_vae` stage's training logs (reports/training/vae_*/: dvclive curves and metrics.json) and each
-variant's wall time (`train_vae@VARIANT` in reports/timings.json), the `vae_landscape` stage's output and
-reports/benchmarks.json.
+variant's wall time (`train_vae@VARIANT` in reports/timings.json), each variant titled by the GLSO method that
+searches it (reports/metrics/glso.json, the glso stage's record of the registry), the `vae_landscape` stage's
+output and reports/benchmarks.json.
 """
 
 from __future__ import annotations
@@ -15,12 +16,24 @@ from robocompose.io import read_table
 from robocompose.io.atomic import read_json
 from robocompose.io.errors import ArtifactError
 
-VARIANTS = {"full": "GLSO (with property predictor)", "nopred": "GLSO_nopred", "nogram": "GLSO_nogram"}
 COLUMNS = [("reconstruction_accuracy", "reconstruction (held out)"), ("prior_validity", "prior valid (builds)"),
            ("prior_grammar_valid", "prior grammar-derivable"), ("prior_rest_valid", "prior passes rest check"),
            ("uniqueness", "uniqueness"), ("novelty", "novelty"), ("property_mse", "property MSE (held out)"),
            ("property_baseline_mse", "MSE of the training mean"), ("property_r2", "property R^2")]
 PROPERTY_KEYS = {"property_mse", "property_baseline_mse", "property_r2"}
+
+
+def vae_titles(record: Path) -> dict[str, str]:
+    """Each VAE variant -> the title of the GLSO method that searches it, in the registry's order, from the glso
+    stage's record of the registry (`methods` of reports/metrics/glso.json); ArtifactError naming the file if
+    there is none."""
+    if not record.exists():
+        raise ArtifactError(f"{record}: missing; the VAE variants are titled by the GLSO methods that search them "
+                            "(stage `glso`)")
+    methods = read_json(record).get("methods")
+    if not isinstance(methods, list) or not all("variant" in method for method in methods):
+        raise ArtifactError(f"{record}: no record of the methods' VAE variants (rerun stage `glso`)")
+    return {method["variant"]: method["title"] for method in methods if method["variant"]}
 
 
 def _fmt(value) -> str:
@@ -31,10 +44,16 @@ def section(reports_dir: Path, data_dir: Path, train_vae: dict) -> str:
     """`train_vae`: the `train_vae:` params the VAEs were trained with."""
     title = "## Graph VAE: latent space of the grammar's designs (thesis 7.1)"
     reports_dir, data_dir = Path(reports_dir), Path(data_dir)
-    logs = {name: reports_dir / "training" / f"vae_{name}" for name in VARIANTS}
-    metrics = {name: _evaluation(log / "metrics.json") for name, log in logs.items() if (log / "metrics.json").exists()}
-    if not metrics:
+    found = {path.parent.name.removeprefix("vae_"): _evaluation(path)
+             for path in sorted((reports_dir / "training").glob("vae_*/metrics.json"))}
+    if not found:
         return f"{title}\n\nNot run yet: no {reports_dir}/training/vae_*/metrics.json (stage `train_vae`).\n"
+    record = reports_dir / "metrics" / "glso.json"
+    titles = vae_titles(record)
+    untitled = sorted(set(found) - set(titles))
+    if untitled:
+        raise ArtifactError(f"{record}: no GLSO method searches VAE variants {untitled} (rerun stage `glso`)")
+    metrics = {name: found[name] for name in titles if name in found}  # in the registry's order
     import matplotlib
 
     matplotlib.use("Agg")
@@ -63,7 +82,7 @@ def section(reports_dir: Path, data_dir: Path, train_vae: dict) -> str:
              "(second table; the same model, decoded without masks).", "",
              "| variant | " + " | ".join(label for _, label in COLUMNS) + " | training time |",
              "|---|" + "---|" * (len(COLUMNS) + 1)]
-    for name, label in VARIANTS.items():
+    for name, label in titles.items():
         if name in metrics:
             seconds = timings.get(f"train_vae@{name}", {}).get("seconds")
             took = f"{seconds / 60:.1f} min" if seconds else "n/a"
@@ -73,7 +92,7 @@ def section(reports_dir: Path, data_dir: Path, train_vae: dict) -> str:
     lines += ["", "Decoded as the original (unmasked argmax over all 42 labels):", "",
               "| variant | " + " | ".join(label for k, label in COLUMNS if k in unmasked) + " |",
               "|---|" + "---|" * len(unmasked)]
-    for name, label in VARIANTS.items():
+    for name, label in titles.items():
         if name in metrics and "unconstrained" in metrics[name]:
             lines.append(f"| {label} | " + " | ".join(_fmt(metrics[name]["unconstrained"].get(k)) for k in unmasked)
                          + " |")
@@ -84,6 +103,7 @@ def section(reports_dir: Path, data_dir: Path, train_vae: dict) -> str:
               "points, none on the mid-plane away from the front). "
               "Uniqueness: distinct / valid; novelty: distinct designs not in the training split.", ""]
 
+    logs = {name: reports_dir / "training" / f"vae_{name}" for name in metrics}
     curves = {name: read_curves(log) for name, log in logs.items() if (log / "plots").is_dir()}
     if curves:
         fig, axes = plt.subplots(1, 2, figsize=(10, 3.4))
@@ -100,7 +120,7 @@ def section(reports_dir: Path, data_dir: Path, train_vae: dict) -> str:
         lines += ["![VAE training curves](figures/vae_training.png)", ""]
 
     lines += _landscape(data_dir / "vae_landscape.parquet", reports_dir / "metrics" / "vae_landscape.json", figures,
-                        plt)
+                        plt, titles)
     bench = reports_dir / "benchmarks.json"
     figures_ = read_json(bench) if bench.exists() else {}
     if "vae.steps_per_s" in figures_:
@@ -121,7 +141,7 @@ def _evaluation(path: Path) -> dict:
     return summary["evaluation"]
 
 
-def _landscape(path: Path, knn_path: Path, figures: Path, plt) -> list[str]:
+def _landscape(path: Path, knn_path: Path, figures: Path, plt, titles: dict[str, str]) -> list[str]:
     if not path.exists():
         return [f"Latent landscape (Fig. 7.1): pending (stage `vae_landscape`, {path} missing)."]
     table = read_table(path, "vae_landscape")
@@ -149,7 +169,7 @@ def _landscape(path: Path, knn_path: Path, figures: Path, plt) -> list[str]:
                                 s=22, edgecolors="k", linewidths=0.3)
             bad = part[(part["status"] != "ok") & (part["status"] != "") & (part["task"] == task)]
             ax.scatter(bad["pc1"], bad["pc2"], marker="x", color="#d62728", s=25, label="invalid in simulation")
-            ax.set(title=f"{VARIANTS[name]}: {task}", xlabel=f"PC1 ({100 * part['explained1'].iloc[0]:.0f}% var.)",
+            ax.set(title=f"{titles[name]}: {task}", xlabel=f"PC1 ({100 * part['explained1'].iloc[0]:.0f}% var.)",
                    ylabel=f"PC2 ({100 * part['explained2'].iloc[0]:.0f}% var.)")
             ax.legend(fontsize=7, loc="lower right")
         if points is not None:
@@ -180,12 +200,12 @@ def _landscape(path: Path, knn_path: Path, figures: Path, plt) -> list[str]:
                       "|---|---|---|---:|---:|---:|---:|---:|"]
             for key, row in knn.items():
                 name, task, rung = key.split("/")
-                lines.append(f"| {VARIANTS[name]} | {task} | {rung} | {row['designs']} | {row['spearman']:.3f} | "
+                lines.append(f"| {titles[name]} | {task} | {rung} | {row['designs']} | {row['spearman']:.3f} | "
                              f"{row['shuffled_mean']:.3f} | {row['shuffled_95']:.3f} | {row['p_value']:.3f} |")
             above = {name: [k for k, row in knn.items() if k.startswith(f"{name}/")
                             and row["spearman"] > row["shuffled_95"]] for name in ("full", "nopred")}
             groups = {name: sum(k.startswith(f"{name}/") for k in knn) for name in ("full", "nopred")}
             lines += ["", "Above the shuffled 95th percentile: "
-                      + "; ".join(f"{VARIANTS[name]} in {len(above[name])} of {groups[name]} groups"
+                      + "; ".join(f"{titles[name]} in {len(above[name])} of {groups[name]} groups"
                                   for name in ("full", "nopred")) + "."]
     return lines

@@ -5,6 +5,7 @@ import pandas as pd
 import pytest
 from PIL import Image
 
+from robocompose.glso.registry import describe
 from robocompose.io import ArtifactError, write_table
 from robocompose.latent.curves import LOG_FIELDS
 from robocompose.latent.train import log_evaluation, log_row, training_log
@@ -34,7 +35,30 @@ def test_a_corrupt_summary_is_named(tmp_path):
         section(tmp_path, tmp_path, TRAIN_VAE)
 
 
+def _record_registry(reports):
+    (reports / "metrics").mkdir(parents=True, exist_ok=True)  # as the glso stage records the registry
+    (reports / "metrics" / "glso.json").write_text(json.dumps({"methods": describe()}))
+
+
+def test_section_titles_each_vae_by_the_method_that_searches_it_from_the_glso_record(tmp_path):
+    with training_log(tmp_path / "training" / "vae_nogram") as live:
+        log_evaluation(live, METRIC)
+    with pytest.raises(ArtifactError, match="glso.json: missing; the VAE variants are titled by the GLSO methods"):
+        section(tmp_path, tmp_path, TRAIN_VAE)
+    (tmp_path / "metrics").mkdir(exist_ok=True)
+    (tmp_path / "metrics" / "glso.json").write_text(json.dumps({"methods": [{"name": "glso", "title": "GLSO"}]}))
+    with pytest.raises(ArtifactError, match="glso.json: no record of the methods' VAE variants"):
+        section(tmp_path, tmp_path, TRAIN_VAE)
+    (tmp_path / "metrics" / "glso.json").write_text(json.dumps({"methods": [
+        {"name": "glso", "title": "GLSO", "variant": "full"}]}))
+    with pytest.raises(ArtifactError, match=r"no GLSO method searches VAE variants \['nogram'\]"):
+        section(tmp_path, tmp_path, TRAIN_VAE)
+    _record_registry(tmp_path)
+    assert "| GLSO_nogram | 0.750 |" in section(tmp_path, tmp_path, TRAIN_VAE)
+
+
 def test_section_shows_metrics_curves_and_landscape(tmp_path):
+    _record_registry(tmp_path)
     for name, metric in {"full": METRIC, "nopred": {**METRIC, "property_mse": None}}.items():
         with training_log(tmp_path / "training" / f"vae_{name}") as live:  # as the train_vae stage logs
             for step in (50, 100, 150, 200):
@@ -42,9 +66,9 @@ def test_section_shows_metrics_curves_and_landscape(tmp_path):
                                "heldout_reconstruction": 0.5 if step == 200 else np.nan})
             log_evaluation(live, metric)
     text = section(tmp_path, tmp_path, TRAIN_VAE)
-    assert "| GLSO (with property predictor) | 0.750 | 1.000" in text and "| GLSO_nopred |" in text
+    assert "| GLSO | 0.750 | 1.000" in text and "| GLSO_nopred |" in text
     assert "| 0.250 | 0.500 | 0.500 |" in text and "n/a" in text  # MSE, its mean baseline, R^2; nopred: none
-    assert "| GLSO (with property predictor) | 0.125 | 0.500 | 0.000" in text  # decoded as the original
+    assert "| GLSO | 0.125 | 0.500 | 0.000" in text  # decoded as the original
     assert (tmp_path / "figures" / "vae_training.png").exists()
     assert "Latent landscape (Fig. 7.1): pending" in text
 
@@ -62,9 +86,9 @@ def test_section_shows_metrics_curves_and_landscape(tmp_path):
         assert figure.size == (1100, 924)
 
     knn = {"spearman": 0.4, "shuffled_mean": 0.0, "shuffled_95": 0.15, "p_value": 0.001, "designs": 120}
-    (tmp_path / "metrics").mkdir()
+    (tmp_path / "metrics").mkdir(exist_ok=True)
     (tmp_path / "metrics" / "vae_landscape.json").write_text(json.dumps({"knn_predictability": {
         "full/flat/s8_h8_e48": knn, "nopred/flat/s8_h8_e48": {**knn, "spearman": 0.1}}}))
     text = section(tmp_path, tmp_path, TRAIN_VAE)
-    assert "| GLSO (with property predictor) | flat | s8_h8_e48 | 120 | 0.400 | 0.000 | 0.150 | 0.001 |" in text
-    assert "GLSO (with property predictor) in 1 of 1 groups; GLSO_nopred in 0 of 1 groups" in text
+    assert "| GLSO | flat | s8_h8_e48 | 120 | 0.400 | 0.000 | 0.150 | 0.001 |" in text
+    assert "GLSO in 1 of 1 groups; GLSO_nopred in 0 of 1 groups" in text
