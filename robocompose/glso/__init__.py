@@ -18,20 +18,24 @@ def best_designs(steps):  # (pd.DataFrame) -> pd.DataFrame; no pandas import her
     return ok.loc[ok.groupby("task", sort=False)["score"].idxmax()]
 
 
-def best_so_far_curves(steps):  # (pd.DataFrame) -> pd.DataFrame
-    """Best reward so far after each objective call, over a method's seeds, per (task, method, calls): median,
+def best_so_far_curves(steps, axis: str = "calls"):  # (pd.DataFrame, str) -> pd.DataFrame
+    """Best reward so far over a method's seeds at each point of `axis`, per (task, method, axis): median,
     interquartile range (the campaign's bands), mean, min and max (the smoke run's, whose 2 seeds have no
-    quartiles), and the number of runs."""
-    grouped = steps.assign(calls=steps["step"] + 1).groupby(["task", "method", "calls"])["best_so_far"]
+    quartiles), and the number of runs. `axis` "calls" counts objective calls (step + 1); any other axis is a
+    column of `steps` (the campaign's "distinct": designs new to the run)."""
+    if axis == "calls":
+        steps = steps.assign(calls=steps["step"] + 1)
+    grouped = steps.groupby(["task", "method", axis])["best_so_far"]
     return grouped.agg(median="median", q25=lambda s: s.quantile(0.25), q75=lambda s: s.quantile(0.75),
                        mean="mean", min="min", max="max", runs="size").reset_index()
 
 
-def draw_curves(ax, stats, task: str, titles: dict[str, str], centre: str, low: str, high: str) -> None:
+def draw_curves(ax, stats, task: str, titles: dict[str, str], centre: str, low: str, high: str,
+                axis: str = "calls") -> None:
     """One panel of Figs. 8.1/8.2: each method's (`titles`: method -> legend name, in legend order) `centre` curve
-    of `best_so_far_curves` with a `low`-`high` band."""
+    of `best_so_far_curves` on `axis` with a `low`-`high` band."""
     for method, title in titles.items():
         s = stats[(stats["task"] == task) & (stats["method"] == method)] if len(stats) else stats
         if len(s):
-            line, = ax.plot(s["calls"], s[centre], label=title)
-            ax.fill_between(s["calls"], s[low], s[high], color=line.get_color(), alpha=0.2)
+            line, = ax.plot(s[axis], s[centre], label=title)
+            ax.fill_between(s[axis], s[low], s[high], color=line.get_color(), alpha=0.2)

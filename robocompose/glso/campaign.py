@@ -15,12 +15,18 @@ setting once per `rescore_seeds` into `<directory>/rescores.csv` (one appended l
 `<directory>/campaign.json` records the evaluator every run used (rung and settings hash per task: a campaign
 does not mix evaluators). The directory holds nothing else: it is the summarising stage's one dependency.
 
-Statistics (`summarise`), per task: best-so-far curves as median and interquartile range over seeds; the
-final best at the search rung and re-scored (mean over the re-score seeds; NaN when a re-score cannot be
-simulated); one-sided Mann-Whitney U of GLSO > each other method, Holm-corrected within a family (the
-baselines of Fig. 8.1; the ablations of Fig. 8.2); the median difference GLSO - method with a percentile
-bootstrap 95% interval. With n seeds per side the smallest one-sided p is 1 / C(n + m, n) (5 vs 5: 0.004;
-3 vs 5: 0.018), so small campaigns cannot reach significance after correction; the summary says so.
+Statistics (`summarise`), per task, on two axes. A call that sends a design the run sent before (a repeat) is
+served from the cache: a call all the same, but no new design, and methods differ widely in how many calls they
+spend so. So best so far is measured against distinct designs evaluated (the primary axis) beside objective
+calls (the thesis's): best-so-far curves on both axes as median and interquartile range over seeds; the
+distinct designs each run evaluated; the best so far at K distinct designs, K the fewest any run of the task
+reached (so every run has a value: the matched comparison, at the search rung, as re-scores exist only for the
+final bests); the final best at the search rung and re-scored (mean over the re-score seeds; NaN when a
+re-score cannot be simulated). On each of the matched, final and re-scored bests: one-sided Mann-Whitney U of
+GLSO > each other method, Holm-corrected within a family (the baselines of Fig. 8.1; the ablations of Fig.
+8.2); the median difference GLSO - method with a percentile bootstrap 95% interval. With n seeds per side the
+smallest one-sided p is 1 / C(n + m, n) (5 vs 5: 0.004; 3 vs 5: 0.018), so small campaigns cannot reach
+significance after correction; the summary says so.
 """
 
 from __future__ import annotations
@@ -51,6 +57,9 @@ from robocompose.tasks.terrains import TASKS
 RESCORE_COLUMNS = ("task", "method", "seed", "design_id", "rescore_seed", "reward", "status", "objective")
 RESCORES_FILE = "rescores.csv"
 CACHE_FILE = "eval_cache.parquet"  # under `checkpoints`: not committed, it only saves time
+RUN = ["task", "method", "seed"]  # the columns that name a run in step and summary tables
+# The two axes of best so far: what a point counts (title, axis label); summaries key their curves by them.
+AXES = {"calls": ("call", "objective calls"), "distinct": ("distinct design", "distinct designs evaluated")}
 
 
 @dataclass(frozen=True)
@@ -253,22 +262,57 @@ def bootstrap_median_difference(a: np.ndarray, b: np.ndarray, n: int, rng: np.ra
     return float(np.median(a) - np.median(b)), float(np.percentile(diffs, 2.5)), float(np.percentile(diffs, 97.5))
 
 
+def by_distinct_designs(steps: pd.DataFrame) -> pd.DataFrame:
+    """Each run's calls that sent a design new to the run (`repeat` False), numbered `distinct` = 1, 2, ... in
+    call order: the row numbered k holds the run's best so far after k distinct designs. A repeat returns the
+    score its design already had, so it cannot raise the best: this is the run's best so far against calls with
+    the repeats dropped."""
+    new = steps[~steps["repeat"].astype(bool)].sort_values("step", kind="stable")
+    return new.assign(distinct=new.groupby(RUN, sort=False).cumcount() + 1)
+
+
+def distinct_curves(steps: pd.DataFrame) -> pd.DataFrame:
+    """Best so far against distinct designs evaluated over a method's seeds (`best_so_far_curves` on the axis
+    "distinct"), up to the fewest distinct designs any of its runs evaluated: past that the median would be over
+    fewer seeds, the ones that repeated least, where every point of the calls curve counts every run."""
+    curves = best_so_far_curves(by_distinct_designs(steps), "distinct")
+    return curves[curves["runs"] == curves.groupby(["task", "method"])["runs"].transform("max")]
+
+
 def final_bests(steps: pd.DataFrame, rescores: pd.DataFrame) -> pd.DataFrame:
     """One row per run: its final best at the search rung (`search`, and that design's `design_id`), its
-    re-scored best (mean over re-score seeds; NaN if a re-score could not be simulated or is missing), and
-    how many of its calls went to a design it had sent before (`repeats`: cached, a call all the same)."""
-    runs = steps.sort_values("step", kind="stable").groupby(["task", "method", "seed"], sort=False)
-    final = runs.agg(search=("best_so_far", "last"), repeats=("repeat", "sum")).reset_index()
+    re-scored best (mean over re-score seeds; NaN if a re-score could not be simulated or is missing), its
+    spend (`calls`; `distinct`: the designs it evaluated, its calls less its repeats), and the matched
+    comparison's point: `k`, the fewest distinct designs any run of its task evaluated, its best so far after
+    k distinct designs (`matched`) and the calls that took it (`calls_at_k`)."""
+    runs = steps.sort_values("step", kind="stable").groupby(RUN, sort=False)
+    final = runs.agg(search=("best_so_far", "last"), calls=("step", "size")).reset_index()
     best = [best_design(group) for _, group in runs]
     final.insert(4, "design_id", ["" if b is None else b["design_id"] for b in best])
-    final["repeats"] = final["repeats"].astype(int)
+    new = by_distinct_designs(steps)
+    final = final.merge(new.groupby(RUN)["distinct"].max().reset_index(), on=RUN)
+    final["k"] = final.groupby("task")["distinct"].transform("min")
+    at_k = new.merge(final[[*RUN, "k"]], on=RUN).query("distinct == k")
+    at_k = at_k.assign(matched=at_k["best_so_far"], calls_at_k=at_k["step"] + 1)
+    final = final.merge(at_k[[*RUN, "matched", "calls_at_k"]], on=RUN)
     if len(rescores):
         scored = rescores.assign(reward=np.where(rescores["status"] == OK, rescores["reward"], np.nan))
-        mean = scored.groupby(["task", "method", "seed"])["reward"].agg(lambda r: r.mean(skipna=False))
-        final = final.merge(mean.rename("rescored").reset_index(), on=["task", "method", "seed"], how="left")
+        mean = scored.groupby(RUN)["reward"].agg(lambda r: r.mean(skipna=False))
+        final = final.merge(mean.rename("rescored").reset_index(), on=RUN, how="left")
     else:
         final["rescored"] = np.nan
     return final
+
+
+def spend(final: pd.DataFrame) -> pd.DataFrame:
+    """Per task and method (in the order of `final`), what its runs spent, median over them: objective calls,
+    distinct designs (with their interquartile range) and the calls that reached the task's `k` distinct
+    designs."""
+    runs = final.groupby(["task", "method"], sort=False)
+    return runs.agg(runs=("seed", "size"), calls=("calls", "median"), distinct=("distinct", "median"),
+                    distinct_q25=("distinct", lambda d: d.quantile(0.25)),
+                    distinct_q75=("distinct", lambda d: d.quantile(0.75)), k=("k", "first"),
+                    calls_at_k=("calls_at_k", "median")).reset_index()
 
 
 def compare(final: pd.DataFrame, column: str, bootstrap: int, alpha: float, seed: int = 0) -> list[dict]:
@@ -310,30 +354,48 @@ def summarise(config: CampaignConfig) -> dict:
     steps = read_runs(config)
     planned = len(run_specs(config))
     if steps.empty:
-        return {"runs": 0, "planned": planned, "finals": [], "tests": [], "curves": [], "methods": describe()}
-    rescores = read_rescores(config.directory)
+        return {"runs": 0, "planned": planned, "finals": [], "spend": [], "k": {}, "tests": [],
+                "curves": {axis: [] for axis in AXES}, "methods": describe()}
+    return {"planned": planned, "rung": read_manifest(config.directory).get("rung", ""),
+            **statistics(steps, read_rescores(config.directory), config)}
+
+
+def statistics(steps: pd.DataFrame, rescores: pd.DataFrame, config: CampaignConfig) -> dict:
+    """The summary's statistics of the runs `steps` (at least one) and their `rescores`: everything but the
+    plan and the rung, which `summarise` reads from the campaign's directory."""
     final = final_bests(steps, rescores)
-    tests = compare(final, "search", config.bootstrap, config.alpha) + compare(
-        final, "rescored", config.bootstrap, config.alpha, seed=1)
-    return {"runs": int(len(final)), "planned": planned, "budget": int(steps["step"].max() + 1),
-            "rung": read_manifest(config.directory).get("rung", ""),
-            "rescore_seeds": list(config.rescore_seeds), "finals": final.to_dict("records"), "tests": tests,
-            "curves": best_so_far_curves(steps)[["task", "method", "calls", "median", "q25", "q75", "runs"]]
-            .to_dict("records"), "methods": describe()}
+    tests = (compare(final, "matched", config.bootstrap, config.alpha, seed=2)
+             + compare(final, "search", config.bootstrap, config.alpha)
+             + compare(final, "rescored", config.bootstrap, config.alpha, seed=1))
+    curves = {"calls": best_so_far_curves(steps), "distinct": distinct_curves(steps)}
+    return {"runs": int(len(final)), "budget": int(steps["step"].max() + 1),
+            "rescore_seeds": list(config.rescore_seeds), "alpha": config.alpha, "finals": final.to_dict("records"),
+            "spend": spend(final).to_dict("records"), "k": final.groupby("task", sort=False)["k"].first().to_dict(),
+            "tests": tests, "curves": {axis: table[["task", "method", axis, "median", "q25", "q75", "runs"]]
+                                       .to_dict("records") for axis, table in curves.items()},
+            "methods": describe()}
 
 
 def plot(summary: dict, path: str | Path) -> Path:
-    """Figs. 8.1 and 8.2 of the campaign: median best so far over seeds, band = interquartile range."""
+    """Figs. 8.1 and 8.2 of the campaign, each task on both axes (against objective calls, the thesis's, and
+    against distinct designs evaluated, where the dotted line is the matched comparison's K): median best so far
+    over seeds, band = interquartile range. A method's distinct-design curve ends at its shortest run."""
     import matplotlib.pyplot as plt
 
-    stats = pd.DataFrame(summary["curves"])
-    tasks = list(dict.fromkeys(stats["task"])) if len(stats) else ["flat"]
-    fig, axes = plt.subplots(len(GROUPS), len(tasks), figsize=(4.5 * len(tasks), 3.2 * len(GROUPS)), squeeze=False)
+    curves = {axis: pd.DataFrame(records) for axis, records in summary["curves"].items()}
+    tasks = list(dict.fromkeys(curves["calls"]["task"])) if len(curves["calls"]) else ["flat"]
+    panels = [(task, axis) for task in tasks for axis in AXES]
+    fig, axes = plt.subplots(len(GROUPS), len(panels), figsize=(4.5 * len(panels), 3.2 * len(GROUPS)),
+                             squeeze=False)
     for row, (group, title) in enumerate(GROUPS.items()):
-        for ax, task in zip(axes[row], tasks, strict=True):
-            draw_curves(ax, stats, task, group_titles(summary["methods"], group), "median", "q25", "q75")
-            ax.set_title(f"{title}: {task}")
-            ax.set_xlabel("objective calls")
+        for ax, (task, axis) in zip(axes[row], panels, strict=True):
+            draw_curves(ax, curves[axis], task, group_titles(summary["methods"], group), "median", "q25", "q75",
+                        axis)
+            if axis == "distinct" and task in summary["k"]:
+                ax.axvline(summary["k"][task], color="grey", linestyle=":", label=f"K = {summary['k'][task]}")
+            unit, label = AXES[axis]
+            ax.set_title(f"{title}: {task}, per {unit}")
+            ax.set_xlabel(label)
             ax.set_ylabel("best reward so far")
             if ax.get_legend_handles_labels()[0]:
                 ax.legend(fontsize=8)

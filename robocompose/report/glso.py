@@ -173,12 +173,20 @@ def _median_iqr(values: pd.Series) -> str:
     return f"{v.median():.3f} [{v.quantile(0.25):.3f}, {v.quantile(0.75):.3f}] (n={len(v)})"
 
 
-def campaign_verdicts(tests: pd.DataFrame, alpha: float, methods: list[dict]) -> list[str]:
-    """The thesis's claims, from the campaign's re-scored finals only: a claim holds when GLSO beats every
-    method of its family (`methods`: the stage's record of the registry) after Holm correction."""
+# What a test compared, and the spend behind it: the columns of the summary's `spend` holding the median calls
+# and distinct designs per run at that point.
+COMPARED = {"matched": ("best so far at K distinct designs", "calls_at_k", "k"),
+            "search": ("final best at the search rung", "calls", "distinct"),
+            "rescored": ("final best, re-scored", "calls", "distinct")}
+
+
+def campaign_verdicts(tests: pd.DataFrame, on: str, alpha: float, methods: list[dict]) -> list[str]:
+    """The thesis's claims, from the campaign's tests `on` one comparison (a key of `COMPARED`): a claim holds
+    when GLSO beats every method of its family (`methods`: the stage's record of the registry) after Holm
+    correction."""
     titles = group_titles(methods)
     out = []
-    for (task, family), group in tests[tests["on"] == "rescored"].groupby(["task", "family"], sort=False):
+    for (task, family), group in tests[tests["on"] == on].groupby(["task", "family"], sort=False):
         claim = (f"GLSO best of {GROUPS[family]}" if family == "baselines"
                  else f"all ablations worse than GLSO ({GROUPS[family]})")
         missing = [t for m, t in group_titles(methods, family).items()
@@ -193,8 +201,28 @@ def campaign_verdicts(tests: pd.DataFrame, alpha: float, methods: list[dict]) ->
     return out
 
 
+def _tests_table(tests: pd.DataFrame, spend: pd.DataFrame, titles: dict[str, str], on: list[str]) -> list[str]:
+    """The tests `on` these comparisons (keys of `COMPARED`), each beside what both sides spent to get there."""
+    def spent(task: str, method: str, column: str) -> str:
+        return f"{spend.loc[(task, REFERENCE), column]:g} / {spend.loc[(task, method), column]:g}"
+
+    rows = []
+    for r in tests[tests["on"].isin(on)].itertuples():
+        compared, calls, distinct = COMPARED[r.on]
+        rows.append((r.task, compared, titles[r.method], f"{r.n_glso} / {r.n_other}",
+                     f"{spent(r.task, r.method, calls)} calls, {spent(r.task, r.method, distinct)} distinct",
+                     r.p, r.p_holm, f"{r.median_difference:+.3f} [{r.ci_low:+.3f}, {r.ci_high:+.3f}]"))
+    return ["GLSO against each method: one-sided Mann-Whitney U (GLSO greater), Holm-corrected within its family; "
+            "median difference GLSO - method with a bootstrap 95% interval.", "",
+            *markdown_table(["task", "on", "method", "n (GLSO / other)", "spend per run, median (GLSO / other)", "p",
+                             "p (Holm)", "median difference [95% CI]"], rows,
+                            formats=[None] * 5 + ["{:.3f}", "{:.3f}"])]
+
+
 def campaign_section(reports_dir: Path) -> str:
-    """The GLSO campaign (stage `glso_campaign`): the only source of verdicts on the thesis's search claims."""
+    """The GLSO campaign (stage `glso_campaign`): the only source of verdicts on the thesis's search claims, per
+    distinct design evaluated first (a repeat is a call but no new design), then per objective call (the
+    thesis's axis)."""
     from robocompose.io.atomic import read_json
 
     title = "### The GLSO campaign: seeds, statistics, re-scored at the thesis setting"
@@ -207,32 +235,49 @@ def campaign_section(reports_dir: Path) -> str:
                 "`robocompose glso-campaign run`, README). The searches above are a smoke run: the thesis's "
                 "claims get no verdict from them.\n")
     finals, tests = pd.DataFrame(summary["finals"]), pd.DataFrame(summary["tests"])
+    spend = pd.DataFrame(summary["spend"]).set_index(["task", "method"])
     methods = method_titles(summary, set(finals["method"]), path)
     titles = group_titles(methods)
-    tasks = list(dict.fromkeys(finals["task"]))
+    ran = spend.loc[[(task, method) for task in dict.fromkeys(finals["task"]) for method in titles
+                     if (task, method) in spend.index]].reset_index()
+    runs = finals.groupby(["task", "method"])
+    k = ", ".join(f"{task}: K = {value}" for task, value in summary["k"].items())
     rung = f" at rung {summary['rung']} (the fidelity search rule's)" if summary.get("rung") else ""
     partial = (" The campaign is partial: every number and verdict below is interim until all planned runs are "
                "committed." if summary["runs"] < summary["planned"] else "")
     lines = [title, "", f"{summary['runs']} of {summary['planned']} planned runs committed, "
              f"{summary['budget']} objective calls each{rung}; each run's best simulated design re-scored at the "
              f"thesis setting with controller seeds {summary['rescore_seeds']} (never used in search).{partial}", "",
-             "![GLSO campaign](plots/glso_campaign.png)", ""]
-    table = []
-    for task in tasks:
-        for method in [m for m in titles if m in set(finals["method"])]:
-            rows = finals[(finals["task"] == task) & (finals["method"] == method)]
-            repeats = f"{rows['repeats'].median():.0f}" if "repeats" in rows else "-"
-            table.append((titles[method], task, _median_iqr(rows["search"]), _median_iqr(rows["rescored"]), repeats))
-    lines += markdown_table(["method", "task", "final best at the search rung, median [IQR]", "re-scored, median [IQR]",
-                             "calls on a repeated design, median"], table, align="llllr")
+             "A call that sends a design the run sent before (a repeat) is served from the cache: a call all the "
+             "same, but no new design, and the methods repeat very differently. So the methods are compared first "
+             "per distinct design evaluated (the figure's right panels; a method's curve ends at its shortest "
+             "run), then per objective call, the thesis's axis (left panels).", "",
+             "![GLSO campaign](plots/glso_campaign.png)", "",
+             f"#### Per distinct design (primary): every run at K distinct designs ({k})", "",
+             "K is the fewest distinct designs any run of the task evaluated, so every run has a value there; best "
+             "so far at the search rung (re-scores exist only for the final bests).", ""]
+    lines += markdown_table(
+        ["method", "task", "distinct designs per run, median [IQR]", "K", "calls to reach K, median",
+         "best so far at K distinct designs, median [IQR]"],
+        [(titles[r.method], r.task, f"{r.distinct:g} [{r.distinct_q25:g}, {r.distinct_q75:g}]", r.k,
+          f"{r.calls_at_k:g}", _median_iqr(runs.get_group((r.task, r.method))["matched"])) for r in ran.itertuples()],
+        align="llrrrl")
+    if not tests.empty:
+        lines += ["", *_tests_table(tests, spend, titles, ["matched"]), "",
+                  "Verdicts at K distinct designs (search rung):", "",
+                  *campaign_verdicts(tests, "matched", summary["alpha"], methods)]
+    lines += ["", f"#### Per objective call (the thesis's axis): every run at {summary['budget']} calls", ""]
+    lines += markdown_table(
+        ["method", "task", "calls per run", "distinct designs per run, median", "final best at the search rung, "
+         "median [IQR]", "re-scored, median [IQR]"],
+        [(titles[r.method], r.task, f"{r.calls:g}", f"{r.distinct:g}",
+          *(_median_iqr(runs.get_group((r.task, r.method))[column]) for column in ("search", "rescored")))
+         for r in ran.itertuples()], align="llrrll")
     if tests.empty:
-        alone = "Only GLSO has runs yet" if "glso" in set(finals["method"]) else "No GLSO runs yet"
+        alone = "Only GLSO has runs yet" if REFERENCE in set(finals["method"]) else "No GLSO runs yet"
         return "\n".join(lines + ["", f"{alone}: nothing to compare.", ""])
-    lines += ["", "GLSO against each method: one-sided Mann-Whitney U (GLSO greater), Holm-corrected within its "
-              "family; median difference GLSO - method with a bootstrap 95% interval.", ""]
-    lines += markdown_table(["task", "on", "method", "n (GLSO / other)", "p", "p (Holm)", "median difference [95% CI]"],
-                            [(r.task, r.on, titles[r.method], f"{r.n_glso} / {r.n_other}", r.p, r.p_holm,
-                              f"{r.median_difference:+.3f} [{r.ci_low:+.3f}, {r.ci_high:+.3f}]")
-                             for r in tests.itertuples()], formats=[None] * 4 + ["{:.3f}", "{:.3f}"])
-    lines += ["", "Verdicts (re-scored finals):", "", *campaign_verdicts(tests, 0.05, methods), ""]
+    lines += ["", *_tests_table(tests, spend, titles, ["search", "rescored"]), "",
+              f"Verdicts (re-scored finals, {summary['budget']} calls):", "",
+              *campaign_verdicts(tests, "rescored", summary["alpha"], methods), ""]
     return "\n".join(lines)
+

@@ -5,6 +5,7 @@ bookkeeping), not physics; one test in test_runs.py goes through the real evalua
 
 from pathlib import Path
 
+import pandas as pd
 import pytest
 import torch
 
@@ -21,6 +22,21 @@ def fake_objective(tree) -> dict:
         return {"reward": None, "status": "self_collision", "sim_steps": 0, "seconds": 0.0}
     return {"reward": 4.0 + 0.05 * tree.n_joints - 0.01 * tree.n_links, "status": "ok", "sim_steps": 1,
             "seconds": 0.0}
+
+
+def hand_steps(runs: dict[tuple[str, int], list[tuple[str, float]]]) -> pd.DataFrame:
+    """A step table of hand-made runs on flat: (method, seed) -> each call's (design id, reward), every design
+    simulated; a design the run sent before is a repeat, and best so far as `runs.py` records it."""
+    rows = []
+    for (method, seed), calls in runs.items():
+        seen, best = set(), float("-inf")
+        for step, (design, reward) in enumerate(calls):
+            best = max(best, reward)
+            rows.append({"task": "flat", "method": method, "seed": seed, "step": step, "design_id": design,
+                         "score": reward, "reward": reward, "status": "ok", "repeat": design in seen,
+                         "best_so_far": best})
+            seen.add(design)
+    return pd.DataFrame(rows)
 
 
 @pytest.fixture(scope="session")

@@ -5,6 +5,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from PIL import Image
 
 from robocompose.evaluation import fidelity
 from robocompose.evaluation.evaluate import EvaluationConfig, evaluate
@@ -13,6 +14,7 @@ from robocompose.glso.campaign import CampaignConfig, compare, run_specs
 from robocompose.glso.runs import GLSOConfig
 from robocompose.grammar.tree import DesignTree
 from robocompose.io.errors import ArtifactError, InputError
+from tests.glso.conftest import hand_steps
 
 
 def test_runs_go_seed_major_so_a_partial_campaign_compares_every_method():
@@ -61,6 +63,58 @@ def test_the_campaign_runs_at_its_own_rung_whatever_glso_rung_says(tmp_path, mon
 def _finals(values: dict[str, list[float]]) -> pd.DataFrame:
     return pd.DataFrame([{"task": "flat", "method": m, "seed": i, "search": v, "rescored": v - 1.0}
                          for m, vs in values.items() for i, v in enumerate(vs)])
+
+
+NO_RESCORES = pd.DataFrame(columns=list(campaign.RESCORE_COLUMNS))
+
+
+def test_the_distinct_axis_is_the_calls_axis_without_the_repeats_and_k_is_the_fewest_any_run_reached():
+    steps = hand_steps({("glso", 0): [("a", 4.0), ("b", 4.5), ("a", 4.0), ("c", 4.8), ("b", 4.5), ("d", 4.9)],
+                        ("random", 0): [("p", 3.0), ("q", 3.5), ("r", 4.0), ("s", 4.2), ("t", 5.0), ("u", 5.1)],
+                        ("random", 1): [("p", 3.0), ("p", 3.0), ("p", 3.0), ("q", 3.5), ("p", 3.0), ("r", 4.1)]})
+    new = campaign.by_distinct_designs(steps)
+    glso = new[new["method"] == "glso"]
+    assert list(glso["distinct"]) == [1, 2, 3, 4] and list(glso["step"]) == [0, 1, 3, 5]
+    assert glso.drop(columns="distinct").equals(steps[(steps["method"] == "glso") & ~steps["repeat"]])
+    assert list(glso["best_so_far"]) == [4.0, 4.5, 4.8, 4.9]
+
+    final = campaign.final_bests(steps, NO_RESCORES).set_index(["method", "seed"])
+    assert list(final["calls"]) == [6, 6, 6] and list(final["distinct"]) == [4, 6, 3]
+    assert set(final["k"]) == {3}  # random seed 1's 3 distinct designs: every run has a value there
+    # After 3 distinct designs, not 3 calls (GLSO's best after 3 calls is 4.5): GLSO's 4th call, random seed 1's 6th
+    assert list(final["matched"]) == [4.8, 4.0, 4.1] and list(final["calls_at_k"]) == [4, 3, 6]
+    assert list(final["search"]) == [4.9, 5.1, 4.1]
+
+    spent = campaign.spend(final.reset_index()).set_index("method")
+    assert spent.loc["random", ["runs", "calls", "distinct", "distinct_q25", "distinct_q75", "calls_at_k"]].tolist() \
+        == [2, 6, 4.5, 3.75, 5.25, 4.5]
+    curves = campaign.distinct_curves(steps)
+    random = curves[curves["method"] == "random"]  # ends at its shortest run: past it, one seed would be the median
+    assert list(random["distinct"]) == [1, 2, 3] and set(random["runs"]) == {2}
+    assert list(random["median"]) == [3.0, 3.5, 4.05]
+    assert list(curves[curves["method"] == "glso"]["median"]) == [4.0, 4.5, 4.8, 4.9]
+
+
+def test_the_matched_comparison_is_at_k_distinct_designs_beside_the_calls_comparison(tmp_path):
+    """GLSO sends one good design four times; random search four designs, the last its best: per call random
+    search wins, per distinct design GLSO does."""
+    runs = {("glso", i): [("g", 5.0 + i / 100)] * 4 for i in range(5)}
+    runs |= {("random", i): [(f"r{i}{j}", 4.0 + i / 100 + j) for j in range(4)] for i in range(5)}
+    summary = campaign.statistics(hand_steps(runs), NO_RESCORES, CampaignConfig(bootstrap=100))
+    assert summary["k"] == {"flat": 1} and summary["alpha"] == 0.05
+    tests = {r["on"]: r for r in summary["tests"]}
+    assert set(tests) == {"matched", "search"}  # nothing re-scored: no re-scored comparison
+    assert tests["matched"]["p"] == pytest.approx(1 / math.comb(10, 5)) and tests["matched"]["glso_better"]
+    assert tests["matched"]["median_difference"] == pytest.approx(1.0)
+    assert tests["search"]["p"] > 0.5 and not tests["search"]["glso_better"]
+    assert tests["search"]["median_difference"] == pytest.approx(-2.0)
+    assert [(s["method"], s["calls"], s["distinct"], s["calls_at_k"]) for s in summary["spend"]] == [
+        ("glso", 4, 1, 1), ("random", 4, 4, 1)]
+    assert set(summary["curves"]) == {"calls", "distinct"}
+    assert max(c["distinct"] for c in summary["curves"]["distinct"]) == 4
+    path = campaign.plot(summary, tmp_path / "plot.png")
+    width, height = Image.open(path).size
+    assert width > height  # a task drawn on both axes: two panels per figure row
 
 
 def test_glso_is_called_better_only_when_the_test_after_correction_says_so():
@@ -131,10 +185,11 @@ def test_a_tiny_campaign_runs_resumes_rescores_and_summarises(tmp_path, monkeypa
         campaign.run_campaign(config, GLSOConfig(), EvaluationConfig(), "tiny")
     finals = pd.DataFrame(summary["finals"])
     assert (finals["search"] == steps.groupby("method")["best_so_far"].last().loc[finals["method"]].values).all()
-    for final in finals.itertuples():  # the best design's id (not the last call's), and the run's repeat count
+    for final in finals.itertuples():  # the best design's id (not the last call's), and the run's spend
         run = steps[steps["method"] == final.method]
         assert final.design_id == campaign.best_design(run)["design_id"]
-        assert final.repeats == int(run["repeat"].sum())
+        assert (final.calls, final.distinct) == (3, int((~run["repeat"]).sum()))
+    assert summary["k"] == {"flat": finals["distinct"].min()}
     assert np.allclose(finals.set_index("method").loc["random", "rescored"],
                        rescores[rescores["method"] == "random"]["reward"].mean())
     assert summary["tests"] == []  # no GLSO runs: nothing to compare

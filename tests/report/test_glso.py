@@ -1,4 +1,5 @@
 import json
+from pathlib import Path
 
 import pandas as pd
 import pytest
@@ -8,6 +9,7 @@ from robocompose.glso import best_so_far_curves
 from robocompose.glso.registry import describe
 from robocompose.io.errors import ArtifactError
 from robocompose.report.glso import claims, section
+from tests.glso.conftest import hand_steps
 
 METHODS = describe()  # the registry's record, as the stages write it into glso.json and glso_campaign.json
 
@@ -83,41 +85,59 @@ def test_section_draws_both_figures_the_table_and_the_best_design(tmp_path):
            f"{discarded['random']:.1f} |" in text and "The accounting rule, one for every method" in text
 
 
-def test_the_campaign_section_gives_verdicts_only_from_the_corrected_tests(tmp_path):
-    from robocompose.glso.campaign import compare
+def _campaign(reports: Path, finals: dict[str, list[float]], planned: int, **recorded) -> None:
+    """reports/metrics/glso_campaign.json as the stage writes it, of runs with these final bests (method -> one
+    per seed), each re-scored at its final best: GLSO sends one design four times, every other method four
+    designs, 1.0 below its final best first, its final best last."""
+    from robocompose.glso import campaign
+
+    runs = {(m, i): [("g", v)] * 4 if m == "glso" else [(f"{m}{i}{j}", v - 1.0 + j / 3) for j in range(4)]
+            for m, vs in finals.items() for i, v in enumerate(vs)}
+    rescores = pd.DataFrame([{"task": "flat", "method": m, "seed": i, "rescore_seed": 101, "reward": v, "status": "ok"}
+                             for (m, i), calls in runs.items() for v in [calls[-1][1]]])
+    summary = campaign.statistics(hand_steps(runs), rescores, campaign.CampaignConfig(bootstrap=100))
+    (reports / "metrics").mkdir(exist_ok=True)
+    (reports / "metrics" / "glso_campaign.json").write_text(json.dumps(
+        {k: v for k, v in summary.items() if k != "curves"} | {"planned": planned, **recorded}))
+
+
+def test_the_campaign_section_leads_with_distinct_designs_and_gives_verdicts_only_from_the_corrected_tests(tmp_path):
     from robocompose.report.glso import campaign_section
 
     assert "Not run yet" in campaign_section(tmp_path)
     (tmp_path / "metrics").mkdir()
     (tmp_path / "metrics" / "glso_campaign.json").write_text(json.dumps({"runs": 0, "planned": 31}))
     assert "0 of 31 planned" in campaign_section(tmp_path)
-    values = {"glso": [5.0, 5.1, 5.2, 5.3, 5.4], "random": [4.0, 4.1, 4.2, 4.3, 4.4],
-              "mcts": [4.9, 5.5, 5.0, 5.6, 5.05], "glso_nopred": [4.0, 4.1, 4.2]}
-    finals = pd.DataFrame([{"task": "flat", "method": m, "seed": i, "search": v, "rescored": v}
-                           for m, vs in values.items() for i, v in enumerate(vs)])
-    tests = compare(finals, "search", 100, 0.05) + compare(finals, "rescored", 100, 0.05)
-    (tmp_path / "metrics" / "glso_campaign.json").write_text(json.dumps(
-        {"runs": 18, "planned": 31, "budget": 200, "rescore_seeds": [101, 102], "finals": finals.to_dict("records"),
-         "tests": tests, "methods": METHODS}))
+    finals = {"glso": [5.0, 5.1, 5.2, 5.3, 5.4], "random": [4.0, 4.1, 4.2, 4.3, 4.4], "ga": [4.0, 4.1, 4.2, 4.3, 4.4],
+              "mcts": [4.9, 5.5, 5.0, 5.6, 5.05], "ghs": [4.0, 4.1, 4.2, 4.3, 4.4], "glso_nopred": [4.0, 4.1, 4.2],
+              "glso_nogram": [4.0, 4.1, 4.2]}
+    _campaign(tmp_path, finals, planned=40)
     text = campaign_section(tmp_path)
-    assert "18 of 31 planned runs committed, 200 objective calls each; each" in text
+    assert "31 of 40 planned runs committed, 4 objective calls each; each" in text
     assert "The campaign is partial: every number and verdict below is interim" in text
-    assert "| GLSO | flat | 5.200 [5.100, 5.300] (n=5) |" in text
-    assert "GLSO best of Fig. 8.1: **not shown**" in text  # MCTS is not beaten
-    assert "GLSO_nopred p = 0.018) (no runs yet of GLSO_nogram)" in text  # significant, but one ablation only
-    assert "all ablations worse than GLSO (Fig. 8.2): **not shown**" in text
+    distinct, calls = text.index("#### Per distinct design (primary)"), text.index("#### Per objective call")
+    assert distinct < calls and "every run at K distinct designs (flat: K = 1)" in text
+    # Per distinct design: GLSO's one design against each method's first, 1.0 below its final best
+    assert "| GLSO | flat | 1 [1, 1] | 1 | 1 | 5.200 [5.100, 5.300] (n=5) |" in text
+    assert "| MCTS | flat | 4 [4, 4] | 1 | 1 | 4.050 [4.000, 4.500] (n=5) |" in text
+    assert "| flat | best so far at K distinct designs | MCTS | 5 / 5 | 1 / 1 calls, 1 / 1 distinct |" in text
+    verdicts_k = text[distinct:calls]
+    assert "GLSO best of Fig. 8.1: **holds** (Random p = " in verdicts_k
+    assert "all ablations worse than GLSO (Fig. 8.2): **holds**" in verdicts_k
+    # Per call: the final bests, where MCTS is not beaten
+    assert "| GLSO | flat | 4 | 1 | 5.200 [5.100, 5.300] (n=5) | 5.200 [5.100, 5.300] (n=5) |" in text
+    assert "| flat | final best, re-scored | MCTS | 5 / 5 | 4 / 4 calls, 1 / 4 distinct |" in text
+    verdicts_calls = text[text.index("Verdicts (re-scored finals, 4 calls):"):]
+    assert "GLSO best of Fig. 8.1: **not shown**" in verdicts_calls
+    assert "all ablations worse than GLSO (Fig. 8.2): **holds**" in verdicts_calls
     assert "cannot show it" not in text  # 5 vs 5 and 5 vs 3 seeds can reach significance
-    few = finals[(finals["method"] != "glso") | (finals["seed"] < 3)]  # 3 GLSO seeds: 3 vs 3 floors at 0.05
-    tests = compare(few, "rescored", 100, 0.05)
-    (tmp_path / "metrics" / "glso_campaign.json").write_text(json.dumps(
-        {"runs": 16, "planned": 31, "budget": 200, "rescore_seeds": [101, 102], "finals": few.to_dict("records"),
-         "tests": tests, "methods": METHODS}))
-    assert "(with these seed counts the family's largest Holm-adjusted p is at least 0.050, not below 0.05: " \
+
+    _campaign(tmp_path, {m: v for m, v in finals.items() if m != "glso_nogram"}, planned=40)
+    assert "GLSO_nopred p = 0.018) (no runs yet of GLSO_nogram)" in campaign_section(tmp_path)
+    _campaign(tmp_path, finals | {"glso": finals["glso"][:3]}, planned=40)  # 3 vs 3 floors at 0.05, Holm at 0.1
+    assert "(with these seed counts the family's largest Holm-adjusted p is at least 0.100, not below 0.05: " \
            "this campaign cannot show it)" in campaign_section(tmp_path)
-    alone = finals[finals["method"] == "glso"]
-    (tmp_path / "metrics" / "glso_campaign.json").write_text(json.dumps(
-        {"runs": 5, "planned": 5, "budget": 200, "rung": "s16_h16_e48", "rescore_seeds": [101, 102],
-         "finals": alone.to_dict("records"), "tests": [], "methods": METHODS}))
+    _campaign(tmp_path, {"glso": finals["glso"]}, planned=5, rung="s16_h16_e48")
     text = campaign_section(tmp_path)
-    assert "200 objective calls each at rung s16_h16_e48 (the fidelity search rule's)" in text
+    assert "4 objective calls each at rung s16_h16_e48 (the fidelity search rule's)" in text
     assert "partial" not in text and "Only GLSO has runs yet: nothing to compare." in text
