@@ -1,8 +1,9 @@
 """DVC stage `glso_campaign`: the seeded GLSO campaign's statistics from its committed runs.
 
-params (glso_campaign) + measured/glso_campaign/ (finished runs, re-scores) -> reports/metrics/glso_campaign.json,
-reports/plots/glso_campaign.png. With `run: false` (default profile) it only summarises what is committed
-(seconds); with `run: true` (paper profile) it first runs every missing run and re-score (core-hours,
+params (glso_campaign) + measured/glso_campaign/ (finished runs, re-scores, held-out scores) ->
+reports/metrics/glso_campaign.json, reports/plots/glso_campaign.png. With `run: false` (default profile) it only
+summarises what is committed (seconds; it never simulates, missing held-out pieces are reported as missing);
+with `run: true` (paper profile) it first runs every missing run, re-score and held-out piece (core-hours,
 resumable, over `compute:`).
 """
 

@@ -196,6 +196,10 @@ PARAMS = [
          stage="glso_campaign", change="doc['glso_campaign']['bootstrap'] = 0"),
     Case("glso_campaign: bootstrap negative", ("glso_campaign.bootstrap: expected an integer >= 1", "found -1"),
          stage="glso_campaign", change="doc['glso_campaign']['bootstrap'] = -1"),
+    Case("glso_campaign: a held-out seed is a re-score seed", (
+        "params.yaml: glso_campaign.heldout_seeds: expected controller seeds disjoint from rescore_seeds [101, 102]",
+        "found [201, 202, 203, 101]"), stage="glso_campaign",
+         change="doc['glso_campaign']['heldout_seeds'] = [201, 202, 203, 101]"),
     Case("glso_campaign: missing directory", ("nowhere: not a directory (glso_campaign.directory",),
          stage="glso_campaign", change="doc['glso_campaign']['directory'] = 'nowhere'"),
     Case("mppi: temperature NaN", ("params.yaml: evaluation.mppi.temperature: expected a finite number > 0, "

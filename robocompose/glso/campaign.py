@@ -2,8 +2,9 @@
 seed) run of `budget` objective calls at the campaign's evaluator rung, each run's final best re-scored at the
 thesis setting with controller seeds the search never used, and the statistics a reviewer asks for.
 
-    robocompose glso-campaign run [--address tcp://SCHEDULER:8786]   # hours: resumable, a table per finished run
-    robocompose glso-campaign summarise                              # the statistics (stage glso_campaign)
+    robocompose glso-campaign run [--address tcp://SCHEDULER:8786]       # hours: resumable, a table per finished run
+    robocompose glso-campaign heldout [--address tcp://SCHEDULER:8786]   # the held-out pieces only (resumable)
+    robocompose glso-campaign summarise                                  # the statistics (stage glso_campaign)
 
 Runs: GLSO's loop as the thesis's (`init` random points, then BO steps), the GA at the thesis's population,
 every method under the accounting rule of `runs.py`. A finished run's step table is written to
@@ -13,7 +14,19 @@ summarised by the default pipeline and survives the machine); a run in progress 
 already compares every method. Each finished run's best simulated design is then re-scored at the thesis
 setting once per `rescore_seeds` into `<directory>/rescores.csv` (one appended line per score), and
 `<directory>/campaign.json` records the evaluator every run used (rung and settings hash per task: a campaign
-does not mix evaluators). The directory holds nothing else: it is the summarising stage's one dependency.
+does not mix evaluators).
+
+Held-out scoring. A run scores every call once, with one controller seed (`evaluation.seed`), and its best is
+the maximum over those noisy scores: inflated by the winner's curse (the seed-to-seed sd at the campaign rung,
+~0.10, exceeds the gaps between methods). So each finished run's `heldout_top` best distinct designs by search
+score (`top_designs`: rank 1 is the run's best; equal scores rank by first call) are re-measured at the runs'
+rung (the manifest's) with each of `heldout_seeds`, controller seeds no run searched with and no re-score uses
+(the config refuses an overlap with `rescore_seeds`, the measurement one with `evaluation.seed`): one line per
+(run, design, seed) in `<directory>/heldout.csv`, appended as each evaluation finishes, so a killed measurement
+resumes where it stopped. A run's held-out best is the design of the highest held-out mean (`heldout_bests`;
+once all its pieces are there, NaN before), re-scored at the thesis setting like the search best (rescores.csv
+lines are per run and design). `run` measures the pieces after the runs; `heldout` measures only them. The
+directory holds nothing else: it is the summarising stage's one dependency.
 
 Statistics (`summarise`), per task, on two axes. A call that sends a design the run sent before (a repeat) is
 served from the cache: a call all the same, but no new design, and methods differ widely in how many calls they
@@ -22,7 +35,9 @@ calls (the thesis's): best-so-far curves on both axes as median and interquartil
 distinct designs each run evaluated; the best so far at K distinct designs, K the fewest any run of the task
 reached (so every run has a value: the matched comparison, at the search rung, as re-scores exist only for the
 final bests); the final best at the search rung and re-scored (mean over the re-score seeds; NaN when a
-re-score cannot be simulated). On each of the matched, final and re-scored bests: one-sided Mann-Whitney U of
+re-score cannot be simulated); per run, the held-out mean of its search best, the inflation (search best less
+that) and the held-out best, per method the median inflation beside the evaluator's seed-to-seed sd on the
+measured designs. On each of the matched, final, re-scored and held-out bests: one-sided Mann-Whitney U of
 GLSO > each other method, Holm-corrected within a family (the baselines of Fig. 8.1; the ablations of Fig.
 8.2); the median difference GLSO - method with a percentile bootstrap 95% interval. With n seeds per side the
 smallest one-sided p is 1 / C(n + m, n) (5 vs 5: 0.004; 3 vs 5: 0.018), so small campaigns cannot reach
@@ -42,7 +57,7 @@ import pandas as pd
 
 from robocompose.evaluation.evaluate import OK, EvaluationConfig, evaluate, objective
 from robocompose.evaluation.fidelity import THESIS, append_row, read_rows, rung_config
-from robocompose.evaluation.manifest import claim_directory, read_manifest
+from robocompose.evaluation.manifest import MANIFEST_FILE, claim_directory, read_manifest
 from robocompose.fanout.cache import EvaluationCache
 from robocompose.glso import GROUPS, best_designs, best_so_far_curves, draw_curves, group_titles
 from robocompose.glso.registry import METHODS, describe, family
@@ -56,6 +71,13 @@ from robocompose.tasks.terrains import TASKS
 
 RESCORE_COLUMNS = ("task", "method", "seed", "design_id", "rescore_seed", "reward", "status", "objective")
 RESCORES_FILE = "rescores.csv"
+# A held-out line: a design of a run's top `heldout_top` (`rank` 1 = the run's best) at one held-out seed
+HELDOUT_COLUMNS = ("task", "method", "seed", "rank", "design_id", "heldout_seed", "reward", "status", "objective")
+HELDOUT_FILE = "heldout.csv"
+LOGS = {RESCORES_FILE: (RESCORE_COLUMNS, "rescore_seed"), HELDOUT_FILE: (HELDOUT_COLUMNS, "heldout_seed")}
+# At the campaign rung one controller seed's noise (sd ~0.10) exceeds the gaps between a run's top designs; a
+# mean over 4 seeds halves it
+MIN_HELDOUT_SEEDS = 4
 CACHE_FILE = "eval_cache.parquet"  # under `checkpoints`: not committed, it only saves time
 RUN = ["task", "method", "seed"]  # the columns that name a run in step and summary tables
 # The two axes of best so far: what a point counts (title, axis label); summaries key their curves by them.
@@ -79,6 +101,9 @@ class CampaignConfig:
     rung: str = ""  # the fidelity rung of the runs; "" = the one `evaluator_fidelity` chose by the search rule
     rescore_seeds: list[int] = field(default_factory=lambda: [101, 102])  # controller seeds of the re-scores ...
     rescore_rung: str = THESIS  # ... at this fidelity rung (the thesis setting)
+    heldout_seeds: list[int] = field(default_factory=lambda: [201, 202, 203, 204])  # controller seeds that
+    #                          re-measure at the runs' own rung ...
+    heldout_top: int = 3  # ... each run's this many best distinct designs by search score
     run: bool = False  # stage: False summarises the committed runs; True first runs what is missing
     bootstrap: int = 2000  # resamples of each median-difference interval
     alpha: float = 0.05
@@ -96,6 +121,12 @@ class CampaignConfig:
         check_field(0.0 <= self.ghs_eps_end <= 1.0, "ghs_eps_end", "a probability in [0, 1]", self.ghs_eps_end)
         check_field(bool(self.rescore_seeds), "rescore_seeds", "at least one controller seed", self.rescore_seeds)
         check_field(min(self.rescore_seeds) >= 0, "rescore_seeds", "controller seeds >= 0", self.rescore_seeds)
+        check_field(len(set(self.heldout_seeds)) == len(self.heldout_seeds) >= MIN_HELDOUT_SEEDS, "heldout_seeds",
+                    f"at least {MIN_HELDOUT_SEEDS} distinct controller seeds", self.heldout_seeds)
+        check_field(min(self.heldout_seeds) >= 0, "heldout_seeds", "controller seeds >= 0", self.heldout_seeds)
+        check_field(not set(self.heldout_seeds) & set(self.rescore_seeds), "heldout_seeds",
+                    f"controller seeds disjoint from rescore_seeds {self.rescore_seeds}", self.heldout_seeds)
+        check_field(self.heldout_top >= 1, "heldout_top", "an integer >= 1 (designs per run)", self.heldout_top)
         check_field(self.population >= 2, "population", "an integer >= 2 (the GA's)", self.population)
         check_field(self.bootstrap >= 1, "bootstrap", "an integer >= 1 (resamples per interval)", self.bootstrap)
         check_number(self.alpha, "alpha", 0.0, 1.0, "()")
@@ -192,50 +223,131 @@ def best_design(steps: pd.DataFrame) -> pd.Series | None:
     return None if best.empty else best.iloc[0]
 
 
-def read_rescores(directory: str | Path) -> pd.DataFrame:
-    """Every complete re-score row (a line cut off by a crash mid-write is ignored); a score recorded twice (two
-    workers re-scored one run at once) keeps one row, two different ones are an ArtifactError."""
-    rows = read_rows(Path(directory) / RESCORES_FILE, RESCORE_COLUMNS, key=RESCORE_COLUMNS[:3] + ("rescore_seed",),
-                     results=("design_id", "reward", "status", "objective"))
-    table = pd.DataFrame(rows, columns=list(RESCORE_COLUMNS))
-    for column in ("seed", "rescore_seed"):
+def top_designs(steps: pd.DataFrame, top: int) -> pd.DataFrame:
+    """Each run's `top` best distinct simulated designs by the score the run saw (one step row each, the call
+    that first sent it), `rank` 1 (the run's best: `best_design`'s) to `top`, equal scores ranked by first call;
+    runs in the order of `steps`."""
+    ok = steps[steps["status"] == OK].sort_values("step", kind="stable").drop_duplicates([*RUN, "design_id"])
+    ok = ok.assign(run_order=ok.groupby(RUN, sort=False).ngroup())
+    ranked = (ok.sort_values(["run_order", "score", "step"], ascending=[True, False, True])
+              .groupby(RUN, sort=False).head(top))
+    return ranked.assign(rank=ranked.groupby(RUN, sort=False).cumcount() + 1).drop(columns="run_order")
+
+
+def read_scores(directory: str | Path, log: str) -> pd.DataFrame:
+    """Every complete line of the score log `log` (`RESCORES_FILE`, `HELDOUT_FILE`) of `directory` (a line cut off
+    by a crash mid-write is ignored); a score recorded twice (two workers measured one piece at once) keeps one
+    row, two different ones are an ArtifactError."""
+    columns, seed = LOGS[log]
+    key = (*RUN, "design_id", seed)
+    rows = read_rows(Path(directory) / log, columns, key=key, results=[c for c in columns if c not in key])
+    table = pd.DataFrame(rows, columns=list(columns))
+    for column in [c for c in ("seed", seed, "rank") if c in columns]:
         table[column] = table[column].astype(int)
     for column in ("reward", "objective"):  # an empty reward is a result without one (not ok)
         table[column] = pd.to_numeric(table[column].replace("", np.nan))
     return table
 
 
-def rescore(config: CampaignConfig, steps: pd.DataFrame, spec: RunSpec) -> int:
-    """Re-score a finished run's best simulated design at `rescore_rung` (the thesis setting), once per
-    re-score seed not yet recorded; the number of new scores."""
-    directory = Path(config.directory)
-    best = best_design(steps)
-    if best is None:
-        return 0
-    done = read_rescores(directory)
-    done = done[(done["task"] == spec.task) & (done["method"] == spec.method) & (done["seed"] == spec.seed)]
-    tree = DesignTree(tuple(best["parents"]), tuple(best["tokens"]))
-    added = 0
-    for seed in config.rescore_seeds:
-        if seed in set(done["rescore_seed"]):
-            continue
-        row = evaluate(tree, spec.task, EvaluationConfig(mppi=rung_config(config.rescore_rung), seed=seed), seed)
-        append_row(directory / RESCORES_FILE, RESCORE_COLUMNS,
-                   {"task": spec.task, "method": spec.method, "seed": spec.seed, "design_id": best["design_id"],
-                    "rescore_seed": seed, "reward": row["reward"], "status": row["status"],
-                    "objective": objective(row)})
-        added += 1
-    return added
+@dataclass(frozen=True)
+class ScoreJob:
+    """One evaluation of a committed run's design at one controller seed (`evaluation.seed`) as a picklable work
+    item, and the line of the score log `log` it becomes (`line`: the line's columns besides the result)."""
+
+    tree: DesignTree
+    task: str
+    evaluation: EvaluationConfig
+    log: str
+    line: dict
 
 
-def run_campaign(config: CampaignConfig, glso: GLSOConfig, evaluation: EvaluationConfig, rung: str,
-                 executor: Any = None) -> list[Path]:
-    """Run every run whose table is missing (fanned out over `executor`), then re-score every finished run;
-    the finished tables. `evaluation` gives the settings besides MPPI; the runs use `rung`'s MPPI."""
+def score_job(job: ScoreJob) -> dict:
+    """The log line of `job`, evaluated (module level, so that it pickles to a worker)."""
+    row = evaluate(job.tree, job.task, job.evaluation, job.evaluation.seed)
+    return {**job.line, "reward": row["reward"], "status": row["status"], "objective": objective(row)}
+
+
+def score_jobs(config: CampaignConfig, designs: pd.DataFrame, seeds: list[int], evaluation: EvaluationConfig,
+               log: str, columns: tuple[str, ...] = ()) -> list[ScoreJob]:
+    """Each of `designs` (rows of runs' step tables, with `columns`: the log's further columns) at each of
+    `seeds` with `evaluation`'s settings, but for the lines `log` already holds."""
+    seed_column = LOGS[log][1]
+    key = [*RUN, "design_id"]
+    done = set(read_scores(config.directory, log)[[*key, seed_column]].itertuples(index=False, name=None))
+    jobs = []
+    for design in designs.to_dict("records"):
+        tree = DesignTree(tuple(design["parents"]), tuple(design["tokens"]))
+        line = {column: design[column] for column in (*key, *columns)}
+        jobs += [ScoreJob(tree, design["task"], dataclasses.replace(evaluation, seed=seed), log,
+                          {**line, seed_column: seed})
+                 for seed in seeds if (*(line[c] for c in key), seed) not in done]
+    return jobs
+
+
+def measure(config: CampaignConfig, jobs: list[ScoreJob], executor: Any, desc: str) -> int:
+    """Evaluate `jobs` over `executor`, each line appended to its log as its evaluation finishes, by this process
+    (so a Dask worker needs no share of the directory, and a killed measurement loses only the evaluations in
+    flight); the number of lines appended."""
     from tqdm import tqdm
 
     from robocompose.fanout.executor import Executor
 
+    executor = executor or Executor(workers=1)
+    for index, line in tqdm(executor.as_completed(score_job, jobs), total=len(jobs), desc=desc, unit="evaluation"):
+        log = jobs[index].log
+        append_row(Path(config.directory) / log, LOGS[log][0], line)
+    return len(jobs)
+
+
+def rescore(config: CampaignConfig, designs: pd.DataFrame, executor: Any = None) -> int:
+    """Re-score `designs` (rows of runs' step tables) at `rescore_rung` (the thesis setting), once per re-score
+    seed not yet recorded for the run's design; the number of new scores."""
+    thesis = EvaluationConfig(mppi=rung_config(config.rescore_rung))
+    return measure(config, score_jobs(config, designs, config.rescore_seeds, thesis, RESCORES_FILE), executor,
+                   "thesis re-scores")
+
+
+def check_heldout_seeds(config: CampaignConfig, selection_seed: int) -> None:
+    """An InputError if a held-out seed is `selection_seed`, the controller seed the runs selected their designs
+    with (`evaluation.seed`; the config itself refuses one of its `rescore_seeds`)."""
+    check_field(selection_seed not in config.heldout_seeds, "glso_campaign.heldout_seeds",
+                f"controller seeds other than evaluation.seed = {selection_seed}, the one the runs searched with",
+                config.heldout_seeds)
+
+
+def measure_heldout(config: CampaignConfig, evaluation: EvaluationConfig, executor: Any = None) -> dict[str, int]:
+    """Measure what the held-out protocol lacks for the committed runs (resumable, lines already logged are
+    skipped): each run's `heldout_top` designs (`top_designs`) at every held-out seed, at the rung of the runs'
+    manifest, then the thesis-setting re-scores of each complete run's held-out best. `evaluation` gives the
+    settings besides MPPI and the runs' controller seed. The numbers of new held-out scores and re-scores."""
+    check_heldout_seeds(config, evaluation.seed)
+    steps = read_runs(config)
+    if steps.empty:
+        return {"heldout": 0, "rescores": 0}
+    rung = read_manifest(config.directory).get("rung")
+    if not rung:
+        raise InputError(f"{Path(config.directory) / MANIFEST_FILE}: missing; the committed runs do not say their rung")
+    at_rung = dataclasses.replace(evaluation, mppi=rung_config(rung))
+    # The runs' evaluator or an InputError: a held-out score of other simulation code is no score of the run's rung
+    claim_directory(config.directory, {"rung": rung, "settings_hash": {
+        task: at_rung.settings_hash(task) for task in dict.fromkeys(steps["task"])}})
+    top = top_designs(steps, config.heldout_top)
+    jobs = score_jobs(config, top, config.heldout_seeds, at_rung, HELDOUT_FILE, ("rank",))
+    new = measure(config, jobs, executor, "held-out scores")
+    scored = heldout_scores(top, read_scores(config.directory, HELDOUT_FILE), config.heldout_seeds)
+    return {"heldout": new, "rescores": rescore(config, scored[scored["pick"]], executor)}
+
+
+def run_campaign(config: CampaignConfig, glso: GLSOConfig, evaluation: EvaluationConfig, rung: str,
+                 executor: Any = None) -> list[Path]:
+    """Run every run whose table is missing (fanned out over `executor`), then re-score every finished run's best
+    and measure its held-out pieces (`measure_heldout`); the finished tables. `evaluation` gives the settings
+    besides MPPI; the runs use `rung`'s MPPI."""
+    from tqdm import tqdm
+
+    from robocompose.fanout.executor import Executor
+
+    check_heldout_seeds(config, evaluation.seed)  # before hours of runs
     for method in config.seeds:
         path = glso.model_path(method)
         if path is not None and not path.exists():
@@ -244,10 +356,11 @@ def run_campaign(config: CampaignConfig, glso: GLSOConfig, evaluation: Evaluatio
     jobs = [job for job in campaign_jobs(config, glso, evaluation, rung) if not Path(job.table).exists()]
     executor = executor or Executor(workers=1)
     list(tqdm(executor.imap(run_job, jobs), total=len(jobs), desc="campaign runs", unit="run"))
-    finished = [spec for spec in specs if run_path(config, spec).exists()]
-    for spec in tqdm(finished, desc="re-scores", unit="run"):
-        rescore(config, read_table(run_path(config, spec), "glso_steps"), spec)
-    return [run_path(config, spec) for spec in finished]
+    steps = read_runs(config)
+    if len(steps):
+        rescore(config, top_designs(steps, 1), executor)
+        measure_heldout(config, evaluation, executor)
+    return [run_path(config, spec) for spec in specs if run_path(config, spec).exists()]
 
 
 def read_runs(config: CampaignConfig) -> pd.DataFrame:
@@ -279,12 +392,28 @@ def distinct_curves(steps: pd.DataFrame) -> pd.DataFrame:
     return curves[curves["runs"] == curves.groupby(["task", "method"])["runs"].transform("max")]
 
 
+def seed_means(scores: pd.DataFrame, seed: str) -> pd.DataFrame:
+    """Per run and design of a score log (`read_scores`; `seed` names its controller seed column): the `mean` and
+    `sd` of its rewards over the seeds (NaN if one could not be simulated: such a design has no result) and the
+    number of seeds `measured`."""
+    rewards = scores.assign(reward=np.where(scores["status"] == OK, scores["reward"], np.nan))
+    return rewards.groupby([*RUN, "design_id"]).agg(
+        mean=("reward", lambda r: r.mean(skipna=False)), sd=("reward", lambda r: r.std(skipna=False)),
+        measured=(seed, "nunique")).reset_index()
+
+
+def pooled_sd(sds: pd.Series) -> float:
+    """The root mean square of the standard deviations `sds` (NaN ignored): the evaluator's seed-to-seed sd over
+    designs measured at equally many seeds."""
+    return float(np.sqrt((sds ** 2).mean()))
+
+
 def final_bests(steps: pd.DataFrame, rescores: pd.DataFrame) -> pd.DataFrame:
     """One row per run: its final best at the search rung (`search`, and that design's `design_id`), its
-    re-scored best (mean over re-score seeds; NaN if a re-score could not be simulated or is missing), its
-    spend (`calls`; `distinct`: the designs it evaluated, its calls less its repeats), and the matched
-    comparison's point: `k`, the fewest distinct designs any run of its task evaluated, its best so far after
-    k distinct designs (`matched`) and the calls that took it (`calls_at_k`)."""
+    re-scored best (mean over the re-score lines of that run and design; NaN if one could not be simulated or
+    there are none), its spend (`calls`; `distinct`: the designs it evaluated, its calls less its repeats), and
+    the matched comparison's point: `k`, the fewest distinct designs any run of its task evaluated, its best so
+    far after k distinct designs (`matched`) and the calls that took it (`calls_at_k`)."""
     runs = steps.sort_values("step", kind="stable").groupby(RUN, sort=False)
     final = runs.agg(search=("best_so_far", "last"), calls=("step", "size")).reset_index()
     best = [best_design(group) for _, group in runs]
@@ -295,13 +424,62 @@ def final_bests(steps: pd.DataFrame, rescores: pd.DataFrame) -> pd.DataFrame:
     at_k = new.merge(final[[*RUN, "k"]], on=RUN).query("distinct == k")
     at_k = at_k.assign(matched=at_k["best_so_far"], calls_at_k=at_k["step"] + 1)
     final = final.merge(at_k[[*RUN, "matched", "calls_at_k"]], on=RUN)
-    if len(rescores):
-        scored = rescores.assign(reward=np.where(rescores["status"] == OK, rescores["reward"], np.nan))
-        mean = scored.groupby(RUN)["reward"].agg(lambda r: r.mean(skipna=False))
-        final = final.merge(mean.rename("rescored").reset_index(), on=RUN, how="left")
-    else:
-        final["rescored"] = np.nan
-    return final
+    rescored = seed_means(rescores, "rescore_seed").rename(columns={"mean": "rescored"})
+    return final.merge(rescored[[*RUN, "design_id", "rescored"]], on=[*RUN, "design_id"], how="left")
+
+
+def heldout_scores(top: pd.DataFrame, heldout: pd.DataFrame, seeds: list[int]) -> pd.DataFrame:
+    """`top` (`top_designs`) with each design's held-out `mean` and `sd` over `seeds` (`seed_means` of the held-out
+    log; lines of other seeds left out), the seeds `measured`, whether its run is `complete` (every design at every
+    seed) and whether it is the run's `pick`, its held-out best: of a complete run, the design of the highest
+    held-out mean (of equal means the better rank)."""
+    means = seed_means(heldout[heldout["heldout_seed"].isin(seeds)], "heldout_seed")
+    scored = top.reset_index(drop=True).merge(means, on=[*RUN, "design_id"], how="left")
+    scored["measured"] = scored["measured"].fillna(0).astype(int)
+    scored["complete"] = scored.groupby(RUN)["measured"].transform("min") == len(seeds)
+    picks = (scored[scored["complete"]].dropna(subset=["mean"]).sort_values(["mean", "rank"], ascending=[False, True])
+             .groupby(RUN).head(1))
+    return scored.assign(pick=scored.index.isin(picks.index))
+
+
+def heldout_bests(final: pd.DataFrame, steps: pd.DataFrame, heldout: pd.DataFrame, rescores: pd.DataFrame,
+                  config: CampaignConfig) -> pd.DataFrame:
+    """`final` (`final_bests` of `steps`) with each run's held-out protocol: whether its pieces (`heldout` lines of
+    its top designs) are `heldout_complete` (`heldout_measured` of `heldout_planned` evaluations; a run that
+    simulated nothing has none to measure) and, once they are (NaN before): the held-out mean of its search best
+    (`reported_heldout`) and its `inflation` (search best less that), the evaluator's seed-to-seed sd on its top
+    designs (`seed_sd`, pooled), its held-out best (`heldout_design`, of rank `heldout_rank`; `heldout` and
+    `heldout_sd`: its mean and sd over the held-out seeds) and that design's thesis re-score (`heldout_rescored`:
+    the mean over its `heldout_rescores` re-score lines)."""
+    scored = heldout_scores(top_designs(steps, config.heldout_top), heldout, config.heldout_seeds)
+    runs = scored.assign(sd=scored["sd"].where(scored["complete"])).groupby(RUN, sort=False)
+    progress = runs.agg(heldout_complete=("complete", "first"), heldout_measured=("measured", "sum"),
+                        heldout_planned=("rank", "size"), seed_sd=("sd", pooled_sd)).reset_index()
+    progress["heldout_planned"] *= len(config.heldout_seeds)
+    reported = scored[(scored["rank"] == 1) & scored["complete"]]
+    reported = reported.assign(reported_heldout=reported["mean"], inflation=reported["score"] - reported["mean"])
+    picks = scored[scored["pick"]].rename(columns={"design_id": "heldout_design", "rank": "heldout_rank",
+                                                   "mean": "heldout", "sd": "heldout_sd"})
+    rescored = seed_means(rescores, "rescore_seed").rename(columns={
+        "design_id": "heldout_design", "mean": "heldout_rescored", "measured": "heldout_rescores"})
+    final = (final.merge(progress, on=RUN, how="left")
+             .merge(reported[[*RUN, "reported_heldout", "inflation"]], on=RUN, how="left")
+             .merge(picks[[*RUN, "heldout_design", "heldout_rank", "heldout", "heldout_sd"]], on=RUN, how="left")
+             .merge(rescored[[*RUN, "heldout_design", "heldout_rescored", "heldout_rescores"]],
+                    on=[*RUN, "heldout_design"], how="left"))
+    final = final.fillna({"heldout_complete": True, "heldout_measured": 0, "heldout_planned": 0,
+                          "heldout_design": "", "heldout_rescores": 0})
+    return final.astype({"heldout_complete": bool, "heldout_measured": int, "heldout_planned": int,
+                         "heldout_rescores": int})
+
+
+def heldout_summary(final: pd.DataFrame) -> pd.DataFrame:
+    """Per task and method (in the order of `final`: `heldout_bests`): its runs, those with their held-out
+    pieces `complete`, and over these the median `inflation` and the evaluator's seed-to-seed sd on their top
+    designs (`seed_sd`, pooled)."""
+    runs = final.groupby(["task", "method"], sort=False)
+    return runs.agg(runs=("seed", "size"), complete=("heldout_complete", "sum"), inflation=("inflation", "median"),
+                    seed_sd=("seed_sd", pooled_sd)).reset_index()
 
 
 def spend(final: pd.DataFrame) -> pd.DataFrame:
@@ -347,7 +525,8 @@ def compare(final: pd.DataFrame, column: str, bootstrap: int, alpha: float, seed
 
 
 def summarise(config: CampaignConfig) -> dict:
-    """The campaign's statistics from the committed runs and re-scores (see the module docstring)."""
+    """The campaign's statistics from the committed runs, re-scores and held-out scores (as far as they go; see
+    the module docstring). Never simulates."""
     if not Path(config.directory).is_dir():  # a typo would report 0 runs
         raise InputError(f"{config.directory}: not a directory (glso_campaign.directory: expected the folder of "
                          "the committed runs)")
@@ -357,20 +536,32 @@ def summarise(config: CampaignConfig) -> dict:
         return {"runs": 0, "planned": planned, "finals": [], "spend": [], "k": {}, "tests": [],
                 "curves": {axis: [] for axis in AXES}, "methods": describe()}
     return {"planned": planned, "rung": read_manifest(config.directory).get("rung", ""),
-            **statistics(steps, read_rescores(config.directory), config)}
+            **statistics(steps, read_scores(config.directory, RESCORES_FILE),
+                         read_scores(config.directory, HELDOUT_FILE), config)}
 
 
-def statistics(steps: pd.DataFrame, rescores: pd.DataFrame, config: CampaignConfig) -> dict:
-    """The summary's statistics of the runs `steps` (at least one) and their `rescores`: everything but the
-    plan and the rung, which `summarise` reads from the campaign's directory."""
-    final = final_bests(steps, rescores)
+def statistics(steps: pd.DataFrame, rescores: pd.DataFrame, heldout: pd.DataFrame, config: CampaignConfig) -> dict:
+    """The summary's statistics of the runs `steps` (at least one), their `rescores` and `heldout` scores (score
+    logs, `read_scores`): everything but the plan and the rung, which `summarise` reads from the campaign's
+    directory. `heldout_progress` counts the runs whose held-out pieces are complete, the held-out evaluations
+    measured of those planned, and the thesis re-scores of held-out bests still missing."""
+    final = heldout_bests(final_bests(steps, rescores), steps, heldout, rescores, config)
     tests = (compare(final, "matched", config.bootstrap, config.alpha, seed=2)
              + compare(final, "search", config.bootstrap, config.alpha)
-             + compare(final, "rescored", config.bootstrap, config.alpha, seed=1))
+             + compare(final, "rescored", config.bootstrap, config.alpha, seed=1)
+             + compare(final, "heldout", config.bootstrap, config.alpha, seed=3))
     curves = {"calls": best_so_far_curves(steps), "distinct": distinct_curves(steps)}
+    picked = final["heldout_design"] != ""
+    missing = (len(config.rescore_seeds) - final.loc[picked, "heldout_rescores"]).clip(lower=0)
     return {"runs": int(len(final)), "budget": int(steps["step"].max() + 1),
             "rescore_seeds": list(config.rescore_seeds), "alpha": config.alpha, "finals": final.to_dict("records"),
             "spend": spend(final).to_dict("records"), "k": final.groupby("task", sort=False)["k"].first().to_dict(),
+            "heldout_seeds": list(config.heldout_seeds), "heldout_top": config.heldout_top,
+            "heldout": heldout_summary(final).to_dict("records"),
+            "heldout_progress": {"runs": int(len(final)), "complete": int(final["heldout_complete"].sum()),
+                                 "evaluations": int(final["heldout_measured"].sum()),
+                                 "planned": int(final["heldout_planned"].sum()),
+                                 "rescores_missing": int(missing.sum())},
             "tests": tests, "curves": {axis: table[["task", "method", axis, "median", "q25", "q75", "runs"]]
                                        .to_dict("records") for axis, table in curves.items()},
             "methods": describe()}

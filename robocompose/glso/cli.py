@@ -30,12 +30,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     glso.set_defaults(handler=_glso)
     campaign = subparsers.add_parser("glso-campaign", help="the seeded GLSO campaign: run what is missing (hours, "
                                      "resumable) or summarise the committed runs")
-    campaign.add_argument("action", choices=("run", "summarise"),
-                          help="run: every missing run, then the re-scores; summarise: the statistics as JSON")
+    campaign.add_argument("action", choices=("run", "heldout", "summarise"),
+                          help="run: every missing run, then the re-scores and held-out pieces; heldout: only the "
+                               "held-out pieces of the committed runs (each run's top designs at fresh seeds, the "
+                               "thesis re-scores of its held-out best); summarise: the statistics as JSON")
     campaign.add_argument("--params", default="params.yaml",
                           help="params file (sections glso_campaign, glso, evaluation, compute)")
     campaign.add_argument("--rung", default=None, help="the fidelity rung of the runs (default: glso_campaign.rung, "
-                                                       "else the one the evaluator fidelity rule chose)")
+                                                       "else the one the evaluator fidelity rule chose; heldout "
+                                                       "measures at the committed runs' rung, campaign.json's)")
     add_compute_arguments(campaign)
     campaign.set_defaults(handler=_campaign)
     search = subparsers.add_parser("fidelity-search", help="searches at cheap fidelity rungs whose best designs join "
@@ -84,6 +87,12 @@ def _campaign(args: argparse.Namespace) -> int:
         with command_compute(args, args.params).executor() as executor:
             tables = campaign.run_campaign(config, glso, evaluation, rung, executor)
         print(json.dumps({"rung": rung, "finished": len(tables), "planned": len(campaign.run_specs(config))}))
+        return 0
+    if args.action == "heldout":
+        evaluation = load_section(EvaluationConfig, "evaluation", args.params)
+        with command_compute(args, args.params).executor() as executor:
+            measured = campaign.measure_heldout(config, evaluation, executor)
+        print(json.dumps({"measured": measured, "progress": campaign.summarise(config).get("heldout_progress")}))
         return 0
     summary = campaign.summarise(config)
     print(json.dumps({k: summary[k] for k in ("runs", "planned")} | {"tests": summary["tests"]}, default=float))

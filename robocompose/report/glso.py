@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import shutil
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -173,11 +174,20 @@ def _median_iqr(values: pd.Series) -> str:
     return f"{v.median():.3f} [{v.quantile(0.25):.3f}, {v.quantile(0.75):.3f}] (n={len(v)})"
 
 
-# What a test compared, and the spend behind it: the columns of the summary's `spend` holding the median calls
-# and distinct designs per run at that point.
-COMPARED = {"matched": ("best so far at K distinct designs", "calls_at_k", "k"),
-            "search": ("final best at the search rung", "calls", "distinct"),
-            "rescored": ("final best, re-scored", "calls", "distinct")}
+class Compared(NamedTuple):
+    """What a test compared (`title`), the columns of the summary's `spend` holding the median calls and distinct
+    designs per run behind it, and the protocol its verdicts name."""
+
+    title: str
+    calls: str
+    distinct: str
+    protocol: str
+
+
+COMPARED = {"matched": Compared("best so far at K distinct designs", "calls_at_k", "k", "at K distinct designs"),
+            "search": Compared("final best at the search rung", "calls", "distinct", "at the search rung"),
+            "rescored": Compared("final best, re-scored", "calls", "distinct", "re-scored at the thesis setting"),
+            "heldout": Compared("held-out best", "calls", "distinct", "under held-out scoring")}
 
 
 def campaign_verdicts(tests: pd.DataFrame, on: str, alpha: float, methods: list[dict]) -> list[str]:
@@ -197,7 +207,8 @@ def campaign_verdicts(tests: pd.DataFrame, on: str, alpha: float, methods: list[
                   f"below {alpha}: this campaign cannot show it)") if not held and floor >= alpha else ""
         caveat += f" (no runs yet of {', '.join(missing)})" if missing else ""
         detail = "; ".join(f"{titles[r.method]} p = {r.p_holm:.3f}" for r in group.itertuples())
-        out.append(f"- {task}: {claim}: **{'holds' if held else 'not shown'}** ({detail}){caveat}.")
+        out.append(f"- {task}, {COMPARED[on].protocol}: {claim}: **{'holds' if held else 'not shown'}** "
+                   f"({detail}){caveat}.")
     return out
 
 
@@ -208,9 +219,10 @@ def _tests_table(tests: pd.DataFrame, spend: pd.DataFrame, titles: dict[str, str
 
     rows = []
     for r in tests[tests["on"].isin(on)].itertuples():
-        compared, calls, distinct = COMPARED[r.on]
-        rows.append((r.task, compared, titles[r.method], f"{r.n_glso} / {r.n_other}",
-                     f"{spent(r.task, r.method, calls)} calls, {spent(r.task, r.method, distinct)} distinct",
+        compared = COMPARED[r.on]
+        rows.append((r.task, compared.title, titles[r.method], f"{r.n_glso} / {r.n_other}",
+                     f"{spent(r.task, r.method, compared.calls)} calls, "
+                     f"{spent(r.task, r.method, compared.distinct)} distinct",
                      r.p, r.p_holm, f"{r.median_difference:+.3f} [{r.ci_low:+.3f}, {r.ci_high:+.3f}]"))
     return ["GLSO against each method: one-sided Mann-Whitney U (GLSO greater), Holm-corrected within its family; "
             "median difference GLSO - method with a bootstrap 95% interval.", "",
@@ -230,6 +242,8 @@ def campaign_section(reports_dir: Path) -> str:
     if not path.exists():
         return f"{title}\n\nNot run yet: missing {path} (stage `glso_campaign`).\n"
     summary = read_json(path)
+    if summary["runs"] and "heldout_progress" not in summary:
+        raise ArtifactError(f"{path}: no record of the held-out scoring (rerun stage glso_campaign)")
     if not summary["runs"]:
         return (f"{title}\n\nNo campaign run is committed yet (0 of {summary['planned']} planned; "
                 "`robocompose glso-campaign run`, README). The searches above are a smoke run: the thesis's "
@@ -275,9 +289,63 @@ def campaign_section(reports_dir: Path) -> str:
          for r in ran.itertuples()], align="llrrll")
     if tests.empty:
         alone = "Only GLSO has runs yet" if REFERENCE in set(finals["method"]) else "No GLSO runs yet"
-        return "\n".join(lines + ["", f"{alone}: nothing to compare.", ""])
-    lines += ["", *_tests_table(tests, spend, titles, ["search", "rescored"]), "",
-              f"Verdicts (re-scored finals, {summary['budget']} calls):", "",
-              *campaign_verdicts(tests, "rescored", summary["alpha"], methods), ""]
-    return "\n".join(lines)
+        lines += ["", f"{alone}: nothing to compare."]
+    else:
+        lines += ["", *_tests_table(tests, spend, titles, ["search", "rescored"]), "",
+                  f"Verdicts (re-scored finals, {summary['budget']} calls):", "",
+                  *campaign_verdicts(tests, "rescored", summary["alpha"], methods)]
+    return "\n".join(lines + ["", *_heldout_lines(summary, finals, tests, spend, ran, methods), ""])
+
+
+def _heldout_lines(summary: dict, finals: pd.DataFrame, tests: pd.DataFrame, spend: pd.DataFrame,
+                   ran: pd.DataFrame, methods: list[dict]) -> list[str]:
+    """Held-out scoring: how far its pieces are measured (and the command that measures the rest); per method
+    (the rows of `ran`) the reported bests beside their designs' held-out means, the inflation and the held-out
+    bests with their thesis re-scores, over the runs whose pieces are complete; the tests and verdicts on the
+    held-out bests."""
+    progress, titles = summary["heldout_progress"], group_titles(methods)
+    lines = [f"#### Under held-out scoring: each run's top {summary['heldout_top']} designs at fresh controller "
+             "seeds", "",
+             "A run scores each call once, with one controller seed, and its reported best is the largest of those "
+             "noisy scores, so it is inflated (the winner's curse). Each run's "
+             f"{summary['heldout_top']} best distinct designs by search score are re-measured at the search rung "
+             f"with held-out controller seeds {summary['heldout_seeds']} (never used in search or re-scoring); the "
+             "run's held-out best is the design of the highest held-out mean, re-scored at the thesis setting with "
+             f"seeds {summary['rescore_seeds']}. Inflation is the reported best less its own design's held-out "
+             "mean, beside the evaluator's seed-to-seed sd on the measured designs.", ""]
+    missing = progress["planned"] - progress["evaluations"]
+    status = (f"{progress['complete']} of {progress['runs']} runs have their held-out pieces complete "
+              f"({progress['evaluations']} of {progress['planned']} held-out evaluations measured)")
+    if missing or progress["rescores_missing"]:
+        status += (f"; missing: {missing} of the held-out evaluations, {progress['rescores_missing']} thesis "
+                   "re-scores of the held-out bests found so far. `robocompose glso-campaign heldout [--address "
+                   "tcp://SCHEDULER:8786]` measures them (resumable), then stage `glso_campaign` summarises. Every "
+                   "number below is over the complete runs only, and interim")
+    lines += [status + ".", ""]
+    done = finals[finals["heldout_complete"]]
+    per_method = pd.DataFrame(summary["heldout"]).set_index(["task", "method"])
+
+    def median(task: str, method: str, column: str) -> str:
+        return _median_iqr(done.loc[(done["task"] == task) & (done["method"] == method), column])
+
+    def number(value: float, form: str) -> str:
+        return "-" if pd.isna(value) else form.format(value)
+
+    rows = []
+    for r in ran.itertuples():
+        h = per_method.loc[(r.task, r.method)]
+        rows.append((titles[r.method], r.task, f"{h['complete']:g} / {h['runs']:g}",
+                     median(r.task, r.method, "search"), median(r.task, r.method, "reported_heldout"),
+                     number(h["inflation"], "{:+.3f}"), number(h["seed_sd"], "{:.3f}"),
+                     median(r.task, r.method, "heldout"), median(r.task, r.method, "heldout_rescored")))
+    lines += markdown_table(
+        ["method", "task", "runs complete / runs", "reported best (search rung), median [IQR]",
+         "held-out mean of that design, median [IQR]", "inflation, median", "seed-to-seed sd",
+         "held-out best, median [IQR]", "its thesis re-score, median [IQR]"], rows, align="llrllrrll")
+    if tests.empty or not (tests["on"] == "heldout").any():
+        return lines + ["", "No verdict under held-out scoring yet: it needs complete GLSO runs and complete runs "
+                            "of another method."]
+    return lines + ["", *_tests_table(tests, spend, titles, ["heldout"]), "",
+                    "Verdicts under held-out scoring (the held-out bests, at the search rung):", "",
+                    *campaign_verdicts(tests, "heldout", summary["alpha"], methods)]
 

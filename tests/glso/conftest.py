@@ -10,6 +10,7 @@ import pytest
 import torch
 
 from robocompose.glso.runs import GLSOConfig
+from robocompose.grammar.tree import DesignTree
 from robocompose.latent.model import GraphVAE, VAEConfig
 from robocompose.latent.train import save_model
 from robocompose.params import build_config
@@ -25,18 +26,25 @@ def fake_objective(tree) -> dict:
 
 
 def hand_steps(runs: dict[tuple[str, int], list[tuple[str, float]]]) -> pd.DataFrame:
-    """A step table of hand-made runs on flat: (method, seed) -> each call's (design id, reward), every design
-    simulated; a design the run sent before is a repeat, and best so far as `runs.py` records it."""
-    rows = []
+    """A step table (every `glso_steps` column) of hand-made runs on flat: (method, seed) -> each call's (design
+    id, reward), every design simulated; a design the run sent before is a repeat, and best so far as `runs.py`
+    records it. Each design id is a one-link tree of its own token (`tree_designs` maps the trees back)."""
+    rows, tokens = [], {}
     for (method, seed), calls in runs.items():
         seen, best = set(), float("-inf")
         for step, (design, reward) in enumerate(calls):
             best = max(best, reward)
             rows.append({"task": "flat", "method": method, "seed": seed, "step": step, "design_id": design,
-                         "score": reward, "reward": reward, "status": "ok", "repeat": design in seen,
-                         "best_so_far": best})
+                         "rules": [], "parents": [-1], "tokens": [tokens.setdefault(design, len(tokens))],
+                         "latent": [], "score": reward, "reward": reward, "status": "ok", "repeat": design in seen,
+                         "rejected": 0, "best_so_far": best})
             seen.add(design)
     return pd.DataFrame(rows)
+
+
+def tree_designs(steps: pd.DataFrame) -> dict:
+    """The design id of each tree of a `hand_steps` table."""
+    return {DesignTree(tuple(r.parents), tuple(r.tokens)): r.design_id for r in steps.itertuples()}
 
 
 @pytest.fixture(scope="session")

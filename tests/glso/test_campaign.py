@@ -9,12 +9,14 @@ from PIL import Image
 
 from robocompose.evaluation import fidelity
 from robocompose.evaluation.evaluate import EvaluationConfig, evaluate
+from robocompose.evaluation.manifest import claim_directory
 from robocompose.glso import campaign
 from robocompose.glso.campaign import CampaignConfig, compare, run_specs
 from robocompose.glso.runs import GLSOConfig
 from robocompose.grammar.tree import DesignTree
+from robocompose.io import write_table
 from robocompose.io.errors import ArtifactError, InputError
-from tests.glso.conftest import hand_steps
+from tests.glso.conftest import hand_steps, tree_designs
 
 
 def test_runs_go_seed_major_so_a_partial_campaign_compares_every_method():
@@ -33,7 +35,17 @@ def test_runs_go_seed_major_so_a_partial_campaign_compares_every_method():
                                           ({"tasks": []}, "tasks: expected at least one task"),
                                           ({"tasks": ["moon"]}, r"tasks: expected tasks of \['flat'"),
                                           ({"bootstrap": 0}, "bootstrap: expected an integer >= 1"),
-                                          ({"rescore_seeds": [-1]}, "rescore_seeds: expected controller seeds >= 0")])
+                                          ({"rescore_seeds": [-1]}, "rescore_seeds: expected controller seeds >= 0"),
+                                          ({"heldout_seeds": [201, 202, 203, 102]},
+                                           r"heldout_seeds: expected controller seeds disjoint from rescore_seeds "
+                                           r"\[101, 102\], found \[201, 202, 203, 102\]"),
+                                          ({"heldout_seeds": [201, 202, 203]},
+                                           "heldout_seeds: expected at least 4 distinct controller seeds"),
+                                          ({"heldout_seeds": [201, 202, 203, 203]},
+                                           "heldout_seeds: expected at least 4 distinct controller seeds"),
+                                          ({"heldout_seeds": [-1, 202, 203, 204]},
+                                           "heldout_seeds: expected controller seeds >= 0"),
+                                          ({"heldout_top": 0}, "heldout_top: expected an integer >= 1")])
 def test_bad_campaign_settings_name_the_field(bad, message):
     with pytest.raises(ValueError, match=message):
         CampaignConfig(**bad)
@@ -65,7 +77,9 @@ def _finals(values: dict[str, list[float]]) -> pd.DataFrame:
                          for m, vs in values.items() for i, v in enumerate(vs)])
 
 
-NO_RESCORES = pd.DataFrame(columns=list(campaign.RESCORE_COLUMNS))
+# The score logs of a campaign that has none yet, as read
+NO_RESCORES, NO_HELDOUT = (campaign.read_scores("nowhere", log) for log in (campaign.RESCORES_FILE,
+                                                                             campaign.HELDOUT_FILE))
 
 
 def test_the_distinct_axis_is_the_calls_axis_without_the_repeats_and_k_is_the_fewest_any_run_reached():
@@ -100,7 +114,7 @@ def test_the_matched_comparison_is_at_k_distinct_designs_beside_the_calls_compar
     search wins, per distinct design GLSO does."""
     runs = {("glso", i): [("g", 5.0 + i / 100)] * 4 for i in range(5)}
     runs |= {("random", i): [(f"r{i}{j}", 4.0 + i / 100 + j) for j in range(4)] for i in range(5)}
-    summary = campaign.statistics(hand_steps(runs), NO_RESCORES, CampaignConfig(bootstrap=100))
+    summary = campaign.statistics(hand_steps(runs), NO_RESCORES, NO_HELDOUT, CampaignConfig(bootstrap=100))
     assert summary["k"] == {"flat": 1} and summary["alpha"] == 0.05
     tests = {r["on"]: r for r in summary["tests"]}
     assert set(tests) == {"matched", "search"}  # nothing re-scored: no re-scored comparison
@@ -150,8 +164,9 @@ def test_the_rung_must_come_from_the_search_rule(tmp_path):
     assert campaign.campaign_rung(CampaignConfig(rung="s16_h8_e48"), choice) == "s16_h8_e48"
 
 
-def test_a_tiny_campaign_runs_resumes_rescores_and_summarises(tmp_path, monkeypatch):
-    """Random search and MCTS, 1 seed each, 3 calls at a tiny rung, re-scored at another tiny rung."""
+def test_a_tiny_campaign_runs_resumes_rescores_measures_held_out_and_summarises(tmp_path, monkeypatch):
+    """Random search and MCTS, 1 seed each, 3 calls at a tiny rung, re-scored at another tiny rung, their top
+    designs measured at the held-out seeds at the runs' rung."""
     monkeypatch.setitem(fidelity.LADDER, "tiny", (2, 2, 2, 3))
     monkeypatch.setitem(fidelity.LADDER, "tiny_rescore", (2, 2, 2, 4))
     config = CampaignConfig(directory=str(tmp_path / "campaign"), checkpoints=str(tmp_path / "ckpt"),
@@ -160,15 +175,25 @@ def test_a_tiny_campaign_runs_resumes_rescores_and_summarises(tmp_path, monkeypa
     tables = campaign.run_campaign(config, GLSOConfig(), EvaluationConfig(), "tiny")
     assert [t.name for t in tables] == ["flat_random_seed0.parquet", "flat_mcts_seed0.parquet"]
     assert sorted(p.name for p in (tmp_path / "campaign").iterdir()) == [
-        "campaign.json", "flat_mcts_seed0.parquet", "flat_random_seed0.parquet", "rescores.csv"]
-    rescores = campaign.read_rescores(config.directory)
-    assert len(rescores) == 4 and sorted(set(rescores["rescore_seed"])) == [7, 8]
+        "campaign.json", "flat_mcts_seed0.parquet", "flat_random_seed0.parquet", "heldout.csv", "rescores.csv"]
     steps = campaign.read_runs(config)
+    rescores = campaign.read_scores(config.directory, campaign.RESCORES_FILE).merge(
+        campaign.top_designs(steps, 1)[[*campaign.RUN, "design_id"]])  # the search bests' (held-out bests' beside)
+    assert len(rescores) == 4 and sorted(set(rescores["rescore_seed"])) == [7, 8]
     best = campaign.best_design(steps[steps["method"] == "random"])
     row = rescores[(rescores["method"] == "random") & (rescores["rescore_seed"] == 8)].iloc[0]
     again = evaluate(DesignTree(tuple(best["parents"]), tuple(best["tokens"])), "flat",
                      EvaluationConfig(mppi=fidelity.rung_config("tiny_rescore"), seed=8), 8)
     assert row["design_id"] == best["design_id"] and row["reward"] == pytest.approx(again["reward"], rel=1e-12)
+    heldout = campaign.read_scores(config.directory, campaign.HELDOUT_FILE)
+    top = campaign.top_designs(steps, 3)
+    assert len(heldout) == 4 * len(top) and set(heldout["heldout_seed"]) == {201, 202, 203, 204}
+    line = heldout.iloc[-1]  # at the runs' rung, with its held-out seed
+    design = top[(top["method"] == line["method"]) & (top["design_id"] == line["design_id"])].iloc[0]
+    again = evaluate(DesignTree(tuple(design["parents"]), tuple(design["tokens"])), "flat",
+                     EvaluationConfig(mppi=fidelity.rung_config("tiny"), seed=204), 204)
+    assert (line["rank"], line["heldout_seed"]) == (design["rank"], 204)
+    assert line["reward"] == pytest.approx(again["reward"], rel=1e-12)
 
     def never(*args, **kwargs):
         raise AssertionError("a finished run or re-score ran again")
@@ -178,6 +203,8 @@ def test_a_tiny_campaign_runs_resumes_rescores_and_summarises(tmp_path, monkeypa
     campaign.run_campaign(config, GLSOConfig(), EvaluationConfig(), "tiny")  # everything is there: nothing runs
     summary = campaign.summarise(config)
     assert summary["runs"] == summary["planned"] == 2 and summary["budget"] == 3 and summary["rung"] == "tiny"
+    assert summary["heldout_progress"] == {"runs": 2, "complete": 2, "evaluations": len(heldout),
+                                           "planned": len(heldout), "rescores_missing": 0}
     with pytest.raises(ValueError, match="campaign.json: the committed runs used rung tiny .* would use tiny_rescore"):
         campaign.run_campaign(config, GLSOConfig(), EvaluationConfig(), "tiny_rescore")
     with pytest.raises(ValueError, match="the committed runs used rung tiny"):  # same rung, other physics code
@@ -205,12 +232,12 @@ def test_a_rescore_recorded_twice_keeps_one_row_and_two_different_ones_are_an_er
     log = tmp_path / campaign.RESCORES_FILE
     for line in (row, {**row, "rescore_seed": 102}, row):
         fidelity.append_row(log, campaign.RESCORE_COLUMNS, line)
-    scores = campaign.read_rescores(tmp_path)
+    scores = campaign.read_scores(tmp_path, campaign.RESCORES_FILE)
     assert list(scores["rescore_seed"]) == [101, 102] and list(scores["reward"]) == [4.25, 4.25]
     fidelity.append_row(log, campaign.RESCORE_COLUMNS, {**row, "reward": 4.5, "objective": 4.5})
     with pytest.raises(ArtifactError, match="rescores.csv: .*'rescore_seed': '101'.* different results .*reward "
                                             "'4.25' / '4.5'"):
-        campaign.read_rescores(tmp_path)
+        campaign.read_scores(tmp_path, campaign.RESCORES_FILE)
 
 
 def test_runs_share_one_evaluation_cache_and_give_the_same_table_from_it(tmp_path, monkeypatch):
@@ -242,3 +269,168 @@ def test_a_missing_campaign_directory_is_an_error_not_zero_runs(tmp_path):
 def test_the_summary_of_no_runs_says_so(tmp_path):
     summary = campaign.summarise(CampaignConfig(directory=str(tmp_path)))
     assert summary["runs"] == 0 and summary["planned"] == 31
+
+
+def test_the_top_designs_are_a_runs_best_distinct_simulated_designs_by_search_score_ties_by_first_call():
+    steps = hand_steps({("glso", 0): [("a", 4.0), ("b", 4.5), ("b", 4.5), ("c", 4.5), ("d", 4.8), ("e", 3.0)],
+                        ("random", 0): [("p", 3.0), ("p", 3.0)]})
+    steps.loc[steps["design_id"] == "e", ["status", "score"]] = ["unstable", 4.9]  # its invalid score: no result
+    top = campaign.top_designs(steps, 3)
+    assert [(r.method, r.design_id, r.rank, r.step) for r in top.itertuples()] == [
+        ("glso", "d", 1, 4), ("glso", "b", 2, 1), ("glso", "c", 3, 3), ("random", "p", 1, 0)]
+    for method, run in steps.groupby("method"):  # rank 1 is the run's reported best
+        assert top[(top["method"] == method) & (top["rank"] == 1)]["design_id"].item() == \
+            campaign.best_design(run)["design_id"]
+
+
+def _commit(tmp_path: Path, runs: dict, **settings) -> tuple[CampaignConfig, pd.DataFrame]:
+    """A campaign directory of hand-made finished runs (`hand_steps`, at rung tiny as its manifest says), and its
+    config with `settings`."""
+    steps = hand_steps(runs)
+    seeds = {m: 1 + max(s for method, s in runs if method == m) for m, _ in runs}
+    config = CampaignConfig(directory=str(tmp_path / "campaign"), seeds=seeds, rescore_rung="tiny_rescore",
+                            rescore_seeds=[7, 8], bootstrap=20, **settings)
+    for spec in run_specs(config):
+        run = steps[(steps["method"] == spec.method) & (steps["seed"] == spec.seed)]
+        write_table(run, campaign.run_path(config, spec), "glso_steps")
+    at_rung = EvaluationConfig(mppi=fidelity.rung_config("tiny"))
+    claim_directory(config.directory, {"rung": "tiny", "settings_hash": {"flat": at_rung.settings_hash("flat")}})
+    return config, steps
+
+
+class StandIn:
+    """`evaluate` standing in for the simulator: `reward(design id, controller seed)`, every call recorded as
+    (design id, MPPI settings, seed); it raises (a kill) at call `kill`."""
+
+    def __init__(self, steps: pd.DataFrame, reward, kill: int | None = None):
+        self.designs, self.reward, self.kill, self.calls = tree_designs(steps), reward, kill, []
+
+    def __call__(self, tree, task, config, seed):
+        assert config.seed == seed
+        if len(self.calls) == self.kill:
+            raise KeyboardInterrupt
+        design = self.designs[tree]
+        self.calls.append((design, config.mppi, seed))
+        return {"reward": self.reward(design, seed), "status": "ok", "sim_steps": 1, "seconds": 0.0}
+
+
+# GLSO's search best `a` was lucky: its fresh seeds put it below `b`; random search's best stays its best
+RUNS = {("glso", 0): [("a", 5.0), ("b", 4.9), ("a", 5.0), ("c", 4.8), ("d", 4.7)],
+        ("random", 0): [("p", 4.5), ("q", 4.4)]}
+HELD_OUT = {"a": 4.2, "b": 4.6, "c": 4.5, "d": 9.0, "p": 4.3, "q": 4.1, "e": 4.3, "f": 4.4, "r": 4.0}
+
+
+def held_out(design: str, seed: int) -> float:
+    return HELD_OUT[design] + (seed % 2) / 10  # seed-to-seed noise
+
+
+def test_held_out_scores_use_only_held_out_seeds_at_the_runs_rung_and_the_thesis_setting_rescores_a_new_pick(
+        tmp_path, monkeypatch):
+    monkeypatch.setitem(fidelity.LADDER, "tiny", (2, 2, 2, 3))
+    monkeypatch.setitem(fidelity.LADDER, "tiny_rescore", (2, 2, 2, 4))
+    config, steps = _commit(tmp_path, RUNS)
+    stand_in = StandIn(steps, held_out)
+    monkeypatch.setattr(campaign, "evaluate", stand_in)
+    assert campaign.rescore(config, campaign.top_designs(steps, 1)) == 4  # as `run` does: the search bests
+    assert campaign.measure_heldout(config, EvaluationConfig(seed=0)) == {"heldout": 20, "rescores": 2}
+    thesis, search = fidelity.rung_config("tiny_rescore"), fidelity.rung_config("tiny")
+    held = [(design, seed) for design, mppi, seed in stand_in.calls[4:24]]
+    assert all(mppi == search for _, mppi, _ in stand_in.calls[4:24])
+    assert sorted(held) == sorted((d, s) for d in "abcpq" for s in config.heldout_seeds)  # top 3: not d
+    assert not {seed for _, seed in held} & {0, *config.rescore_seeds}  # neither the search's seed nor a re-score's
+    assert stand_in.calls[:4] + stand_in.calls[24:] == [("a", thesis, 7), ("a", thesis, 8), ("p", thesis, 7),
+                                                        ("p", thesis, 8), ("b", thesis, 7), ("b", thesis, 8)]
+    lines = campaign.read_scores(config.directory, campaign.HELDOUT_FILE)
+    assert list(lines.columns) == list(campaign.HELDOUT_COLUMNS) and len(lines) == 20
+    assert lines.set_index("design_id")["rank"].to_dict() == {"a": 1, "b": 2, "c": 3, "p": 1, "q": 2}
+    final = campaign.summarise(config)["finals"]
+    assert [(f["method"], f["design_id"], f["heldout_design"]) for f in final] == [("glso", "a", "b"),
+                                                                                  ("random", "p", "p")]
+    assert final[0]["heldout_rescored"] == pytest.approx(4.65) and final[0]["rescored"] == pytest.approx(4.25)
+
+
+def test_a_held_out_seed_the_search_selected_with_is_refused_before_anything_is_measured(tmp_path, monkeypatch):
+    monkeypatch.setitem(fidelity.LADDER, "tiny", (2, 2, 2, 3))
+    monkeypatch.setitem(fidelity.LADDER, "tiny_rescore", (2, 2, 2, 4))
+    config, steps = _commit(tmp_path, RUNS)
+    stand_in = StandIn(steps, held_out)
+    monkeypatch.setattr(campaign, "evaluate", stand_in)
+    with pytest.raises(InputError, match=r"^glso_campaign.heldout_seeds: expected controller seeds other than "
+                                         r"evaluation.seed = 203, the one the runs searched with, found "
+                                         r"\[201, 202, 203, 204\]$"):
+        campaign.measure_heldout(config, EvaluationConfig(seed=203))
+    with pytest.raises(InputError, match="glso_campaign.heldout_seeds"):
+        campaign.run_campaign(config, GLSOConfig(), EvaluationConfig(seed=201), "tiny")
+    assert stand_in.calls == [] and not (tmp_path / "campaign" / campaign.HELDOUT_FILE).exists()
+
+
+def test_a_killed_held_out_measurement_is_summarised_as_far_as_it_went_and_resumes_without_measuring_again(
+        tmp_path, monkeypatch):
+    monkeypatch.setitem(fidelity.LADDER, "tiny", (2, 2, 2, 3))
+    monkeypatch.setitem(fidelity.LADDER, "tiny_rescore", (2, 2, 2, 4))
+    config, steps = _commit(tmp_path, RUNS)
+    monkeypatch.setattr(campaign, "evaluate", StandIn(steps, held_out, kill=13))
+    with pytest.raises(KeyboardInterrupt):
+        campaign.measure_heldout(config, EvaluationConfig())
+    log = tmp_path / "campaign" / campaign.HELDOUT_FILE
+    with open(log, "a") as f:
+        f.write("flat,random,0,1,p,20")  # a line cut off by the kill mid-write
+    first = campaign.read_scores(config.directory, campaign.HELDOUT_FILE)
+    assert len(first) == 13  # GLSO's 12, the first of random search's
+
+    def never(*args, **kwargs):
+        raise AssertionError("the summary simulated")
+
+    monkeypatch.setattr(campaign, "evaluate", never)
+    summary = campaign.summarise(config)
+    assert summary["heldout_progress"] == {"runs": 2, "complete": 1, "evaluations": 13, "planned": 20,
+                                           "rescores_missing": 2}  # GLSO's new pick b, not yet re-scored
+    finals = {f["method"]: f for f in summary["finals"]}
+    assert finals["glso"]["heldout_design"] == "b" and math.isnan(finals["random"]["heldout"])
+    assert [h["complete"] for h in summary["heldout"]] == [1, 0]
+
+    stand_in = StandIn(steps, held_out)
+    monkeypatch.setattr(campaign, "evaluate", stand_in)
+    assert campaign.measure_heldout(config, EvaluationConfig()) == {"heldout": 7, "rescores": 4}  # b's, p's
+    done = set(first[["design_id", "heldout_seed"]].itertuples(index=False, name=None))
+    assert not done & {(design, seed) for design, _, seed in stand_in.calls}  # nothing measured twice
+    assert len(campaign.read_scores(config.directory, campaign.HELDOUT_FILE)) == 20
+    assert campaign.measure_heldout(config, EvaluationConfig()) == {"heldout": 0, "rescores": 0}
+
+
+def test_the_held_out_best_is_the_highest_held_out_mean_not_the_highest_search_score_and_inflation_is_per_run():
+    config = CampaignConfig(bootstrap=20)
+    runs = {**RUNS, ("glso", 1): [("e", 4.6), ("f", 4.5)], ("random", 1): [("r", 4.0)]}
+    steps = hand_steps(runs)
+    top = campaign.top_designs(steps, config.heldout_top)
+    heldout = pd.DataFrame([{"task": "flat", "method": r.method, "seed": r.seed, "rank": r.rank,
+                             "design_id": r.design_id, "heldout_seed": s, "reward": held_out(r.design_id, s),
+                             "status": "ok"} for r in top.itertuples() for s in config.heldout_seeds
+                            if (r.design_id, s) != ("f", 204)])  # glso seed 1: one piece missing
+    heldout.loc[(heldout["design_id"] == "q") & (heldout["heldout_seed"] == 202), "status"] = "unstable"
+    heldout.loc[len(heldout)] = {**heldout.iloc[0], "heldout_seed": 999, "reward": 99.0}  # not a held-out seed
+    rescores = pd.DataFrame([{"task": "flat", "method": "glso", "seed": 0, "design_id": d, "rescore_seed": s,
+                              "reward": v + (s - 101) / 10, "status": "ok"} for d, v in (("a", 4.0), ("b", 5.0))
+                             for s in (101, 102)])
+    summary = campaign.statistics(steps, rescores, heldout, config)
+    final = pd.DataFrame(summary["finals"]).set_index(["method", "seed"])
+    assert final.loc[("glso", 0), ["design_id", "heldout_design", "heldout_rank"]].tolist() == ["a", "b", 2]
+    assert final.loc[("glso", 0), ["search", "reported_heldout", "inflation", "heldout"]].tolist() == \
+        pytest.approx([5.0, 4.25, 0.75, 4.65])
+    assert final.loc[("glso", 0), "heldout_sd"] == pytest.approx(np.std([4.6, 4.7] * 2, ddof=1))
+    assert final.loc[("glso", 0), ["rescored", "heldout_rescored"]].tolist() == pytest.approx([4.05, 5.05])
+    # q was not simulated at one seed: no held-out mean, so p stays random search's pick
+    assert final.loc[("random", 0), ["heldout_design", "inflation", "heldout"]].tolist() == ["p", pytest.approx(0.15),
+                                                                                            pytest.approx(4.35)]
+    assert not final.loc[("glso", 1), "heldout_complete"] and math.isnan(final.loc[("glso", 1), "heldout"])
+    assert final.loc[("glso", 1), ["heldout_measured", "heldout_planned"]].tolist() == [7, 8]
+    assert final.loc[("random", 1), "inflation"] == pytest.approx(4.0 - 4.05) and final["heldout_complete"].sum() == 3
+    per_method = {h["method"]: h for h in summary["heldout"]}
+    assert (per_method["glso"]["runs"], per_method["glso"]["complete"]) == (2, 1)
+    assert per_method["random"]["inflation"] == pytest.approx(np.median([0.15, -0.05]))
+    assert per_method["glso"]["seed_sd"] == pytest.approx(np.std([0, 1] * 2, ddof=1) / 10)  # every design's
+    assert summary["heldout_progress"] == {"runs": 4, "complete": 3, "evaluations": 31, "planned": 32,
+                                           "rescores_missing": 4}  # random search's two picks
+    tests = [t for t in summary["tests"] if t["on"] == "heldout"]
+    assert [(t["method"], t["n_glso"], t["n_other"]) for t in tests] == [("random", 1, 2)]
+    assert tests[0]["median_difference"] == pytest.approx(4.65 - np.median([4.35, 4.05]))

@@ -85,20 +85,38 @@ def test_section_draws_both_figures_the_table_and_the_best_design(tmp_path):
            f"{discarded['random']:.1f} |" in text and "The accounting rule, one for every method" in text
 
 
-def _campaign(reports: Path, finals: dict[str, list[float]], planned: int, **recorded) -> None:
+def _campaign(reports: Path, finals: dict[str, list[float]], planned: int, inflation: dict[str, float] | None = None,
+              **recorded) -> None:
     """reports/metrics/glso_campaign.json as the stage writes it, of runs with these final bests (method -> one
     per seed), each re-scored at its final best: GLSO sends one design four times, every other method four
-    designs, 1.0 below its final best first, its final best last."""
+    designs, 1.0 below its final best first, its final best last. With `inflation` (method -> how far its
+    designs' held-out means lie below their search scores), every run's top designs measured at the held-out
+    seeds but for GLSO's last run (its last seed missing)."""
     from robocompose.glso import campaign
 
+    config = campaign.CampaignConfig(bootstrap=100)
     runs = {(m, i): [("g", v)] * 4 if m == "glso" else [(f"{m}{i}{j}", v - 1.0 + j / 3) for j in range(4)]
             for m, vs in finals.items() for i, v in enumerate(vs)}
-    rescores = pd.DataFrame([{"task": "flat", "method": m, "seed": i, "rescore_seed": 101, "reward": v, "status": "ok"}
-                             for (m, i), calls in runs.items() for v in [calls[-1][1]]])
-    summary = campaign.statistics(hand_steps(runs), rescores, campaign.CampaignConfig(bootstrap=100))
+    rescores = pd.DataFrame([{"task": "flat", "method": m, "seed": i, "design_id": calls[-1][0], "rescore_seed": s,
+                              "reward": calls[-1][1], "status": "ok"} for (m, i), calls in runs.items()
+                             for s in config.rescore_seeds])
+    steps = hand_steps(runs)
+    top = campaign.top_designs(steps, config.heldout_top)
+    last = len(finals["glso"]) - 1
+    heldout = pd.DataFrame([
+        {"task": "flat", "method": r.method, "seed": r.seed, "rank": r.rank, "design_id": r.design_id,
+         "heldout_seed": s, "reward": r.score - inflation[r.method] + (s % 2) / 100, "status": "ok"}
+        for r in top.itertuples() for s in config.heldout_seeds if (r.method, r.seed, s) != ("glso", last, 204)]
+        if inflation else [], columns=list(campaign.HELDOUT_COLUMNS))
+    summary = campaign.statistics(steps, rescores, heldout, config)
     (reports / "metrics").mkdir(exist_ok=True)
     (reports / "metrics" / "glso_campaign.json").write_text(json.dumps(
         {k: v for k, v in summary.items() if k != "curves"} | {"planned": planned, **recorded}))
+
+
+FINALS = {"glso": [5.0, 5.1, 5.2, 5.3, 5.4], "random": [4.0, 4.1, 4.2, 4.3, 4.4], "ga": [4.0, 4.1, 4.2, 4.3, 4.4],
+          "mcts": [4.9, 5.5, 5.0, 5.6, 5.05], "ghs": [4.0, 4.1, 4.2, 4.3, 4.4], "glso_nopred": [4.0, 4.1, 4.2],
+          "glso_nogram": [4.0, 4.1, 4.2]}
 
 
 def test_the_campaign_section_leads_with_distinct_designs_and_gives_verdicts_only_from_the_corrected_tests(tmp_path):
@@ -108,9 +126,7 @@ def test_the_campaign_section_leads_with_distinct_designs_and_gives_verdicts_onl
     (tmp_path / "metrics").mkdir()
     (tmp_path / "metrics" / "glso_campaign.json").write_text(json.dumps({"runs": 0, "planned": 31}))
     assert "0 of 31 planned" in campaign_section(tmp_path)
-    finals = {"glso": [5.0, 5.1, 5.2, 5.3, 5.4], "random": [4.0, 4.1, 4.2, 4.3, 4.4], "ga": [4.0, 4.1, 4.2, 4.3, 4.4],
-              "mcts": [4.9, 5.5, 5.0, 5.6, 5.05], "ghs": [4.0, 4.1, 4.2, 4.3, 4.4], "glso_nopred": [4.0, 4.1, 4.2],
-              "glso_nogram": [4.0, 4.1, 4.2]}
+    finals = FINALS
     _campaign(tmp_path, finals, planned=40)
     text = campaign_section(tmp_path)
     assert "31 of 40 planned runs committed, 4 objective calls each; each" in text
@@ -141,3 +157,35 @@ def test_the_campaign_section_leads_with_distinct_designs_and_gives_verdicts_onl
     text = campaign_section(tmp_path)
     assert "4 objective calls each at rung s16_h16_e48 (the fidelity search rule's)" in text
     assert "partial" not in text and "Only GLSO has runs yet: nothing to compare." in text
+
+
+def test_the_campaign_section_judges_under_held_out_scoring_from_its_tests_and_says_what_is_missing(tmp_path):
+    from robocompose.report.glso import campaign_section
+
+    _campaign(tmp_path, FINALS, planned=31)  # nothing measured yet: GLSO's 5 runs x 1 design, 26 others' x 3
+    held = campaign_section(tmp_path).split("#### Under held-out scoring")[1]
+    assert "0 of 31 runs have their held-out pieces complete (0 of 332 held-out evaluations measured); missing: " \
+           "332 of the held-out evaluations" in held and "`robocompose glso-campaign heldout" in held
+    assert "| GLSO | flat | 0 / 5 | - | - | - | - | - | - |" in held
+    assert "No verdict under held-out scoring yet" in held and "under held-out scoring: GLSO" not in held
+
+    # MCTS's search bests beat GLSO's, but they were lucky: 1.0 above their fresh seeds, GLSO's 0.1
+    _campaign(tmp_path, FINALS, planned=31, inflation={m: 0.1 if m == "glso" else 1.0 for m in FINALS})
+    text = campaign_section(tmp_path)
+    held = text.split("#### Under held-out scoring")[1]
+    assert "30 of 31 runs have their held-out pieces complete (331 of 332 held-out evaluations measured); " \
+           "missing: 1 of the held-out evaluations, 0 thesis re-scores" in held and "interim" in held
+    assert "| GLSO | flat | 4 / 5 | 5.150 [5.075, 5.225] (n=4) | 5.055 [4.980, 5.130] (n=4) | +0.095 | 0.006 | " \
+           "5.055 [4.980, 5.130] (n=4) | 5.150 [5.075, 5.225] (n=4) |" in held
+    assert "| MCTS | flat | 5 / 5 | 5.050 [5.000, 5.500] (n=5) | 4.055 [4.005, 4.505] (n=5) | +0.995 | 0.006 |" in held
+    assert "| flat | held-out best | MCTS | 4 / 5 |" in held
+    assert "- flat, under held-out scoring: GLSO best of Fig. 8.1: **holds** (Random p = 0.032; GA p = 0.032; " \
+           "MCTS p = 0.032; GHS p = 0.032)." in held
+    assert "- flat, under held-out scoring: all ablations worse than GLSO (Fig. 8.2): **not shown**" in held
+    assert "- flat, re-scored at the thesis setting: GLSO best of Fig. 8.1: **not shown**" in text  # per call
+
+    summary = json.loads((tmp_path / "metrics" / "glso_campaign.json").read_text())
+    del summary["heldout_progress"]  # a record of older code: the stage reruns
+    (tmp_path / "metrics" / "glso_campaign.json").write_text(json.dumps(summary))
+    with pytest.raises(ArtifactError, match=r"glso_campaign\.json: no record of the held-out scoring"):
+        campaign_section(tmp_path)
