@@ -1,6 +1,11 @@
 """The evaluator a directory of committed results used (the GLSO campaign's runs), `<directory>/campaign.json`
 {"rung": fidelity rung, "settings_hash": {task: EvaluationConfig.settings_hash}}: results are comparable only if
-they all used it, and a reader of the results (the latent landscape) learns their rung here."""
+they all used it, and a reader of the results (the latent landscape) learns their rung here.
+
+The settings hash covers the simulation code's definitions, so a refactor that moves no number still changes
+it. `"reproduced": {task: {hash: [design ids]}}` records later code proven to be the same evaluator: it
+re-simulated those committed designs to the committed rewards bit for bit (`record_reproduction`); such a hash
+is accepted as the runs' own."""
 
 from __future__ import annotations
 
@@ -26,12 +31,27 @@ def claim_directory(directory: str | Path, evaluator: dict) -> None:
     recorded = read_manifest(directory)
     if recorded:
         known = {t: h for t, h in evaluator["settings_hash"].items() if t in recorded["settings_hash"]}
-        if recorded["rung"] != evaluator["rung"] or any(recorded["settings_hash"][t] != h for t, h in known.items()):
+        reproduced = recorded.get("reproduced", {})
+        if recorded["rung"] != evaluator["rung"] or any(
+                h != recorded["settings_hash"][t] and h not in reproduced.get(t, {}) for t, h in known.items()):
             raise InputError(f"{path}: the committed runs used rung {recorded['rung']} with settings "
                              f"{recorded['settings_hash']}, this campaign would use {evaluator['rung']} with "
                              f"{evaluator['settings_hash']}; move the runs aside to start a new campaign, or set "
                              f"the rung to {recorded['rung']} (and restore the code) to continue this one")
-        evaluator = {"rung": recorded["rung"],
-                     "settings_hash": {**evaluator["settings_hash"], **recorded["settings_hash"]}}
+        evaluator = {**recorded, "settings_hash": {**evaluator["settings_hash"], **recorded["settings_hash"]}}
     if evaluator != recorded:
         atomic_write_json(path, evaluator)
+
+
+def record_reproduction(directory: str | Path, task: str, settings_hash: str, designs: list[str]) -> None:
+    """Record that the evaluator of `settings_hash` re-simulated the committed `designs` of `task` to their
+    committed rewards bit for bit (the caller checked): from now on the manifest accepts it as the runs' own."""
+    path = Path(directory) / MANIFEST_FILE
+    recorded = read_manifest(directory)
+    if task not in recorded.get("settings_hash", {}):
+        raise InputError(f"{path}: no committed runs on task {task!r} to reproduce")
+    if settings_hash == recorded["settings_hash"][task]:
+        return
+    reproduced = recorded.setdefault("reproduced", {}).setdefault(task, {})
+    reproduced[settings_hash] = sorted(set(reproduced.get(settings_hash, [])) | set(designs))
+    atomic_write_json(path, recorded)

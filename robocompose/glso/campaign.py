@@ -57,7 +57,7 @@ import pandas as pd
 
 from robocompose.evaluation.evaluate import OK, EvaluationConfig, evaluate, objective
 from robocompose.evaluation.fidelity import THESIS, append_row, read_rows, rung_config
-from robocompose.evaluation.manifest import MANIFEST_FILE, claim_directory, read_manifest
+from robocompose.evaluation.manifest import MANIFEST_FILE, claim_directory, read_manifest, record_reproduction
 from robocompose.fanout.cache import EvaluationCache
 from robocompose.glso import GROUPS, best_designs, best_so_far_curves, draw_curves, group_titles
 from robocompose.glso.registry import METHODS, describe, family
@@ -336,6 +336,41 @@ def measure_heldout(config: CampaignConfig, evaluation: EvaluationConfig, execut
     new = measure(config, jobs, executor, "held-out scores")
     scored = heldout_scores(top, read_scores(config.directory, HELDOUT_FILE), config.heldout_seeds)
     return {"heldout": new, "rescores": rescore(config, scored[scored["pick"]], executor)}
+
+
+def verify_evaluator(config: CampaignConfig, evaluation: EvaluationConfig, per_method: int = 1,
+                     executor: Any = None) -> dict[str, list[str]]:
+    """Prove that today's code is the committed runs' evaluator although its settings hash differs (the hash
+    covers the simulation code's definitions, so a refactor that moves no number changes it): re-simulate the
+    first `per_method` simulated designs of each method's first run on each task, at the runs' rung and
+    controller seed. If every reward equals the committed one bit for bit, the manifest records today's hash as
+    reproducing them (`record_reproduction`) and held-out scoring and further runs may go on; otherwise an
+    InputError names the designs that differ. Task -> the designs re-simulated."""
+    from robocompose.fanout.executor import Executor
+
+    steps = read_runs(config)
+    rung = read_manifest(config.directory).get("rung")
+    if steps.empty or not rung:
+        raise InputError(f"{Path(config.directory) / MANIFEST_FILE}: no committed runs to verify the evaluator on")
+    at_rung = dataclasses.replace(evaluation, mppi=rung_config(rung))
+    simulated = steps[~steps["repeat"] & (steps["status"] == OK)].sort_values([*RUN, "step"], kind="stable")
+    first_run = simulated[simulated["seed"] == simulated.groupby(["task", "method"])["seed"].transform("min")]
+    picks = first_run.groupby(["task", "method"], sort=False).head(per_method).to_dict("records")
+    jobs = [ScoreJob(DesignTree(tuple(p["parents"]), tuple(p["tokens"])), p["task"], at_rung, "",
+                     {"design_id": p["design_id"]}) for p in picks]
+    executor = executor or Executor(workers=1)
+    again = {index: line["reward"] for index, line in executor.as_completed(score_job, jobs)}
+    differ = [f"{p['task']}_{p['method']}_seed{p['seed']} {p['design_id']}: {p['reward']!r} then, {again[i]!r} now"
+              for i, p in enumerate(picks) if again[i] != p["reward"]]
+    if differ:
+        raise InputError(f"{Path(config.directory) / MANIFEST_FILE}: today's evaluator does not reproduce the "
+                         f"committed runs ({'; '.join(differ)}): a new campaign, not a continued one")
+    checked: dict[str, list[str]] = {}
+    for p in picks:
+        checked.setdefault(p["task"], []).append(p["design_id"])
+    for task, designs in checked.items():
+        record_reproduction(config.directory, task, at_rung.settings_hash(task), designs)
+    return checked
 
 
 def run_campaign(config: CampaignConfig, glso: GLSOConfig, evaluation: EvaluationConfig, rung: str,

@@ -30,10 +30,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     glso.set_defaults(handler=_glso)
     campaign = subparsers.add_parser("glso-campaign", help="the seeded GLSO campaign: run what is missing (hours, "
                                      "resumable) or summarise the committed runs")
-    campaign.add_argument("action", choices=("run", "heldout", "summarise"),
+    campaign.add_argument("action", choices=("run", "heldout", "verify", "summarise"),
                           help="run: every missing run, then the re-scores and held-out pieces; heldout: only the "
                                "held-out pieces of the committed runs (each run's top designs at fresh seeds, the "
-                               "thesis re-scores of its held-out best); summarise: the statistics as JSON")
+                               "thesis re-scores of its held-out best); verify: re-simulate a design of each "
+                               "method and, if today's code scores it bit for bit as committed, record its settings "
+                               "hash as the runs' evaluator; summarise: the statistics as JSON")
     campaign.add_argument("--params", default="params.yaml",
                           help="params file (sections glso_campaign, glso, evaluation, compute)")
     campaign.add_argument("--rung", default=None, help="the fidelity rung of the runs (default: glso_campaign.rung, "
@@ -87,6 +89,11 @@ def _campaign(args: argparse.Namespace) -> int:
         with command_compute(args, args.params).executor() as executor:
             tables = campaign.run_campaign(config, glso, evaluation, rung, executor)
         print(json.dumps({"rung": rung, "finished": len(tables), "planned": len(campaign.run_specs(config))}))
+        return 0
+    if args.action == "verify":
+        evaluation = load_section(EvaluationConfig, "evaluation", args.params)
+        with command_compute(args, args.params).executor() as executor:
+            print(json.dumps({"reproduced": campaign.verify_evaluator(config, evaluation, executor=executor)}))
         return 0
     if args.action == "heldout":
         evaluation = load_section(EvaluationConfig, "evaluation", args.params)

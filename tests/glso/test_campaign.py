@@ -434,3 +434,31 @@ def test_the_held_out_best_is_the_highest_held_out_mean_not_the_highest_search_s
     tests = [t for t in summary["tests"] if t["on"] == "heldout"]
     assert [(t["method"], t["n_glso"], t["n_other"]) for t in tests] == [("random", 1, 2)]
     assert tests[0]["median_difference"] == pytest.approx(4.65 - np.median([4.35, 4.05]))
+
+
+def test_verify_records_todays_evaluator_only_if_it_rescores_the_committed_designs_bit_for_bit(tmp_path, monkeypatch):
+    monkeypatch.setitem(fidelity.LADDER, "tiny", (2, 2, 2, 3))
+    monkeypatch.setitem(fidelity.LADDER, "tiny_rescore", (2, 2, 2, 4))
+    config, steps = _commit(tmp_path, RUNS)
+    manifest = tmp_path / "campaign" / "campaign.json"
+    today = json.loads(manifest.read_text())["settings_hash"]["flat"]
+    manifest.write_text(json.dumps({"rung": "tiny", "settings_hash": {"flat": "0123456789abcdef"}}))  # older code
+    committed = {r.design_id: r.reward for r in steps.itertuples()}
+    with pytest.raises(InputError, match="campaign.json: the committed runs used rung tiny"):
+        campaign.measure_heldout(config, EvaluationConfig())  # another settings hash: refused until verified
+
+    monkeypatch.setattr(campaign, "evaluate", StandIn(steps, lambda d, s: committed[d] + (d == "p") * 1e-12))
+    with pytest.raises(InputError, match=r"does not reproduce the committed runs \(flat_random_seed0 p: 4.5 then, "
+                                         r"4.500000000001 now\)"):
+        campaign.verify_evaluator(config, EvaluationConfig())
+    assert "reproduced" not in json.loads(manifest.read_text())  # a near miss is no reproduction
+
+    stand_in = StandIn(steps, lambda d, s: committed[d])
+    monkeypatch.setattr(campaign, "evaluate", stand_in)
+    assert campaign.verify_evaluator(config, EvaluationConfig()) == {"flat": ["a", "p"]}  # each method's first
+    assert [(design, seed) for design, _, seed in stand_in.calls] == [("a", 0), ("p", 0)]  # at the search's seed
+    recorded = json.loads(manifest.read_text())
+    assert recorded["settings_hash"] == {"flat": "0123456789abcdef"} and recorded["reproduced"] == {"flat": {
+        today: ["a", "p"]}}
+    monkeypatch.setattr(campaign, "evaluate", StandIn(steps, held_out))
+    assert campaign.measure_heldout(config, EvaluationConfig())["heldout"] == 20  # today's code now continues
