@@ -23,6 +23,19 @@ def _robocompose(*argv: str, cwd: Path, **options) -> subprocess.Popen:
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True, **options)
 
 
+def _group(pgid: int) -> list[int]:
+    """The processes of process group `pgid` (from /proc)."""
+    members = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:  # ended meanwhile
+            continue
+        if int(fields[2]) == pgid:  # after the name: state, ppid, pgrp
+            members.append(int(stat.parent.name))
+    return members
+
+
 def test_profile_outside_the_repository_says_where_to_run_it(tmp_path, monkeypatch, cli_error):
     monkeypatch.chdir(tmp_path)
     line = cli_error(["profile", "default"], "run `robocompose profile` in the repository's root folder")
@@ -100,7 +113,13 @@ def test_ctrl_c_is_one_line_exit_130_and_leaves_the_output_as_it_was(tmp_path):
     the output file that was there untouched."""
     (tmp_path / "X.parquet").write_bytes(b"an earlier table")
     process = _robocompose("enumerate", "--n", "100000", "--out", "X.parquet", "--workers", "2", cwd=tmp_path)
-    time.sleep(4)
+    # The Ctrl-C comes once the two workers are up (the command, the forkserver and the workers share its process
+    # group), not after a fixed wait: on a busy machine that can land in their start-up, not what this is about.
+    deadline = time.monotonic() + 60
+    while len(_group(process.pid)) < 4 and time.monotonic() < deadline:
+        assert process.poll() is None, process.communicate()
+        time.sleep(0.2)
+    time.sleep(2)
     assert process.poll() is None, process.communicate()
     os.killpg(process.pid, signal.SIGINT)
     out, err = process.communicate(timeout=120)
