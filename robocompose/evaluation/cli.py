@@ -1,4 +1,6 @@
-"""`robocompose evaluate`: score one design on one task with the MPPI evaluator; prints JSON."""
+"""`robocompose evaluate`: score one design on one task with the MPPI evaluator; prints JSON. `robocompose
+evaluator-fidelity` (the fidelity ladder) and `robocompose reference-evals` (the reference designs' committed
+evaluations)."""
 
 from __future__ import annotations
 
@@ -6,7 +8,7 @@ import argparse
 import json
 from pathlib import Path
 
-from robocompose.arguments import input_file, non_negative_int, output_file
+from robocompose.arguments import add_compute_arguments, input_file, non_negative_int, output_file
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -23,6 +25,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     evaluate.add_argument("--gif", type=output_file(".gif", "GIF"), help="write the trajectory as an animated GIF")
     evaluate.set_defaults(handler=_evaluate)
     register_fidelity(subparsers)
+    register_references(subparsers)
 
 
 def _evaluate(args: argparse.Namespace) -> int:
@@ -131,3 +134,32 @@ def _fidelity(args: argparse.Namespace) -> int:
     summary = fidelity.summarise(fidelity.read_scores(config.directory), designs, config.top)
     print(summary.to_string(index=False))
     return 0
+
+
+def register_references(subparsers: argparse._SubParsersAction) -> None:
+    references = subparsers.add_parser(
+        "reference-evals", help="evaluate the reference and random designs on every task as stage "
+        "evaluate_references does and commit the evaluations to measured/references/eval_cache.parquet, which the "
+        "stage then serves (params.yaml's evaluation and evaluate_references sections; data/designs.parquet)")
+    references.add_argument("--params", type=input_file("a params YAML file"), default=Path("params.yaml"),
+                            help="the settings (default: params.yaml)")
+    add_compute_arguments(references)
+    references.set_defaults(handler=_reference_evals)
+
+
+def _reference_evals(args: argparse.Namespace) -> None:
+    from robocompose.arguments import command_compute
+    from robocompose.evaluation.evaluate import EvaluationConfig
+    from robocompose.evaluation.references import ReferencesConfig, commit_evaluations, evaluate_references
+    from robocompose.io import read_table
+    from robocompose.params import load_section
+
+    evaluation = load_section(EvaluationConfig, "evaluation", args.params)
+    config = load_section(ReferencesConfig, "evaluate_references", args.params)
+    compute = command_compute(args, args.params)
+    designs = read_table("data/designs.parquet", "designs")  # stage enumerate's
+    cache = compute.open_cache()
+    with compute.executor("reference evaluations") as executor:
+        table = evaluate_references(designs, config, evaluation, cache, executor)
+    path = commit_evaluations(table, cache)
+    print(json.dumps({"committed": str(path), "evaluations": len(table)}))

@@ -3,6 +3,13 @@
 This anchors the evaluator: the two designs RoboGrammar found best (on flat and on ridged terrain) should
 beat random grammar designs on their own terrain. The best design of each task is replayed with a
 `RolloutRecorder` into an MCAP log and a GIF.
+
+The candidates' evaluations are deterministic and most of a fresh clone's stage time, so they are also a committed
+measurement: `robocompose reference-evals` writes their cache entries to measured/references/eval_cache.parquet
+(`commit_evaluations`) and the stage serves them from there (`committed_evaluations`). An entry's key carries the
+settings hash, which covers the task, physics, MPPI settings and the code of an episode, so an entry of other
+settings or code is never hit: such a run evaluates afresh. The replay of each task's best design checks the
+served reward bit for bit.
 """
 
 from __future__ import annotations
@@ -15,11 +22,12 @@ import pandas as pd
 
 from robocompose.evaluation.evaluate import OK, EvalJob, EvaluationConfig, evaluate, evaluate_designs, objective
 from robocompose.evaluation.rollout_log import RolloutRecorder
-from robocompose.fanout.cache import EvaluationCache
+from robocompose.fanout.cache import EVAL_KEY_COLUMNS, EvaluationCache
 from robocompose.fanout.executor import Executor
 from robocompose.grammar.derivation import derive, parse_rules
 from robocompose.grammar.references import REFERENCE_DESIGNS
 from robocompose.grammar.tree import DesignTree
+from robocompose.io import read_table, write_table
 from robocompose.io.errors import InputError
 from robocompose.sim.physics import PhysicsSettings
 from robocompose.tasks.terrains import TASK_NAMES, get_task
@@ -69,6 +77,32 @@ def evaluate_references(designs: pd.DataFrame, config: ReferencesConfig, evaluat
     table = pd.concat([names, rows.drop(columns=["seconds"])], axis=1)
     table["objective"] = [objective(row) for row in table.to_dict("records")]
     return table
+
+
+MEASURED = Path("measured/references/eval_cache.parquet")
+
+
+def committed_evaluations(path: Path = MEASURED) -> EvaluationCache:
+    """The committed evaluations at `path` (none if it is absent) as a memory-only cache."""
+    cache = EvaluationCache()
+    if Path(path).is_file():
+        for row in read_table(path, "eval_cache").to_dict("records"):
+            cache.put(tuple(row.pop(name) for name in EVAL_KEY_COLUMNS), **row)
+    return cache
+
+
+def table_keys(table: pd.DataFrame) -> list[tuple]:
+    """The cache key of every row of a `reference_evals` table."""
+    return list(table[list(EVAL_KEY_COLUMNS)].itertuples(index=False, name=None))
+
+
+def commit_evaluations(table: pd.DataFrame, cache: EvaluationCache, path: Path = MEASURED) -> Path:
+    """Write `cache`'s entries of the table's rows to `path` (an eval_cache table sorted by key)."""
+    kept = EvaluationCache()
+    for key in table_keys(table):
+        kept.put(key, **cache.get(key))
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    return write_table(kept.frame(), path, "eval_cache")
 
 
 def best_per_task(table: pd.DataFrame) -> pd.DataFrame:

@@ -10,13 +10,20 @@ import argparse
 import json
 from pathlib import Path
 
-from robocompose.arguments import dask_address, input_file, int_at_least, non_negative_int, positive_int
+from robocompose.arguments import (
+    add_compute_arguments,
+    dask_address,
+    input_file,
+    int_at_least,
+    non_negative_int,
+    positive_int,
+)
 from robocompose.io.errors import InputError
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    """Add the `teams` command (sub-commands `nsga2`, `coverage`, `generator`, `chip-count`) to the robocompose
-    CLI."""
+    """Add the `teams` command (sub-commands `nsga2`, `coverage`, `baselines`, `generator`, `chip-count`) to the
+    robocompose CLI."""
     teams = subparsers.add_parser("teams", help="multi-robot team formation on terrain chips (thesis 5.2)")
     commands = teams.add_subparsers(dest="teams_command", required=True)
 
@@ -41,6 +48,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                           "each species' robots sent to each region")
     coverage.add_argument("--seed", type=non_negative_int, default=0, help="seed of the robots' starts")
     coverage.set_defaults(handler=_coverage)
+
+    baselines = commands.add_parser(
+        "baselines", help="measure Tables 5.4 and 5.5's baselines (every NSGA-II run, the coverage baselines, the "
+        "random fronts) as stage teams_baselines does and write the committed piece measured/teams/baselines/ "
+        "(params.yaml's teams section; stage decompose's regions); ~12 min on 2 cores")
+    baselines.add_argument("--params", type=input_file("a params YAML file"), default=Path("params.yaml"),
+                           help="the settings (default: params.yaml)")
+    baselines.add_argument("--check", action="store_true",
+                           help="measure and compare with the committed piece instead of writing it: exit 1 unless "
+                                "every table is the same bytes")
+    add_compute_arguments(baselines)
+    baselines.set_defaults(handler=_baselines)
 
     generator = commands.add_parser(
         "generator", help="train one more EG-GAN generator (a training seed) as stage teams_eggan does, query it on "
@@ -124,6 +143,41 @@ def _nsga2(args: argparse.Namespace) -> None:
     print(json.dumps({"hypervolume": result.hypervolume, "seconds": result.seconds,
                       "distinct_teams": len(evaluator.asked),
                       "front": [[float(c), int(d)] for c, d in result.front]}))
+
+
+def _baselines(args: argparse.Namespace) -> None:
+    import tempfile
+
+    import torch
+
+    from robocompose.arguments import command_compute
+    from robocompose.io import read_table
+    from robocompose.params import load_section
+    from robocompose.teams.baseline_runs import PIECE, TABLES, measure, piece_key, piece_matches, write_piece
+    from robocompose.teams.experiments import decomposed_chips
+    from robocompose.teams.params import TeamsParams
+
+    params = load_section(TeamsParams, "teams", path=args.params)
+    compute = command_compute(args, args.params)
+    chips = decomposed_chips(read_table("data/regions.parquet", "regions"), "test")  # stage decompose's
+    key = piece_key(params, chips)
+    if args.check and not piece_matches(key):
+        raise InputError(f"{PIECE}/piece.json: key: expected {key} (these settings, chips and code), found another "
+                         "or none: nothing to check against")
+    torch.set_num_threads(params.threads)
+    with compute.executor("teams baselines") as executor:
+        runs = measure(chips, params, executor)
+    if not args.check:
+        write_piece(runs, key)
+        print(json.dumps({"piece": str(PIECE), "key": key, "seconds": runs.timings["measured_seconds"]}))
+        return
+    with tempfile.TemporaryDirectory() as scratch:
+        write_piece(runs, key, Path(scratch))
+        differ = [stem for stem in TABLES if (Path(scratch) / f"{stem}.parquet").read_bytes() !=
+                  (PIECE / f"{stem}.parquet").read_bytes()]
+    print(json.dumps({"piece": str(PIECE), "key": key, "identical": not differ, "differ": differ}))
+    if differ:
+        raise SystemExit(1)
 
 
 def _generator(args: argparse.Namespace) -> None:

@@ -9,9 +9,13 @@ from robocompose.evaluation.references import (
     ReferencesConfig,
     best_per_task,
     candidate_designs,
+    commit_evaluations,
+    committed_evaluations,
     evaluate_references,
     record_best,
 )
+from robocompose.evaluation import evaluate
+from robocompose.fanout.cache import EvaluationCache
 from robocompose.fanout.executor import Executor
 from robocompose.grammar.derivation import random_derivation
 from robocompose.grammar.references import REFERENCE_DESIGNS
@@ -57,3 +61,23 @@ def test_table_best_designs_and_their_logs(tmp_path, designs):
         written = record_best(table, designs, config, TINY, tmp_path / "rollouts", (32, 24), executor)
     assert sorted(p.name for p in written) == ["flat.gif", "flat.mcap", "ridged.gif", "ridged.mcap"]
     assert any(m.topic == "/tf" for m in read_mcap(tmp_path / "rollouts" / "flat.mcap"))
+
+
+def test_committed_evaluations_are_served_while_their_settings_match(tmp_path, designs, monkeypatch):
+    config = ReferencesConfig(n_random=1, tasks=["flat"])
+    cache = EvaluationCache()
+    table = evaluate_references(designs, config, TINY, cache)
+    path = commit_evaluations(table, cache, tmp_path / "measured" / "eval_cache.parquet")
+    assert committed_evaluations(tmp_path / "absent.parquet").frame().empty  # no file: nothing served
+    committed = committed_evaluations(path)
+    assert len(committed) == len(table) == 3
+
+    def no_simulation(*args, **kwargs):
+        raise AssertionError("a committed evaluation was simulated again")
+
+    monkeypatch.setattr(evaluate, "evaluate", no_simulation)
+    pd.testing.assert_frame_equal(evaluate_references(designs, config, TINY, committed), table)
+    # another controller setting: its settings hash keys other entries, so nothing committed is served
+    other = EvaluationConfig(mppi=MPPIConfig(samples=2, first_samples=2, horizon=2, episode=6))
+    with pytest.raises(AssertionError, match="simulated again"):
+        evaluate_references(designs, config, other, committed)
