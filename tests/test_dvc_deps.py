@@ -55,7 +55,10 @@ NOT_READ = {
                                                  "by teams_heldout"},
     "glso": {path: "runs.py imports robocompose.evaluation.fidelity for the ladder's rungs (glso.rung); the design "
                    "set and the summary are the evaluator_fidelity stage's"
-             for path in ("measured/fidelity/designs.csv", "reports/fidelity/summary.csv")},
+             for path in ("measured/fidelity/designs.csv", "reports/fidelity/summary.csv")}
+    | {"measured/references/eval_cache.parquet": "runs.py imports robocompose.evaluation.references for "
+                                                 "record_rollout; the committed evaluations are evaluate_references'"},
+    "glso_campaign": {"measured/references/eval_cache.parquet": "it imports robocompose.glso.runs (see glso)"},
 }
 
 

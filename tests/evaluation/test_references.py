@@ -4,6 +4,7 @@ import pytest
 
 from robocompose.control.mppi import MPPIConfig
 from robocompose.dataset.enumerate import design_row
+from robocompose.evaluation import evaluate
 from robocompose.evaluation.evaluate import EvaluationConfig
 from robocompose.evaluation.references import (
     ReferencesConfig,
@@ -14,7 +15,6 @@ from robocompose.evaluation.references import (
     evaluate_references,
     record_best,
 )
-from robocompose.evaluation import evaluate
 from robocompose.fanout.cache import EvaluationCache
 from robocompose.fanout.executor import Executor
 from robocompose.grammar.derivation import random_derivation
