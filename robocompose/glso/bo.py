@@ -10,7 +10,12 @@ The loop, one objective call per step:
   cannot be simulated) is registered at that point;
 - after every step past the initial points, sequential domain reduction (gamma_osc 0.7, gamma_pan 1.0,
   eta 0.9) shrinks the bounds, exactly the call `maximize()` makes: set_bounds(transformer.transform(space)).
-Random points are drawn inside the current (reduced) bounds, as in the original. The best so far is taken
+Random points are drawn inside the current (reduced) bounds, as in the original. The variants a practitioner
+tries when the window collapses (issue 42; registered beside GLSO, each with its own defaults): no domain reduction
+(`NoReductionConfig`: the original's README command), a wider floor (`WideFloorConfig`: `minimum_window` 2 of 6),
+and re-asking (`ReaskConfig`): a suggestion that decodes to a design the run has scored is registered at that
+score without an objective call and BO is asked again, at most `reask` times, then a random point of the current
+bounds goes instead (the re-asks are the proposal's `rejected`: counted, not paid). The best so far is taken
 from the whole history by the run, not from `optimizer.max`, which only sees points inside the current
 bounds. A resumed run rebuilds the optimiser by replaying its steps (`runs.replay`: the seeded optimiser
 suggests the recorded points again and registers their scores), not with bayes_opt's own `load_state`, which
@@ -43,11 +48,37 @@ class BOConfig:
     gamma_pan: float = 1.0
     eta: float = 0.9
     minimum_window: float = 0.5  # narrowest a reduced window may get
+    reask: int = 0  # suggestions of a scored design registered for free per call, then a random point (0 = off)
 
     def __post_init__(self) -> None:
         check_field(self.bound > 0, "bound", "a positive number", self.bound)
         check_field(self.init >= 1, "init", "at least 1 random initial point", self.init)
         check_field(self.random_every >= 0, "random_every", ">= 0 (0 = never)", self.random_every)
+        check_field(0 < self.minimum_window <= 2 * self.bound, "minimum_window",
+                    f"a width in (0, {2 * self.bound}] (2 x bound)", self.minimum_window)
+        check_field(self.reask >= 0, "reask", "an integer >= 0 (0 = a repeat is sent and costs its call)",
+                    self.reask)
+
+
+@dataclass(frozen=True)
+class NoReductionConfig(BOConfig):
+    """GLSO without domain reduction: the window stays [-bound, bound] (the original's README command)."""
+
+    domain_reduction: bool = False
+
+
+@dataclass(frozen=True)
+class WideFloorConfig(BOConfig):
+    """GLSO whose reduced window never gets narrower than a third of the box in any coordinate."""
+
+    minimum_window: float = 2.0
+
+
+@dataclass(frozen=True)
+class ReaskConfig(BOConfig):
+    """GLSO that asks again, for free, when a suggestion decodes to a design it has scored (at most 3 times)."""
+
+    reask: int = 3
 
 
 class ExpectedImprovement(acquisition.ExpectedImprovement):
@@ -97,18 +128,36 @@ class LatentBO:
             bounds_transformer=transformer, allow_duplicate_points=True)
         self.optimizer.set_gp_params(alpha=config.alpha)  # the kernel stays bayes_opt's Matern(nu=2.5)
         self.step = 0
+        self.scores: dict[str, float] = {}  # design id -> the score it was told (the designs this run scored)
 
     def is_random_step(self) -> bool:
         c, i = self.config, self.step - self.config.init
         return i < 0 or (c.random_every > 0 and (i + 1) % c.random_every == 0)
 
     def propose(self, env: SearchEnv) -> Proposal:
-        params = self.optimizer.random_sample(1)[0] if self.is_random_step() else self.optimizer.suggest()
+        if self.is_random_step():
+            return self._decoded(env, self.optimizer.random_sample(1)[0])
+        proposal, reasked = self._decoded(env, self.optimizer.suggest()), 0
+        while self.config.reask and proposal.tree.design_id in self.scores:
+            if reasked == self.config.reask:  # bounded: a random point instead of a paid repeat
+                proposal = self._decoded(env, self.optimizer.random_sample(1)[0])
+                break
+            self.optimizer.register(self._params(proposal.z), self.scores[proposal.tree.design_id])
+            proposal, reasked = self._decoded(env, self.optimizer.suggest()), reasked + 1
+        proposal.rejected = reasked
+        return proposal
+
+    def _decoded(self, env: SearchEnv, params: dict) -> Proposal:
         z = np.array([params[k] for k in self.keys], dtype=np.float64)
         return Proposal(decode(env.model, z), None, z=z)
 
+    def _params(self, z: np.ndarray) -> dict:
+        return dict(zip(self.keys, z.tolist(), strict=True))
+
     def tell(self, proposal: Proposal, score: float) -> None:
-        self.optimizer.register(dict(zip(self.keys, proposal.z.tolist(), strict=True)), score)
+        if proposal.tree is not None:
+            self.scores.setdefault(proposal.tree.design_id, score)
+        self.optimizer.register(self._params(proposal.z), score)
         if self.config.domain_reduction and self.step >= self.config.init:
             self.optimizer.set_bounds(self.optimizer._bounds_transformer.transform(self.optimizer.space))
         self.step += 1

@@ -60,7 +60,8 @@ from robocompose.evaluation.fidelity import THESIS, append_row, read_rows, rung_
 from robocompose.evaluation.manifest import MANIFEST_FILE, claim_directory, read_manifest, record_reproduction
 from robocompose.fanout.cache import EvaluationCache
 from robocompose.glso import GROUPS, best_designs, best_so_far_curves, draw_curves, group_titles
-from robocompose.glso.registry import METHODS, describe, family
+from robocompose.glso.bo import BOConfig
+from robocompose.glso.registry import METHODS, describe, family, settings_sections
 from robocompose.glso.runs import GLSOConfig, RunSpec, run_search
 from robocompose.grammar.tree import DesignTree
 from robocompose.io import read_table, write_table
@@ -119,8 +120,8 @@ class CampaignConfig:
                         "an integer >= 0 (run seeds 0 .. n-1)", seeds)
         check_field(self.budget > self.init >= 1, "init", f"1 .. budget - 1 = {self.budget - 1}", self.init)
         check_field(0.0 <= self.ghs_eps_end <= 1.0, "ghs_eps_end", "a probability in [0, 1]", self.ghs_eps_end)
-        check_field(bool(self.rescore_seeds), "rescore_seeds", "at least one controller seed", self.rescore_seeds)
-        check_field(min(self.rescore_seeds) >= 0, "rescore_seeds", "controller seeds >= 0", self.rescore_seeds)
+        check_field(min(self.rescore_seeds, default=0) >= 0, "rescore_seeds",
+                    "controller seeds >= 0 ([] = no thesis re-scores: the pilot's)", self.rescore_seeds)
         check_field(len(set(self.heldout_seeds)) == len(self.heldout_seeds) >= MIN_HELDOUT_SEEDS, "heldout_seeds",
                     f"at least {MIN_HELDOUT_SEEDS} distinct controller seeds", self.heldout_seeds)
         check_field(min(self.heldout_seeds) >= 0, "heldout_seeds", "controller seeds >= 0", self.heldout_seeds)
@@ -164,7 +165,9 @@ def run_path(config: CampaignConfig, spec: RunSpec) -> Path:
 def search_config(config: CampaignConfig, glso: GLSOConfig) -> GLSOConfig:
     """The `glso:` settings with the campaign's budget, GLSO init, GA population and GHS epsilon ends, and no
     `glso.rung` (the smoke run's): the campaign's jobs carry the evaluator at the campaign's own rung."""
-    return dataclasses.replace(glso, budget=config.budget, rung="", bo=dataclasses.replace(glso.bo, init=config.init),
+    latent = {section: dataclasses.replace(getattr(glso, section), init=config.init)  # GLSO and its variants
+              for section, cls in settings_sections().items() if issubclass(cls, BOConfig)}
+    return dataclasses.replace(glso, budget=config.budget, rung="", **latent,
                                ga=dataclasses.replace(glso.ga, population=config.population),
                                ghs=dataclasses.replace(glso.ghs, eps_end=config.ghs_eps_end,
                                                        eps_sample_end=config.ghs_eps_end))
@@ -396,6 +399,37 @@ def run_campaign(config: CampaignConfig, glso: GLSOConfig, evaluation: Evaluatio
         rescore(config, top_designs(steps, 1), executor)
         measure_heldout(config, evaluation, executor)
     return [run_path(config, spec) for spec in specs if run_path(config, spec).exists()]
+
+
+PILOT_RUNG = "s8_h8_e48"  # the ladder's cheapest rung: a pilot compares GLSO's variants with one another
+PILOT_SEEDS = 3
+
+
+def pilot_config(config: CampaignConfig) -> CampaignConfig:
+    """The pilot of GLSO's variants (issue 42, item 3): GLSO and every registered method that searches its VAE
+    (`variant` "full": no domain reduction, the wider floor, re-asking), `PILOT_SEEDS` seeds each, run exactly as
+    the campaign runs them (budget, init, accounting) but at `PILOT_RUNG`, held-out scored the same way, with no
+    thesis re-scores; in its own folder beside the campaign's (`glso_pilot`), committed the same way."""
+    seeds = {name: PILOT_SEEDS for name, method in METHODS.items() if method.variant == "full"}
+    return dataclasses.replace(config, directory=str(Path(config.directory).parent / "glso_pilot"),
+                               checkpoints=str(Path(config.checkpoints).parent / "glso_pilot"), seeds=seeds,
+                               rung=PILOT_RUNG, rescore_seeds=[])
+
+
+def pilot_table(summary: dict) -> pd.DataFrame:
+    """Per method of a pilot's summary: its finished runs and the medians over them of the distinct designs
+    evaluated, the search best (at the pilot rung, the winner's curse included), the best at K distinct designs,
+    the held-out mean of the search best and the held-out best; best held-out best first (ties: more distinct
+    designs). The first variant of it goes on to the campaign rung."""
+    finals = pd.DataFrame(summary.get("finals", []))
+    if finals.empty:
+        return pd.DataFrame(columns=["method", "runs", "distinct", "search", "matched", "reported_heldout",
+                                     "heldout"])
+    table = finals.groupby("method", sort=False).agg(
+        runs=("seed", "size"), distinct=("distinct", "median"), search=("search", "median"),
+        matched=("matched", "median"), reported_heldout=("reported_heldout", "median"),
+        heldout=("heldout", "median")).reset_index()
+    return table.sort_values(["heldout", "distinct"], ascending=False, kind="stable").reset_index(drop=True)
 
 
 def read_runs(config: CampaignConfig) -> pd.DataFrame:

@@ -30,8 +30,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     glso.set_defaults(handler=_glso)
     campaign = subparsers.add_parser("glso-campaign", help="the seeded GLSO campaign: run what is missing (hours, "
                                      "resumable) or summarise the committed runs")
-    campaign.add_argument("action", choices=("run", "heldout", "verify", "summarise"),
-                          help="run: every missing run, then the re-scores and held-out pieces; heldout: only the "
+    campaign.add_argument("action", choices=("run", "heldout", "verify", "summarise", "pilot"),
+                          help="run: every missing run, then the re-scores and held-out pieces; pilot: the same for "
+                               "the pilot of GLSO's variants (3 seeds each at rung s8_h8_e48, measured/glso_pilot/; "
+                               "~2 core-hours), then its table; heldout: only the "
                                "held-out pieces of the committed runs (each run's top designs at fresh seeds, the "
                                "thesis re-scores of its held-out best); verify: re-simulate a design of each "
                                "method and, if today's code scores it bit for bit as committed, record its settings "
@@ -82,6 +84,16 @@ def _campaign(args: argparse.Namespace) -> int:
             config = dataclasses.replace(config, rung=args.rung)  # re-checked by __post_init__
         except InputError as err:
             raise InputError(f"argument --rung: {err}") from None
+    if args.action == "pilot":
+        pilot = campaign.pilot_config(config)
+        glso = load_section(GLSOConfig, "glso", args.params)
+        evaluation = load_section(EvaluationConfig, "evaluation", args.params)
+        with command_compute(args, args.params).executor() as executor:
+            campaign.run_campaign(pilot, glso, evaluation, pilot.rung, executor)
+        table = campaign.pilot_table(campaign.summarise(pilot))
+        print(json.dumps({"directory": pilot.directory, "rung": pilot.rung, "methods": table.to_dict("records")},
+                         default=float))
+        return 0
     if args.action == "run":
         rung = campaign.campaign_rung(config)
         glso = load_section(GLSOConfig, "glso", args.params)

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from robocompose.evaluation.evaluate import INVALID_SCORE, ROBOGRAMMAR_INVALID_SCORE
 from robocompose.glso import GROUPS, REFERENCE
-from robocompose.glso.bo import BOConfig, LatentBO
+from robocompose.glso.bo import BOConfig, LatentBO, NoReductionConfig, ReaskConfig, WideFloorConfig
 from robocompose.glso.ghs import GHSConfig, GraphHeuristicSearch
 from robocompose.glso.graph_ga import GAConfig, GraphGA
 from robocompose.glso.mcts import MCTSConfig, TreeSearch
@@ -61,6 +61,14 @@ METHODS: dict[str, Method] = {
     "ga": Method(GraphGA, GAConfig, "ga", "GA", ("baselines",)),
     "mcts": Method(TreeSearch, MCTSConfig, "mcts", "MCTS", ("baselines",)),
     "ghs": Method(GraphHeuristicSearch, GHSConfig, "ghs", "GHS", ("baselines",)),
+    # GLSO variants that keep the search from collapsing onto its incumbent (issue 42; in no thesis figure: the
+    # pilot, `robocompose glso-campaign pilot`, picks one for the campaign)
+    "glso_nodr": Method(LatentBO, NoReductionConfig, "bo_nodr", "GLSO, no domain reduction", (), variant="full",
+                        invalid_score=INVALID_SCORE),
+    "glso_floor": Method(LatentBO, WideFloorConfig, "bo_floor", "GLSO, window floor 2", (), variant="full",
+                         invalid_score=INVALID_SCORE),
+    "glso_reask": Method(LatentBO, ReaskConfig, "bo_reask", "GLSO, repeats re-asked", (), variant="full",
+                         invalid_score=INVALID_SCORE),
 }
 
 

@@ -78,7 +78,8 @@ class RunSettings:
     """The `glso:` section of params.yaml but for the methods' own sections (`GLSOConfig` adds those)."""
 
     tasks: list = field(default_factory=lambda: list(TASKS))
-    methods: list = field(default_factory=lambda: list(METHODS))
+    methods: list = field(default_factory=lambda: [name for name, method in METHODS.items() if method.groups])
+    # (the thesis's methods: those of its figures; GLSO's variants run in the pilot)
     seeds: list = field(default_factory=lambda: [0, 1, 2])  # run seeds (thesis: 3)
     budget: int = 550  # objective calls per run (GLSO: 50 random + 500 BO steps)
     models: str = "models/vae_{variant}.pt"  # where the VAE of each latent method is ({variant}: full, ...)

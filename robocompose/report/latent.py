@@ -24,16 +24,20 @@ PROPERTY_KEYS = {"property_mse", "property_baseline_mse", "property_r2"}
 
 
 def vae_titles(record: Path) -> dict[str, str]:
-    """Each VAE variant -> the title of the GLSO method that searches it, in the registry's order, from the glso
-    stage's record of the registry (`methods` of reports/metrics/glso.json); ArtifactError naming the file if
-    there is none."""
+    """Each VAE variant -> the title of the first GLSO method in the registry's order that searches it (GLSO for
+    the full VAE its variants search too), from the glso stage's record of the registry (`methods` of
+    reports/metrics/glso.json); ArtifactError naming the file if there is none."""
     if not record.exists():
         raise ArtifactError(f"{record}: missing; the VAE variants are titled by the GLSO methods that search them "
                             "(stage `glso`)")
     methods = read_json(record).get("methods")
     if not isinstance(methods, list) or not all("variant" in method for method in methods):
         raise ArtifactError(f"{record}: no record of the methods' VAE variants (rerun stage `glso`)")
-    return {method["variant"]: method["title"] for method in methods if method["variant"]}
+    titles: dict[str, str] = {}
+    for method in methods:
+        if method["variant"]:
+            titles.setdefault(method["variant"], method["title"])
+    return titles
 
 
 def _fmt(value) -> str:

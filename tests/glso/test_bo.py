@@ -2,8 +2,10 @@ import numpy as np
 import pytest
 from bayes_opt import BayesianOptimization, acquisition
 
-from robocompose.glso.bo import BOConfig, ExpectedImprovement, LatentBO, decode
+from robocompose.glso import bo as bo_module
+from robocompose.glso.bo import BOConfig, ExpectedImprovement, LatentBO, ReaskConfig, decode
 from robocompose.glso.method import Proposal, SearchEnv
+from robocompose.grammar.tree import DesignTree
 from robocompose.latent.model import GraphVAE, VAEConfig
 from robocompose.latent.train import load_model
 
@@ -78,3 +80,35 @@ def test_decoding_is_greedy_and_deterministic(tiny_models):
     model = load_model(tiny_models.format(variant="full"))
     z = np.array([0.5, -1.0, 2.0])
     assert decode(model, z) == decode(model, z)
+
+
+
+def test_reasking_sends_no_repeat_of_a_bo_step_until_its_bound_then_a_random_point(monkeypatch):
+    """A decoder that maps the 2-D latent box onto a 4 x 4 grid of designs: plain GLSO's suggestions land on
+    designs it has scored; the re-asking variant registers such a suggestion at its known score for free and asks
+    again, `reask` times at most (the proposal's `rejected`), then spends the call on a random point."""
+    def cell(z: np.ndarray) -> int:
+        i, j = np.clip(((z + 3.0) / 1.5).astype(int), 0, 3)
+        return int(4 * i + j)
+
+    monkeypatch.setattr(bo_module, "decode", lambda model, z: DesignTree((-1,), (cell(z),)))
+
+    def run(config: BOConfig) -> list[tuple[str, int]]:
+        bo, sent = LatentBO(config, seed=0, budget=20, env=LATENT_2), []
+        for _ in range(20):
+            proposal = bo.propose(LATENT_2)
+            sent.append((proposal.tree.design_id, proposal.rejected, bo.is_random_step()))
+            bo.tell(proposal, float(-abs(cell(proposal.z) - 9)))  # best cell 9
+        return sent
+
+    plain, reask = run(BOConfig(init=5)), run(ReaskConfig(init=5))
+
+    def distinct(sent: list) -> int:
+        return len({design for design, _, _ in sent})
+
+    assert distinct(reask) > distinct(plain)  # more designs for the same calls
+    assert max(rejected for _, rejected, _ in reask) > 0 and all(rejected == 0 for _, rejected, _ in plain)
+    seen = set()
+    for design, rejected, random_step in reask:  # a repeat is sent only by a random point: the bound or scheduled
+        assert design not in seen or random_step or rejected == 3
+        seen.add(design)

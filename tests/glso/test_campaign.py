@@ -55,6 +55,9 @@ def test_the_campaign_runs_its_own_budget_init_population_and_ghs_epsilons_over_
     smoke = GLSOConfig(budget=16, bo={"init": 6}, ga={"population": 8}, ghs={"eps_end": 0.5, "eps_sample_end": 0.5})
     runs = campaign.search_config(CampaignConfig(budget=200, init=50, population=50, ghs_eps_end=0.1), smoke)
     assert (runs.budget, runs.bo.init, runs.ga.population) == (200, 50, 50)
+    # GLSO's variants start from the campaign's init as GLSO does, keeping what makes each a variant
+    assert (runs.bo_nodr.init, runs.bo_floor.init, runs.bo_reask.init) == (50, 50, 50)
+    assert (runs.bo_nodr.domain_reduction, runs.bo_floor.minimum_window, runs.bo_reask.reask) == (False, 2.0, 3)
     assert (runs.ghs.eps_end, runs.ghs.eps_sample_end) == (0.1, 0.1)
     assert runs.ghs.eps_decay == smoke.ghs.eps_decay and runs.mcts == smoke.mcts  # the rest is the profile's
 
@@ -462,3 +465,26 @@ def test_verify_records_todays_evaluator_only_if_it_rescores_the_committed_desig
         today: ["a", "p"]}}
     monkeypatch.setattr(campaign, "evaluate", StandIn(steps, held_out))
     assert campaign.measure_heldout(config, EvaluationConfig())["heldout"] == 20  # today's code now continues
+
+
+def test_the_pilot_runs_glso_and_its_variants_as_the_campaign_does_and_ranks_them_by_held_out_best(
+        tmp_path, monkeypatch, tiny_models):
+    """The pilot is the campaign's machinery on GLSO and the registered methods searching its VAE, in its own
+    folder at its own rung, held-out scored and never re-scored at the thesis setting."""
+    config = CampaignConfig(directory=str(tmp_path / "measured" / "glso_campaign"),
+                            checkpoints=str(tmp_path / "data" / "glso_campaign"), budget=4, init=2, bootstrap=20)
+    pilot = campaign.pilot_config(config)
+    assert pilot.directory == str(tmp_path / "measured" / "glso_pilot") and pilot.rescore_seeds == []
+    assert pilot.seeds == {"glso": 3, "glso_nodr": 3, "glso_floor": 3, "glso_reask": 3}
+    assert (pilot.rung, pilot.budget, pilot.init, pilot.heldout_seeds) == (
+        "s8_h8_e48", 4, 2, config.heldout_seeds)
+    monkeypatch.setitem(fidelity.LADDER, "tiny", (2, 2, 2, 3))
+    tiny = CampaignConfig(**{**pilot.__dict__, "seeds": {name: 1 for name in pilot.seeds}, "rung": "tiny"})
+    campaign.run_campaign(tiny, GLSOConfig(models=tiny_models), EvaluationConfig(), "tiny")
+    assert not (tmp_path / "measured" / "glso_pilot" / campaign.RESCORES_FILE).exists()
+    summary = campaign.summarise(tiny)
+    assert summary["heldout_progress"]["complete"] == 4
+    table = campaign.pilot_table(summary)
+    assert sorted(table["method"]) == sorted(pilot.seeds) and (table["runs"] == 1).all()
+    assert table["heldout"].is_monotonic_decreasing  # the pick is the first row
+    assert (table["distinct"] <= 4).all() and (table["distinct"] >= 1).all()

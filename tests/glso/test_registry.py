@@ -4,7 +4,7 @@ import inspect
 import pytest
 
 from robocompose.evaluation.evaluate import EvaluationConfig
-from robocompose.glso.bo import BOConfig
+from robocompose.glso.bo import BOConfig, NoReductionConfig, ReaskConfig, WideFloorConfig
 from robocompose.glso.designs import random_grammar_design, run_stream
 from robocompose.glso.method import Proposal, SearchEnv
 from robocompose.glso.random_search import RandomConfig, RandomSearch
@@ -16,16 +16,19 @@ from tests.glso.conftest import fake_objective
 
 
 def test_the_registry_holds_the_thesis_methods_and_the_latent_ones_name_their_vae():
-    assert list(METHODS) == ["glso", "glso_nopred", "glso_nogram", "random", "ga", "mcts", "ghs"]
+    assert list(METHODS) == ["glso", "glso_nopred", "glso_nogram", "random", "ga", "mcts", "ghs", "glso_nodr",
+                             "glso_floor", "glso_reask"]
     assert {name: m.variant for name, m in METHODS.items() if m.variant} == {
-        "glso": "full", "glso_nopred": "nopred", "glso_nogram": "nogram"}
+        "glso": "full", "glso_nopred": "nopred", "glso_nogram": "nogram", "glso_nodr": "full", "glso_floor": "full",
+        "glso_reask": "full"}
     for name, method in METHODS.items():  # SearchMethod's constructor, propose and tell
         assert callable(method.cls.propose) and callable(method.cls.tell), name
         assert list(inspect.signature(method.cls).parameters) == ["config", "seed", "budget", "env"], name
         assert dataclasses.is_dataclass(method.settings), name
     assert [(m["title"], m["groups"]) for m in describe()] == [
         ("GLSO", ["baselines", "ablations"]), ("GLSO_nopred", ["ablations"]), ("GLSO_nogram", ["ablations"]),
-        ("Random", ["baselines"]), ("GA", ["baselines"]), ("MCTS", ["baselines"]), ("GHS", ["baselines"])]
+        ("Random", ["baselines"]), ("GA", ["baselines"]), ("MCTS", ["baselines"]), ("GHS", ["baselines"]),
+        ("GLSO, no domain reduction", []), ("GLSO, window floor 2", []), ("GLSO, repeats re-asked", [])]
     assert family("baselines") == ("random", "ga", "mcts", "ghs") and family("ablations") == (
         "glso_nopred", "glso_nogram")  # the methods GLSO is compared with in Figs. 8.1 and 8.2
     with pytest.raises(TypeError, match=r"figure groups \['baseline'\] are not of \['baselines', 'ablations'\]"):
@@ -33,9 +36,13 @@ def test_the_registry_holds_the_thesis_methods_and_the_latent_ones_name_their_va
 
 
 def test_the_config_has_one_section_per_registered_settings_and_names_a_bad_field():
-    assert settings_sections() == {"bo": BOConfig, **{s: METHODS[s].settings for s in ("random", "ga", "mcts", "ghs")}}
+    assert settings_sections() == {"bo": BOConfig, **{s: METHODS[s].settings for s in ("random", "ga", "mcts", "ghs")},
+                                   "bo_nodr": NoReductionConfig, "bo_floor": WideFloorConfig, "bo_reask": ReaskConfig}
     config = GLSOConfig(bo={"init": 4})
     assert config.settings("glso_nogram") == BOConfig(init=4) and config.settings("random") == RandomConfig()
+    # a variant's section defaults to what makes it the variant, whatever `bo` says
+    assert (config.settings("glso_nodr").domain_reduction, config.settings("glso_floor").minimum_window,
+            config.settings("glso_reask").reask) == (False, 2.0, 3)
     assert config.model_path("glso_nopred").name == "vae_nopred.pt" and config.model_path("mcts") is None
     with pytest.raises(InputError, match=r"glso\.bo\.nit: unknown field"):
         build_config(GLSOConfig, {"bo": {"nit": 4}}, "glso")
