@@ -184,6 +184,12 @@ def dask_address(text: str) -> str:
         raise argparse.ArgumentTypeError(str(err).removeprefix("address: ")) from None
 
 
+def add_params_argument(parser: argparse.ArgumentParser) -> None:
+    """--params: the params file a command reads its settings from (default params.yaml; must exist)."""
+    parser.add_argument("--params", type=input_file("a params YAML file"), default=Path("params.yaml"),
+                        help="the settings (default: params.yaml)")
+
+
 def add_compute_arguments(parser: argparse.ArgumentParser) -> None:
     """--workers and --address: override the params' `compute:` section for one command (`ComputeConfig.overridden`)."""
     parser.add_argument("--workers", type=non_negative_int, default=None,

@@ -8,7 +8,7 @@ import argparse
 import json
 from pathlib import Path
 
-from robocompose.arguments import add_compute_arguments, input_file, non_negative_int, output_file
+from robocompose.arguments import add_compute_arguments, add_params_argument, input_file, non_negative_int, output_file
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -141,8 +141,7 @@ def register_references(subparsers: argparse._SubParsersAction) -> None:
         "reference-evals", help="evaluate the reference and random designs on every task as stage "
         "evaluate_references does and commit the evaluations to measured/references/eval_cache.parquet, which the "
         "stage then serves (params.yaml's evaluation and evaluate_references sections; data/designs.parquet)")
-    references.add_argument("--params", type=input_file("a params YAML file"), default=Path("params.yaml"),
-                            help="the settings (default: params.yaml)")
+    add_params_argument(references)
     add_compute_arguments(references)
     references.set_defaults(handler=_reference_evals)
 

@@ -12,6 +12,7 @@ from pathlib import Path
 
 from robocompose.arguments import (
     add_compute_arguments,
+    add_params_argument,
     dask_address,
     input_file,
     int_at_least,
@@ -53,8 +54,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "baselines", help="measure Tables 5.4 and 5.5's baselines (every NSGA-II run, the coverage baselines, the "
         "random fronts) as stage teams_baselines does and write the committed piece measured/teams/baselines/ "
         "(params.yaml's teams section; stage decompose's regions); ~12 min on 2 cores")
-    baselines.add_argument("--params", type=input_file("a params YAML file"), default=Path("params.yaml"),
-                           help="the settings (default: params.yaml)")
+    add_params_argument(baselines)
     baselines.add_argument("--check", action="store_true",
                            help="measure and compare with the committed piece instead of writing it: exit 1 unless "
                                 "every table is the same bytes")
@@ -66,8 +66,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "the test chips and write the committed piece measured/teams/generators/seed-K/ (params.yaml's teams "
         "section; stage decompose's regions)")
     generator.add_argument("--seed", type=non_negative_int, required=True, help="the generator's training seed")
-    generator.add_argument("--params", type=input_file("a params YAML file"), default=Path("params.yaml"),
-                           help="the settings (default: params.yaml)")
+    add_params_argument(generator)
     generator.set_defaults(handler=_generator)
 
     chip_count = commands.add_parser(
@@ -76,8 +75,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "measured/teams/chip_count/train-N-seed-K.json (params.yaml's teams section; stage decompose's regions)")
     chip_count.add_argument("--train-chips", type=positive_int, required=True, help="N, the training chips")
     chip_count.add_argument("--seed", type=non_negative_int, required=True, help="the generator's training seed")
-    chip_count.add_argument("--params", type=input_file("a params YAML file"), default=Path("params.yaml"),
-                            help="the settings (default: params.yaml)")
+    add_params_argument(chip_count)
     chip_count.set_defaults(handler=_chip_count)
 
 
