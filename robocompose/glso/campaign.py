@@ -93,7 +93,7 @@ class CampaignConfig:
     checkpoints: str = "data/glso_campaign"  # runs in progress (not committed)
     tasks: list[str] = field(default_factory=lambda: ["flat"])  # ridged after flat if time allows
     seeds: dict[str, int] = field(default_factory=lambda: {  # run seeds per method: 0 .. n-1
-        "glso": 5, "random": 5, "mcts": 5, "ghs": 5, "ga": 5, "glso_nopred": 3, "glso_nogram": 3})
+        "glso": 5, "random": 5, "mcts": 5, "ghs": 5, "ga": 5, "glso_nopred": 3, "glso_nogram": 3, "glso_thesis": 5})
     budget: int = 200  # objective calls per run
     init: int = 50  # GLSO's random initial points, then budget - init BO steps (the thesis's loop)
     population: int = 50  # the GA's (thesis)
@@ -228,9 +228,11 @@ def best_design(steps: pd.DataFrame) -> pd.Series | None:
 
 def top_designs(steps: pd.DataFrame, top: int) -> pd.DataFrame:
     """Each run's `top` best distinct simulated designs by the score the run saw (one step row each, the call
-    that first sent it), `rank` 1 (the run's best: `best_design`'s) to `top`, equal scores ranked by first call;
-    runs in the order of `steps`."""
-    ok = steps[steps["status"] == OK].sort_values("step", kind="stable").drop_duplicates([*RUN, "design_id"])
+    that scored it highest: every call of a design scores the same unless the run draws a controller seed per
+    call, the thesis protocol), `rank` 1 (the run's best: `best_design`'s) to `top`, equal scores ranked by first
+    call; runs in the order of `steps`."""
+    ok = (steps[steps["status"] == OK].sort_values(["score", "step"], ascending=[False, True], kind="stable")
+          .drop_duplicates([*RUN, "design_id"]))
     ok = ok.assign(run_order=ok.groupby(RUN, sort=False).ngroup())
     ranked = (ok.sort_values(["run_order", "score", "step"], ascending=[True, False, True])
               .groupby(RUN, sort=False).head(top))
@@ -407,10 +409,12 @@ PILOT_SEEDS = 3
 
 def pilot_config(config: CampaignConfig) -> CampaignConfig:
     """The pilot of GLSO's variants (issue 42, item 3): GLSO and every registered method that searches its VAE
-    (`variant` "full": no domain reduction, the wider floor, re-asking), `PILOT_SEEDS` seeds each, run exactly as
-    the campaign runs them (budget, init, accounting) but at `PILOT_RUNG`, held-out scored the same way, with no
-    thesis re-scores; in its own folder beside the campaign's (`glso_pilot`), committed the same way."""
-    seeds = {name: PILOT_SEEDS for name, method in METHODS.items() if method.variant == "full"}
+    at the campaign's fixed controller seed (`variant` "full": no domain reduction, the wider floor, re-asking),
+    `PILOT_SEEDS` seeds each, run exactly as the campaign runs them (budget, init, accounting) but at
+    `PILOT_RUNG`, held-out scored the same way, with no thesis re-scores; in its own folder beside the
+    campaign's (`glso_pilot`), committed the same way."""
+    seeds = {name: PILOT_SEEDS for name, method in METHODS.items()
+             if method.variant == "full" and not method.fresh_seeds}  # the thesis protocol is an arm, not a fix
     return dataclasses.replace(config, directory=str(Path(config.directory).parent / "glso_pilot"),
                                checkpoints=str(Path(config.checkpoints).parent / "glso_pilot"), seeds=seeds,
                                rung=PILOT_RUNG, rescore_seeds=[])

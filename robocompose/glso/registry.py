@@ -26,8 +26,9 @@ from robocompose.glso.random_search import RandomConfig, RandomSearch
 class Method:
     """A registered search method: its class, its settings' dataclass and params section, its title (the
     thesis's legend name) and figure groups (keys of `robocompose.glso.GROUPS`), the VAE it searches (`variant`
-    fills the {variant} of `glso.models`; None for a method without a VAE), and the score it is told for a
-    design that cannot be simulated, by status (its original's)."""
+    fills the {variant} of `glso.models`; None for a method without a VAE), the score it is told for a
+    design that cannot be simulated, by status (its original's), and whether each of its calls draws a
+    controller seed of its own (`runs.call_seeds`; else every call uses `evaluation.seed`)."""
 
     cls: type[SearchMethod]
     settings: type
@@ -36,6 +37,7 @@ class Method:
     groups: tuple[str, ...]
     variant: str | None = None
     invalid_score: dict[str, float] = field(default_factory=lambda: dict(ROBOGRAMMAR_INVALID_SCORE))
+    fresh_seeds: bool = False  # the original GLSO's protocol: every call simulated at a controller seed of its own
 
     def __post_init__(self) -> None:
         unknown = [group for group in self.groups if group not in GROUPS]
@@ -69,6 +71,10 @@ METHODS: dict[str, Method] = {
                          invalid_score=INVALID_SCORE),
     "glso_reask": Method(LatentBO, ReaskConfig, "bo_reask", "GLSO, repeats re-asked", (), variant="full",
                          invalid_score=INVALID_SCORE),
+    # GLSO under its original's protocol (issue 42, item 2): a fresh controller seed per call, so a repeat is
+    # simulated again and its best so far is a maximum over noisy re-draws; held-out scoring measures the inflation
+    "glso_thesis": Method(LatentBO, BOConfig, "bo", "GLSO, thesis protocol", (), variant="full",
+                          invalid_score=INVALID_SCORE, fresh_seeds=True),
 }
 
 

@@ -45,11 +45,12 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import itertools
 import json
 import math
 import time
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -96,7 +97,7 @@ class RunSettings:
         check_field(not unknown, "methods", f"some of {list(METHODS)}", unknown[:1])
         for task in self.tasks:
             get_task(task)
-        check_field(self.budget >= 1, "budget", "at least 1 objective call", self.budget)
+        check_field(1 <= self.budget <= MAX_BUDGET, "budget", f"1 .. {MAX_BUDGET} objective calls", self.budget)
         check_field(bool(self.seeds), "seeds", "at least one run seed", self.seeds)
         check_field("{variant}" in self.models, "models", "a path with {variant} in it", self.models)
         check_field(self.rung == "" or self.rung in LADDER, "rung",
@@ -141,17 +142,36 @@ def make_method(spec: RunSpec, config: GLSOConfig, env: SearchEnv) -> SearchMeth
     return METHODS[spec.method].cls(config.settings(spec.method), spec.seed, config.budget, env)
 
 
-class Objective:
-    """The one objective of every method: one MPPI episode on the task through the evaluation cache."""
+FRESH_SEEDS = 1_000_000  # first controller seed of the thesis protocol's calls: far from every other seed in use
+MAX_BUDGET = 10_000  # calls per run (the thesis protocol gives each run seed 10,000 controller seeds)
 
-    def __init__(self, task: str, evaluation: EvaluationConfig, cache: EvaluationCache | None = None):
+
+def call_seeds(spec: RunSpec, evaluation: EvaluationConfig, first_step: int = 0) -> Iterator[int]:
+    """The controller seed of each call of a run from step `first_step` on: `evaluation.seed` for every method
+    (a repeat is served from the cache), but for a method of the original's protocol (`Method.fresh_seeds`) seed
+    FRESH_SEEDS + MAX_BUDGET x run seed + step, one of its own per call, as run_bo.py draws an opt_seed per call
+    (there unseeded), so a repeat is simulated again. Never a held-out or re-score seed (those are < 1e6)."""
+    if not METHODS[spec.method].fresh_seeds:
+        return itertools.repeat(evaluation.seed)
+    return itertools.count(FRESH_SEEDS + MAX_BUDGET * spec.seed + first_step)
+
+
+class Objective:
+    """The one objective of every method: one MPPI episode on the task through the evaluation cache, at the
+    controller seeds `seeds` yields, one per call (default: `evaluation.seed` for every call)."""
+
+    def __init__(self, task: str, evaluation: EvaluationConfig, cache: EvaluationCache | None = None,
+                 seeds: Iterator[int] | None = None):
         self.task, self.evaluation = task, evaluation
         self.cache = EvaluationCache() if cache is None else cache
+        self.seeds = itertools.repeat(evaluation.seed) if seeds is None else seeds
 
     def __call__(self, tree: DesignTree) -> dict:
-        """The evaluator's row {reward, status, sim_steps, seconds, ...} of `tree` (cached if known; a new
-        result is saved to the cache at once)."""
-        return cached_evaluations([EvalJob(tree, self.task, self.evaluation, self.evaluation.seed)], self.cache)[0]
+        """The evaluator's row {reward, status, sim_steps, seconds, ...} of `tree` at the next seed (cached if
+        known; a new result is saved to the cache at once)."""
+        seed = next(self.seeds)
+        evaluation = dataclasses.replace(self.evaluation, seed=seed)
+        return cached_evaluations([EvalJob(tree, self.task, evaluation, seed)], self.cache)[0]
 
 
 def run_key(spec: RunSpec, config: GLSOConfig, evaluation: EvaluationConfig, model_path: Path | None) -> str:
@@ -251,7 +271,7 @@ def run_search(spec: RunSpec, config: GLSOConfig, evaluation: EvaluationConfig,
             warnings.warn(f"{checkpoint}: {mismatch}: starting afresh", stacklevel=2)
             method = make_method(spec, config, env)  # the replay left the first one part-way
     if objective_fn is None:
-        objective_fn = Objective(env.task, evaluation, cache)
+        objective_fn = Objective(env.task, evaluation, cache, call_seeds(spec, evaluation, len(rows)))
     seen = {row["design_id"] for row in rows}
     best = rows[-1]["best_so_far"] if rows else np.nan
     invalid = METHODS[spec.method].invalid_score

@@ -271,7 +271,7 @@ def test_a_missing_campaign_directory_is_an_error_not_zero_runs(tmp_path):
 
 def test_the_summary_of_no_runs_says_so(tmp_path):
     summary = campaign.summarise(CampaignConfig(directory=str(tmp_path)))
-    assert summary["runs"] == 0 and summary["planned"] == 31
+    assert summary["runs"] == 0 and summary["planned"] == 36  # 5 seeds of 5 methods and the arm, 3 of 2 ablations
 
 
 def test_the_top_designs_are_a_runs_best_distinct_simulated_designs_by_search_score_ties_by_first_call():

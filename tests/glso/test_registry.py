@@ -17,10 +17,10 @@ from tests.glso.conftest import fake_objective
 
 def test_the_registry_holds_the_thesis_methods_and_the_latent_ones_name_their_vae():
     assert list(METHODS) == ["glso", "glso_nopred", "glso_nogram", "random", "ga", "mcts", "ghs", "glso_nodr",
-                             "glso_floor", "glso_reask"]
+                             "glso_floor", "glso_reask", "glso_thesis"]
     assert {name: m.variant for name, m in METHODS.items() if m.variant} == {
         "glso": "full", "glso_nopred": "nopred", "glso_nogram": "nogram", "glso_nodr": "full", "glso_floor": "full",
-        "glso_reask": "full"}
+        "glso_reask": "full", "glso_thesis": "full"}
     for name, method in METHODS.items():  # SearchMethod's constructor, propose and tell
         assert callable(method.cls.propose) and callable(method.cls.tell), name
         assert list(inspect.signature(method.cls).parameters) == ["config", "seed", "budget", "env"], name
@@ -28,7 +28,8 @@ def test_the_registry_holds_the_thesis_methods_and_the_latent_ones_name_their_va
     assert [(m["title"], m["groups"]) for m in describe()] == [
         ("GLSO", ["baselines", "ablations"]), ("GLSO_nopred", ["ablations"]), ("GLSO_nogram", ["ablations"]),
         ("Random", ["baselines"]), ("GA", ["baselines"]), ("MCTS", ["baselines"]), ("GHS", ["baselines"]),
-        ("GLSO, no domain reduction", []), ("GLSO, window floor 2", []), ("GLSO, repeats re-asked", [])]
+        ("GLSO, no domain reduction", []), ("GLSO, window floor 2", []), ("GLSO, repeats re-asked", []),
+        ("GLSO, thesis protocol", [])]
     assert family("baselines") == ("random", "ga", "mcts", "ghs") and family("ablations") == (
         "glso_nopred", "glso_nogram")  # the methods GLSO is compared with in Figs. 8.1 and 8.2
     with pytest.raises(TypeError, match=r"figure groups \['baseline'\] are not of \['baselines', 'ablations'\]"):

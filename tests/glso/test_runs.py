@@ -1,4 +1,5 @@
 import dataclasses
+import itertools
 from pathlib import Path
 
 import numpy as np
@@ -8,10 +9,11 @@ import pytest
 from robocompose.control.mppi import MPPIConfig
 from robocompose.evaluation.evaluate import INVALID_SCORE, ROBOGRAMMAR_INVALID_SCORE, EvaluationConfig, objective
 from robocompose.fanout.cache import EvaluationCache
+from robocompose.glso import runs
 from robocompose.glso.designs import self_colliding
 from robocompose.glso.ghs import GHSConfig
 from robocompose.glso.registry import METHODS
-from robocompose.glso.runs import GLSOConfig, Objective, RunSpec, run_search, summarise
+from robocompose.glso.runs import FRESH_SEEDS, GLSOConfig, Objective, RunSpec, call_seeds, run_search, summarise
 from robocompose.grammar.tree import DesignTree
 from robocompose.io import read_table
 from robocompose.params import build_config
@@ -111,7 +113,7 @@ def test_summary_takes_the_final_best_over_seeds():
 @pytest.mark.parametrize("values, message", [
     ({"methods": ["bogus"]}, "methods: expected some of"),
     ({"tasks": ["moon"]}, "moon"),
-    ({"budget": 0}, "budget: expected at least 1"),
+    ({"budget": 0}, r"budget: expected 1 \.\. 10000 objective calls"),
     ({"bo": {"xi": "big"}}, "glso.bo.xi"),
     ({"rung": "fast"}, r"glso.rung: expected \"\" \(the evaluator's evaluation.mppi\) or a fidelity rung of "
                        r"\['thesis', 's8_h8_e48', .*\], found 'fast'$"),
@@ -204,3 +206,47 @@ def test_glso_warns_when_its_random_init_fills_the_budget(small_config):
     config = dataclasses.replace(small_config, budget=3)  # init 3: no BO step
     with pytest.warns(UserWarning, match="init 3 >= budget 3"):
         run_search(RunSpec("flat", "glso", 0), config, EVALUATION, objective_fn=fake_objective)
+
+
+def test_the_thesis_protocol_simulates_every_call_at_a_controller_seed_of_its_own(small_config, monkeypatch,
+                                                                                   tmp_path):
+    """GLSO as its original runs: the same search, but each call at a fresh controller seed, so a repeat is
+    simulated again (another key of the cache) and the best so far is a maximum over noisy re-draws; a resumed run
+    continues the seeds where it stopped."""
+    assert list(itertools.islice(call_seeds(RunSpec("flat", "glso", 2), EVALUATION), 3)) == [0, 0, 0]
+    assert list(itertools.islice(call_seeds(RunSpec("flat", "glso_thesis", 2), EVALUATION, 5), 2)) == [
+        FRESH_SEEDS + 20_005, FRESH_SEEDS + 20_006]
+    simulated = []
+
+    def noisy(jobs, cache=None, *args, **kwargs):  # the evaluator: a design's reward moves with the seed
+        rows = []
+        for job in jobs:
+            simulated.append((job.tree.design_id, job.seed, job.config.seed))
+            rows.append({"design_id": job.tree.design_id, "task": job.task, "settings_hash": "h", "seed": job.seed,
+                         "reward": 4.0 + (job.seed % 7) / 100, "status": "ok", "sim_steps": 1, "seconds": 0.0})
+        return rows
+
+    monkeypatch.setattr(runs, "cached_evaluations", noisy)
+    plain = run_search(RunSpec("flat", "glso", 0), small_config, EVALUATION)
+    assert {seed for _, seed, _ in simulated} == {0} and plain.repeat.any()
+    simulated.clear()
+    thesis = run_search(RunSpec("flat", "glso_thesis", 0), small_config, EVALUATION)
+    assert [seed for _, seed, _ in simulated] == list(range(FRESH_SEEDS, FRESH_SEEDS + small_config.budget))
+    assert all(seed == config_seed for _, seed, config_seed in simulated)
+    assert list(thesis.design_id[:3]) == list(plain.design_id[:3])  # the same random start, then its own scores
+    assert thesis.best_so_far.iloc[-1] == thesis.reward.max()
+    simulated.clear()
+    stopped = {}
+
+    def stop(row):
+        if row["step"] == 4:
+            stopped["at"] = row["step"]
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_search(RunSpec("flat", "glso_thesis", 0), small_config, EVALUATION, checkpoint=tmp_path / "run.ckpt",
+                   on_step=stop)
+    simulated.clear()
+    resumed = run_search(RunSpec("flat", "glso_thesis", 0), small_config, EVALUATION, checkpoint=tmp_path / "run.ckpt")
+    assert [seed for _, seed, _ in simulated] == list(range(FRESH_SEEDS + 5, FRESH_SEEDS + small_config.budget))
+    assert resumed.equals(thesis)
