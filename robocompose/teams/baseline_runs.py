@@ -83,8 +83,7 @@ def write_piece(runs: BaselineRuns, key: str, root: Path = PIECE) -> Path:
     """root/<table>.parquet for each of TABLES and root/piece.json (key, timings)."""
     root = Path(root)
     root.mkdir(parents=True, exist_ok=True)
-    for stem, schema in TABLES.items():
-        write_table(runs.tables[stem], root / f"{stem}.parquet", schema)
+    write_tables(runs, root)
     atomic_write_json(root / "piece.json", {"key": key, "timings": runs.timings})
     return root
 
