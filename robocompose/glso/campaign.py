@@ -59,7 +59,7 @@ from robocompose.evaluation.evaluate import OK, EvaluationConfig, evaluate, obje
 from robocompose.evaluation.fidelity import THESIS, append_row, read_rows, rung_config
 from robocompose.evaluation.manifest import MANIFEST_FILE, claim_directory, read_manifest, record_reproduction
 from robocompose.fanout.cache import EvaluationCache
-from robocompose.glso import GROUPS, best_designs, best_so_far_curves, draw_curves, group_titles
+from robocompose.glso import GROUPS, REFERENCE, best_designs, best_so_far_curves, draw_curves, group_titles
 from robocompose.glso.bo import BOConfig
 from robocompose.glso.registry import METHODS, describe, family, settings_sections
 from robocompose.glso.runs import GLSOConfig, RunSpec, run_search
@@ -83,6 +83,9 @@ CACHE_FILE = "eval_cache.parquet"  # under `checkpoints`: not committed, it only
 RUN = ["task", "method", "seed"]  # the columns that name a run in step and summary tables
 # The two axes of best so far: what a point counts (title, axis label); summaries key their curves by them.
 AXES = {"calls": ("call", "objective calls"), "distinct": ("distinct design", "distinct designs evaluated")}
+# The columns of `heldout_bests` the statistics test, in the report's order: the best so far at K distinct designs,
+# the final best at the search rung (the reported one), re-scored at the thesis setting, the held-out best
+COMPARED = ("matched", "search", "rescored", "heldout")
 
 
 @dataclass(frozen=True)
@@ -566,34 +569,46 @@ def spend(final: pd.DataFrame) -> pd.DataFrame:
                     calls_at_k=("calls_at_k", "median")).reset_index()
 
 
-def compare(final: pd.DataFrame, column: str, bootstrap: int, alpha: float, seed: int = 0) -> list[dict]:
-    """GLSO against each other method on `column`, per task: one-sided Mann-Whitney U (GLSO greater),
-    Holm-adjusted within its family, the median difference with a bootstrap 95% interval."""
+def challengers(final: pd.DataFrame) -> list[str]:
+    """The methods whose claim the campaign tests, in registry order: GLSO, then each of its arms that has runs
+    in `final` (a registered method searching GLSO's VAE in no figure group: the thesis-protocol arm, the
+    improved GLSO the pilot picked)."""
+    ran = set(final["method"])
+    return [REFERENCE, *(name for name, method in METHODS.items() if name in ran and name != REFERENCE
+                         and method.variant == METHODS[REFERENCE].variant and not method.groups)]
+
+
+def compare(final: pd.DataFrame, column: str, bootstrap: int, alpha: float, seed: int = 0,
+            reference: str = REFERENCE) -> list[dict]:
+    """`reference` (GLSO or one of its arms) against each other method of a figure group on `column`, per task:
+    one-sided Mann-Whitney U (`reference` greater), Holm-adjusted within its family, the median difference
+    reference - method with a bootstrap 95% interval. GLSO meets both families; an arm, the baselines only (the
+    ablations are GLSO's)."""
     from scipy.stats import mannwhitneyu
 
     rng = np.random.default_rng(seed)
     rows = []
     for task, group in final.groupby("task", sort=False):
-        glso = group.loc[group["method"] == "glso", column].dropna().to_numpy()
-        for name in GROUPS:
+        ours = group.loc[group["method"] == reference, column].dropna().to_numpy()
+        for name in GROUPS if reference == REFERENCE else ("baselines",):
             raw, found = {}, {}
             for method in family(name):
                 other = group.loc[group["method"] == method, column].dropna().to_numpy()
-                if len(glso) and len(other):
-                    raw[method] = float(mannwhitneyu(glso, other, alternative="greater").pvalue)
+                if len(ours) and len(other):
+                    raw[method] = float(mannwhitneyu(ours, other, alternative="greater").pvalue)
                     found[method] = other
-            floors = {m: 1 / math.comb(len(glso) + len(found[m]), len(glso)) for m in raw}  # all GLSO above all
+            floors = {m: 1 / math.comb(len(ours) + len(found[m]), len(ours)) for m in raw}  # all ours above all
             # With every method at its floor the family's largest Holm-adjusted p is as small as the seed counts
             # allow: at or above alpha, no outcome of this campaign can show the family's claim.
             holm_floor = max(holm(floors).values(), default=1.0)
             for method, p_holm in holm(raw).items():
                 other = found[method]
-                diff, low, high = bootstrap_median_difference(glso, other, bootstrap, rng)
-                rows.append({"task": task, "on": column, "family": name,
-                             "method": method, "n_glso": len(glso), "n_other": len(other), "p": raw[method],
+                diff, low, high = bootstrap_median_difference(ours, other, bootstrap, rng)
+                rows.append({"task": task, "on": column, "reference": reference, "family": name,
+                             "method": method, "n_reference": len(ours), "n_other": len(other), "p": raw[method],
                              "p_holm": p_holm, "p_floor": floors[method], "holm_floor": holm_floor,
                              "median_difference": diff, "ci_low": low, "ci_high": high,
-                             "glso_better": bool(p_holm < alpha)})
+                             "better": bool(p_holm < alpha)})
     return rows
 
 
@@ -619,10 +634,8 @@ def statistics(steps: pd.DataFrame, rescores: pd.DataFrame, heldout: pd.DataFram
     directory. `heldout_progress` counts the runs whose held-out pieces are complete, the held-out evaluations
     measured of those planned, and the thesis re-scores of held-out bests still missing."""
     final = heldout_bests(final_bests(steps, rescores), steps, heldout, rescores, config)
-    tests = (compare(final, "matched", config.bootstrap, config.alpha, seed=2)
-             + compare(final, "search", config.bootstrap, config.alpha)
-             + compare(final, "rescored", config.bootstrap, config.alpha, seed=1)
-             + compare(final, "heldout", config.bootstrap, config.alpha, seed=3))
+    tests = [row for reference in challengers(final) for seed, column in enumerate(COMPARED)
+             for row in compare(final, column, config.bootstrap, config.alpha, seed, reference)]
     curves = {"calls": best_so_far_curves(steps), "distinct": distinct_curves(steps)}
     picked = final["heldout_design"] != ""
     missing = (len(config.rescore_seeds) - final.loc[picked, "heldout_rescores"]).clip(lower=0)

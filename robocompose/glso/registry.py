@@ -20,6 +20,7 @@ from robocompose.glso.graph_ga import GAConfig, GraphGA
 from robocompose.glso.mcts import MCTSConfig, TreeSearch
 from robocompose.glso.method import SearchMethod
 from robocompose.glso.random_search import RandomConfig, RandomSearch
+from robocompose.glso.turbo import TrustRegionBO, TurboConfig
 
 
 @dataclass(frozen=True)
@@ -71,6 +72,10 @@ METHODS: dict[str, Method] = {
                          invalid_score=INVALID_SCORE),
     "glso_reask": Method(LatentBO, ReaskConfig, "bo_reask", "GLSO, repeats re-asked", (), variant="full",
                          invalid_score=INVALID_SCORE),
+    # GLSO's VAE searched by a trust-region BO instead (issue 42, item 3: TuRBO-1 with BoTorch, turbo.py): its region
+    # halves around the incumbent after failures and restarts elsewhere once it has collapsed
+    "glso_turbo": Method(TrustRegionBO, TurboConfig, "bo_turbo", "GLSO, trust region (TuRBO)", (), variant="full",
+                         invalid_score=INVALID_SCORE),
     # GLSO under its original's protocol (issue 42, item 2): a fresh controller seed per call, so a repeat is
     # simulated again and its best so far is a maximum over noisy re-draws; held-out scoring measures the inflation
     "glso_thesis": Method(LatentBO, BOConfig, "bo", "GLSO, thesis protocol", (), variant="full",
@@ -84,11 +89,12 @@ def family(group: str) -> tuple[str, ...]:
 
 
 def describe() -> list[dict]:
-    """Every registered method's name, title, figure groups and VAE variant (None without one), in registry
-    order: what the stages write into their artifacts so that the report (no torch, so no registry) can name and
-    group the methods, and title each VAE by the method that searches it."""
-    return [{"name": name, "title": method.title, "groups": list(method.groups), "variant": method.variant}
-            for name, method in METHODS.items()]
+    """Every registered method's name, title, figure groups, VAE variant (None without one) and protocol
+    (`fresh_seeds`), in registry order: what the stages write into their artifacts so that the report (no torch,
+    so no registry) can name and group the methods, title each VAE by the method that searches it and name the
+    protocol of each verdict."""
+    return [{"name": name, "title": method.title, "groups": list(method.groups), "variant": method.variant,
+             "fresh_seeds": method.fresh_seeds} for name, method in METHODS.items()]
 
 
 def settings_sections() -> dict[str, type]:

@@ -190,45 +190,72 @@ COMPARED = {"matched": Compared("best so far at K distinct designs", "calls_at_k
             "heldout": Compared("held-out best", "calls", "distinct", "under held-out scoring")}
 
 
-def campaign_verdicts(tests: pd.DataFrame, on: str, alpha: float, methods: list[dict]) -> list[str]:
-    """The thesis's claims, from the campaign's tests `on` one comparison (a key of `COMPARED`): a claim holds
-    when GLSO beats every method of its family (`methods`: the stage's record of the registry) after Holm
-    correction."""
+def campaign_verdicts(tests: pd.DataFrame, on: str, alpha: float, methods: list[dict],
+                      reference: str = REFERENCE) -> list[str]:
+    """The thesis's claims for `reference` (GLSO or one of its arms), from the campaign's tests `on` one
+    comparison (a key of `COMPARED`): a claim holds when `reference` beats every method of its family
+    (`methods`: the stage's record of the registry) after Holm correction. A fresh-seed arm's reported best is
+    the thesis's protocol, and its verdict says so."""
     titles = group_titles(methods)
+    fresh = {m["name"] for m in methods if m.get("fresh_seeds")}
+    protocol = ("under the thesis's protocol (a fresh controller seed per call: its reported best)"
+                if on == "search" and reference in fresh else COMPARED[on].protocol)
     out = []
-    for (task, family), group in tests[tests["on"] == on].groupby(["task", "family"], sort=False):
-        claim = (f"GLSO best of {GROUPS[family]}" if family == "baselines"
+    mine = tests[(tests["on"] == on) & (tests["reference"] == reference)]
+    for (task, family), group in mine.groupby(["task", "family"], sort=False):
+        claim = (f"{titles[reference]} best of {GROUPS[family]}" if family == "baselines"
                  else f"all ablations worse than GLSO ({GROUPS[family]})")
         missing = [t for m, t in group_titles(methods, family).items()
                    if m != REFERENCE and m not in set(group["method"])]
-        held = not missing and bool(group["glso_better"].all())
+        held = not missing and bool(group["better"].all())
         floor = float(group["holm_floor"].max())
         caveat = (f" (with these seed counts the family's largest Holm-adjusted p is at least {floor:.3f}, not "
                   f"below {alpha}: this campaign cannot show it)") if not held and floor >= alpha else ""
         caveat += f" (no runs yet of {', '.join(missing)})" if missing else ""
         detail = "; ".join(f"{titles[r.method]} p = {r.p_holm:.3f}" for r in group.itertuples())
-        out.append(f"- {task}, {COMPARED[on].protocol}: {claim}: **{'holds' if held else 'not shown'}** "
-                   f"({detail}){caveat}.")
+        out.append(f"- {task}, {protocol}: {claim}: **{'holds' if held else 'not shown'}** ({detail}){caveat}.")
     return out
 
 
-def _tests_table(tests: pd.DataFrame, spend: pd.DataFrame, titles: dict[str, str], on: list[str]) -> list[str]:
-    """The tests `on` these comparisons (keys of `COMPARED`), each beside what both sides spent to get there."""
+def _tests_table(tests: pd.DataFrame, spend: pd.DataFrame, titles: dict[str, str], on: list[str],
+                 reference: str = REFERENCE) -> list[str]:
+    """The tests of `reference` `on` these comparisons (keys of `COMPARED`), each beside what both sides spent to
+    get there."""
     def spent(task: str, method: str, column: str) -> str:
-        return f"{spend.loc[(task, REFERENCE), column]:g} / {spend.loc[(task, method), column]:g}"
+        return f"{spend.loc[(task, reference), column]:g} / {spend.loc[(task, method), column]:g}"
 
     rows = []
-    for r in tests[tests["on"].isin(on)].itertuples():
+    for r in tests[tests["on"].isin(on) & (tests["reference"] == reference)].itertuples():
         compared = COMPARED[r.on]
-        rows.append((r.task, compared.title, titles[r.method], f"{r.n_glso} / {r.n_other}",
+        rows.append((r.task, compared.title, titles[r.method], f"{r.n_reference} / {r.n_other}",
                      f"{spent(r.task, r.method, compared.calls)} calls, "
                      f"{spent(r.task, r.method, compared.distinct)} distinct",
                      r.p, r.p_holm, f"{r.median_difference:+.3f} [{r.ci_low:+.3f}, {r.ci_high:+.3f}]"))
-    return ["GLSO against each method: one-sided Mann-Whitney U (GLSO greater), Holm-corrected within its family; "
-            "median difference GLSO - method with a bootstrap 95% interval.", "",
-            *markdown_table(["task", "on", "method", "n (GLSO / other)", "spend per run, median (GLSO / other)", "p",
-                             "p (Holm)", "median difference [95% CI]"], rows,
+    name = titles[reference]
+    return [f"{name} against each method: one-sided Mann-Whitney U ({name} greater), Holm-corrected within its "
+            f"family; median difference {name} - method with a bootstrap 95% interval.", "",
+            *markdown_table(["task", "on", "method", f"n ({name} / other)", f"spend per run, median ({name} / other)",
+                             "p", "p (Holm)", "median difference [95% CI]"], rows,
                             formats=[None] * 5 + ["{:.3f}", "{:.3f}"])]
+
+
+def _arm_lines(summary: dict, tests: pd.DataFrame, spend: pd.DataFrame, methods: list[dict]) -> list[str]:
+    """GLSO's arms (the thesis-protocol arm, the improved GLSO): per arm with runs, its tests against the
+    baselines on every comparison and a verdict per protocol; nothing while no arm has runs."""
+    titles = group_titles(methods)
+    arms = list(dict.fromkeys(tests.loc[tests["reference"] != REFERENCE, "reference"])) if len(tests) else []
+    if not arms:
+        return []
+    lines = ["#### GLSO's arms against the baselines", "",
+             "Each arm is a GLSO run another way (its own rows in the tables above): the thesis's protocol "
+             "(a fresh controller seed per call, repeats simulated again, no deduplication: its reported best is "
+             "a maximum over noisy re-draws) and GLSO variants that keep its window from collapsing. Each is "
+             "tested against the baselines of Fig. 8.1 on every comparison; a verdict names its protocol.", ""]
+    for arm in arms:
+        lines += [f"##### {titles[arm]}", "", *_tests_table(tests, spend, titles, list(COMPARED), arm), "",
+                  *(verdict for on in COMPARED
+                    for verdict in campaign_verdicts(tests, on, summary["alpha"], methods, arm)), ""]
+    return lines
 
 
 def campaign_section(reports_dir: Path) -> str:
@@ -294,7 +321,8 @@ def campaign_section(reports_dir: Path) -> str:
         lines += ["", *_tests_table(tests, spend, titles, ["search", "rescored"]), "",
                   f"Verdicts (re-scored finals, {summary['budget']} calls):", "",
                   *campaign_verdicts(tests, "rescored", summary["alpha"], methods)]
-    return "\n".join(lines + ["", *_heldout_lines(summary, finals, tests, spend, ran, methods), ""])
+    return "\n".join(lines + ["", *_heldout_lines(summary, finals, tests, spend, ran, methods), "",
+                              *_arm_lines(summary, tests, spend, methods)])
 
 
 def _heldout_lines(summary: dict, finals: pd.DataFrame, tests: pd.DataFrame, spend: pd.DataFrame,

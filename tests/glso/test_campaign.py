@@ -121,9 +121,9 @@ def test_the_matched_comparison_is_at_k_distinct_designs_beside_the_calls_compar
     assert summary["k"] == {"flat": 1} and summary["alpha"] == 0.05
     tests = {r["on"]: r for r in summary["tests"]}
     assert set(tests) == {"matched", "search"}  # nothing re-scored: no re-scored comparison
-    assert tests["matched"]["p"] == pytest.approx(1 / math.comb(10, 5)) and tests["matched"]["glso_better"]
+    assert tests["matched"]["p"] == pytest.approx(1 / math.comb(10, 5)) and tests["matched"]["better"]
     assert tests["matched"]["median_difference"] == pytest.approx(1.0)
-    assert tests["search"]["p"] > 0.5 and not tests["search"]["glso_better"]
+    assert tests["search"]["p"] > 0.5 and not tests["search"]["better"]
     assert tests["search"]["median_difference"] == pytest.approx(-2.0)
     assert [(s["method"], s["calls"], s["distinct"], s["calls_at_k"]) for s in summary["spend"]] == [
         ("glso", 4, 1, 1), ("random", 4, 4, 1)]
@@ -139,13 +139,27 @@ def test_glso_is_called_better_only_when_the_test_after_correction_says_so():
                       "mcts": [4.9, 5.5, 5.0, 5.6, 5.05], "glso_nopred": [4.0, 4.1, 4.2]})
     rows = {r["method"]: r for r in compare(finals, "search", bootstrap=500, alpha=0.05)}
     assert rows["random"]["p"] == pytest.approx(1 / math.comb(10, 5))  # every GLSO run beats every random run
-    assert rows["random"]["p_holm"] == pytest.approx(2 / math.comb(10, 5)) and rows["random"]["glso_better"]
-    assert not rows["mcts"]["glso_better"] and rows["mcts"]["p_holm"] >= rows["mcts"]["p"]
+    assert rows["random"]["p_holm"] == pytest.approx(2 / math.comb(10, 5)) and rows["random"]["better"]
+    assert not rows["mcts"]["better"] and rows["mcts"]["p_holm"] >= rows["mcts"]["p"]
     assert rows["glso_nopred"]["family"] == "ablations" and rows["glso_nopred"]["p_floor"] == 1 / math.comb(8, 3)
     assert rows["glso_nopred"]["holm_floor"] == rows["glso_nopred"]["p_floor"]  # alone in its family
     assert rows["random"]["holm_floor"] == rows["mcts"]["holm_floor"] == pytest.approx(2 / math.comb(10, 5))
     assert rows["random"]["median_difference"] == pytest.approx(1.0)
     assert rows["random"]["ci_low"] <= 1.0 <= rows["random"]["ci_high"] and rows["random"]["ci_low"] > 0
+
+
+def test_an_arm_of_glso_meets_the_baselines_alone_in_its_own_family_and_glso_keeps_its_tests():
+    finals = _finals({"glso": [4.0, 4.1, 4.2], "glso_thesis": [5.0, 5.1, 5.2, 5.3, 5.4],
+                      "random": [4.5, 4.6, 4.7, 4.8, 4.9], "glso_nopred": [3.0, 3.1, 3.2]})
+    assert campaign.challengers(finals) == ["glso", "glso_thesis"]
+    assert campaign.challengers(finals[finals["method"] != "glso_thesis"]) == ["glso"]  # no runs, no tests
+    rows = compare(finals, "search", bootstrap=50, alpha=0.05, reference="glso_thesis")
+    assert [(r["reference"], r["family"], r["method"], r["n_reference"]) for r in rows] == [
+        ("glso_thesis", "baselines", "random", 5)]  # the ablations are GLSO's, and GLSO is not its baseline
+    assert rows[0]["p"] == pytest.approx(1 / math.comb(10, 5)) and rows[0]["better"]
+    glso = compare(finals, "search", bootstrap=50, alpha=0.05)
+    assert {(r["family"], r["method"]): r["better"] for r in glso} == {("baselines", "random"): False,
+                                                                       ("ablations", "glso_nopred"): False}
 
 
 def test_the_holm_floor_is_set_by_the_smallest_samples_not_by_the_family_size():
@@ -435,7 +449,7 @@ def test_the_held_out_best_is_the_highest_held_out_mean_not_the_highest_search_s
     assert summary["heldout_progress"] == {"runs": 4, "complete": 3, "evaluations": 31, "planned": 32,
                                            "rescores_missing": 4}  # random search's two picks
     tests = [t for t in summary["tests"] if t["on"] == "heldout"]
-    assert [(t["method"], t["n_glso"], t["n_other"]) for t in tests] == [("random", 1, 2)]
+    assert [(t["method"], t["n_reference"], t["n_other"]) for t in tests] == [("random", 1, 2)]
     assert tests[0]["median_difference"] == pytest.approx(4.65 - np.median([4.35, 4.05]))
 
 

@@ -189,3 +189,22 @@ def test_the_campaign_section_judges_under_held_out_scoring_from_its_tests_and_s
     (tmp_path / "metrics" / "glso_campaign.json").write_text(json.dumps(summary))
     with pytest.raises(ArtifactError, match=r"glso_campaign\.json: no record of the held-out scoring"):
         campaign_section(tmp_path)
+
+
+def test_the_thesis_protocol_arm_gets_its_own_verdicts_naming_each_protocol(tmp_path):
+    """The arm's search bests beat every baseline's, but they are maxima over lucky draws (2.0 above their
+    designs' fresh seeds): "best" appears under the thesis's protocol and disappears under held-out scoring."""
+    from robocompose.report.glso import campaign_section
+
+    finals = FINALS | {"glso_thesis": [6.0, 6.1, 6.2, 6.3, 6.4]}
+    _campaign(tmp_path, finals, planned=36, inflation={m: 2.0 if m == "glso_thesis" else 0.1 for m in finals},
+              methods=METHODS)
+    text = campaign_section(tmp_path)
+    arm = text.split("##### GLSO, thesis protocol")[1]
+    assert "| flat | final best at the search rung | Random | 5 / 5 | 4 / 4 calls, 4 / 4 distinct |" in arm
+    assert ("- flat, under the thesis's protocol (a fresh controller seed per call: its reported best): GLSO, thesis "
+            "protocol best of Fig. 8.1: **holds** (Random p = 0.016; GA p = 0.016; MCTS p = 0.016; GHS p = 0.016).") \
+        in arm
+    assert "- flat, under held-out scoring: GLSO, thesis protocol best of Fig. 8.1: **not shown**" in arm
+    assert "all ablations worse" not in arm  # the ablations are GLSO's family, not the arm's
+    assert text.index("#### Under held-out scoring") < text.index("#### GLSO's arms against the baselines")
