@@ -1,6 +1,7 @@
 """DVC stage `glso_campaign`: the seeded GLSO campaign's statistics from its committed runs.
 
-params (glso_campaign) + measured/glso_campaign/ (finished runs, re-scores, held-out scores) ->
+params (glso_campaign) + measured/glso_campaign/ (finished runs, re-scores, held-out scores) and
+measured/glso_pilot/ (the pilot of GLSO's variants, `robocompose glso-campaign pilot`) ->
 reports/metrics/glso_campaign.json, reports/plots/glso_campaign.png. With `run: false` (default profile) it only
 summarises what is committed (seconds; it never simulates, missing held-out pieces are reported as missing);
 with `run: true` (paper profile) it first runs every missing run, re-score and held-out piece (core-hours,
@@ -29,6 +30,7 @@ def main() -> None:
         summary = campaign.summarise(config)
         timing["runs"] = summary["runs"]
         campaign.plot(summary, "reports/plots/glso_campaign.png")
+        summary["pilot"] = campaign.pilot_summary(config)  # GLSO's variants, committed beside the campaign
         atomic_write_json("reports/metrics/glso_campaign.json", {k: v for k, v in summary.items() if k != "curves"})
 
 

@@ -60,7 +60,6 @@ from robocompose.evaluation.fidelity import THESIS, append_row, read_rows, rung_
 from robocompose.evaluation.manifest import MANIFEST_FILE, claim_directory, read_manifest, record_reproduction
 from robocompose.fanout.cache import EvaluationCache
 from robocompose.glso import GROUPS, REFERENCE, best_designs, best_so_far_curves, draw_curves, group_titles
-from robocompose.glso.bo import BOConfig
 from robocompose.glso.registry import METHODS, describe, family, settings_sections
 from robocompose.glso.runs import GLSOConfig, RunSpec, run_search
 from robocompose.grammar.tree import DesignTree
@@ -166,10 +165,11 @@ def run_path(config: CampaignConfig, spec: RunSpec) -> Path:
 
 
 def search_config(config: CampaignConfig, glso: GLSOConfig) -> GLSOConfig:
-    """The `glso:` settings with the campaign's budget, GLSO init, GA population and GHS epsilon ends, and no
-    `glso.rung` (the smoke run's): the campaign's jobs carry the evaluator at the campaign's own rung."""
-    latent = {section: dataclasses.replace(getattr(glso, section), init=config.init)  # GLSO and its variants
-              for section, cls in settings_sections().items() if issubclass(cls, BOConfig)}
+    """The `glso:` settings with the campaign's budget, GLSO init (on every section with an `init`: GLSO, its
+    variants and the trust-region BO), GA population and GHS epsilon ends, and no `glso.rung` (the smoke run's): the
+    campaign's jobs carry the evaluator at the campaign's own rung."""
+    latent = {section: dataclasses.replace(getattr(glso, section), init=config.init)
+              for section, cls in settings_sections().items() if "init" in {f.name for f in dataclasses.fields(cls)}}
     return dataclasses.replace(glso, budget=config.budget, rung="", **latent,
                                ga=dataclasses.replace(glso.ga, population=config.population),
                                ghs=dataclasses.replace(glso.ghs, eps_end=config.ghs_eps_end,
@@ -437,6 +437,18 @@ def pilot_table(summary: dict) -> pd.DataFrame:
         matched=("matched", "median"), reported_heldout=("reported_heldout", "median"),
         heldout=("heldout", "median")).reset_index()
     return table.sort_values(["heldout", "distinct"], ascending=False, kind="stable").reset_index(drop=True)
+
+
+def pilot_summary(config: CampaignConfig) -> dict | None:
+    """The pilot of `config`'s campaign (`pilot_config`) as the stage records it, None while its folder does not
+    exist: its rung, budget, runs finished of those planned, held-out progress and `pilot_table`'s rows."""
+    pilot = pilot_config(config)
+    if not Path(pilot.directory).is_dir():
+        return None
+    summary = summarise(pilot)
+    return {"directory": pilot.directory, "rung": pilot.rung, "budget": pilot.budget, "runs": summary["runs"],
+            "planned": summary["planned"], "heldout_progress": summary.get("heldout_progress"),
+            "methods": pilot_table(summary).to_dict("records")}
 
 
 def read_runs(config: CampaignConfig) -> pd.DataFrame:

@@ -90,9 +90,7 @@ def _campaign(args: argparse.Namespace) -> int:
         evaluation = load_section(EvaluationConfig, "evaluation", args.params)
         with command_compute(args, args.params).executor() as executor:
             campaign.run_campaign(pilot, glso, evaluation, pilot.rung, executor)
-        table = campaign.pilot_table(campaign.summarise(pilot))
-        print(json.dumps({"directory": pilot.directory, "rung": pilot.rung, "methods": table.to_dict("records")},
-                         default=float))
+        print(json.dumps(campaign.pilot_summary(config), default=float))
         return 0
     if args.action == "run":
         rung = campaign.campaign_rung(config)

@@ -167,6 +167,10 @@ def _best_designs(steps: pd.DataFrame, rollouts: Path, figures: Path, titles: di
     return lines
 
 
+def _number(value: float, form: str) -> str:
+    return "-" if pd.isna(value) else form.format(value)
+
+
 def _median_iqr(values: pd.Series) -> str:
     v = values.dropna()
     if v.empty:
@@ -237,6 +241,44 @@ def _tests_table(tests: pd.DataFrame, spend: pd.DataFrame, titles: dict[str, str
             *markdown_table(["task", "on", "method", f"n ({name} / other)", f"spend per run, median ({name} / other)",
                              "p", "p (Holm)", "median difference [95% CI]"], rows,
                             formats=[None] * 5 + ["{:.3f}", "{:.3f}"])]
+
+
+# What the improved GLSO must reach (issue 42): distinct designs in a campaign run of 200 calls
+DISTINCT_TARGET = 150
+
+
+def _pilot_lines(pilot: dict | None, methods: list[dict]) -> list[str]:
+    """The pilot of GLSO's variants (`campaign.pilot_summary`): per variant its distinct designs, search best,
+    that design's held-out mean and the held-out best, medians over its runs; the winner (first by held-out best,
+    then distinct designs) and whether it reaches `DISTINCT_TARGET` distinct designs per 200 calls."""
+    title = "#### The pilot: a GLSO whose window does not collapse"
+    if pilot is None:
+        return [title, "", "Not run yet (`robocompose glso-campaign pilot`, README): GLSO's variants are "
+                "registered but unmeasured.", ""]
+    titles = group_titles(methods)
+    table = pd.DataFrame(pilot["methods"])
+    progress = pilot["heldout_progress"] or {"complete": 0}
+    lines = [title, "", f"{pilot['runs']} of {pilot['planned']} pilot runs committed ({pilot['directory']}), "
+             f"{pilot['budget']} objective calls each at rung {pilot['rung']} (the ladder's cheapest: the variants "
+             "are compared with one another, not with the baselines), every call at the campaign's one controller "
+             f"seed; {progress['complete']} runs have their held-out pieces complete. Ranked by the median "
+             "held-out best (ties: more distinct designs); a repeat costs its call, as for every method.", ""]
+    if table.empty:
+        return lines
+    lines += markdown_table(
+        ["variant", "runs", "distinct designs, median", "search best, median", "its held-out mean, median",
+         "held-out best, median"],
+        [(titles[r.method], r.runs, f"{r.distinct:g}", _number(r.search, "{:.3f}"),
+          _number(r.reported_heldout, "{:.3f}"), _number(r.heldout, "{:.3f}")) for r in table.itertuples()],
+        align="lrrrrr")
+    best = table.iloc[0]
+    reach = table[table["distinct"] >= DISTINCT_TARGET * pilot["budget"] / 200]
+    lines += ["", f"Winner: **{titles[best['method']]}** ({best['distinct']:g} distinct designs, held-out best "
+              f"{_number(best['heldout'], '{:.3f}')}); variants reaching {DISTINCT_TARGET} distinct designs per "
+              "200 calls: "
+              f"{', '.join(titles[m] for m in reach['method']) or 'none'}."
+              + (" Interim: not every run is committed." if pilot["runs"] < pilot["planned"] else ""), ""]
+    return lines
 
 
 def _arm_lines(summary: dict, tests: pd.DataFrame, spend: pd.DataFrame, methods: list[dict]) -> list[str]:
@@ -322,6 +364,7 @@ def campaign_section(reports_dir: Path) -> str:
                   f"Verdicts (re-scored finals, {summary['budget']} calls):", "",
                   *campaign_verdicts(tests, "rescored", summary["alpha"], methods)]
     return "\n".join(lines + ["", *_heldout_lines(summary, finals, tests, spend, ran, methods), "",
+                              *_pilot_lines(summary.get("pilot"), methods),
                               *_arm_lines(summary, tests, spend, methods)])
 
 
@@ -356,15 +399,12 @@ def _heldout_lines(summary: dict, finals: pd.DataFrame, tests: pd.DataFrame, spe
     def median(task: str, method: str, column: str) -> str:
         return _median_iqr(done.loc[(done["task"] == task) & (done["method"] == method), column])
 
-    def number(value: float, form: str) -> str:
-        return "-" if pd.isna(value) else form.format(value)
-
     rows = []
     for r in ran.itertuples():
         h = per_method.loc[(r.task, r.method)]
         rows.append((titles[r.method], r.task, f"{h['complete']:g} / {h['runs']:g}",
                      median(r.task, r.method, "search"), median(r.task, r.method, "reported_heldout"),
-                     number(h["inflation"], "{:+.3f}"), number(h["seed_sd"], "{:.3f}"),
+                     _number(h["inflation"], "{:+.3f}"), _number(h["seed_sd"], "{:.3f}"),
                      median(r.task, r.method, "heldout"), median(r.task, r.method, "heldout_rescored")))
     lines += markdown_table(
         ["method", "task", "runs complete / runs", "reported best (search rung), median [IQR]",

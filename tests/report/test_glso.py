@@ -208,3 +208,24 @@ def test_the_thesis_protocol_arm_gets_its_own_verdicts_naming_each_protocol(tmp_
     assert "- flat, under held-out scoring: GLSO, thesis protocol best of Fig. 8.1: **not shown**" in arm
     assert "all ablations worse" not in arm  # the ablations are GLSO's family, not the arm's
     assert text.index("#### Under held-out scoring") < text.index("#### GLSO's arms against the baselines")
+
+
+def test_the_pilot_names_its_winner_by_held_out_best_and_says_which_variants_reach_150_distinct_designs(tmp_path):
+    from robocompose.report.glso import campaign_section
+
+    _campaign(tmp_path, FINALS, planned=31)
+    assert "Not run yet (`robocompose glso-campaign pilot`" in campaign_section(tmp_path)
+    summary = json.loads((tmp_path / "metrics" / "glso_campaign.json").read_text())
+    summary["pilot"] = {"directory": "measured/glso_pilot", "rung": "s8_h8_e48", "budget": 200, "runs": 5,
+                        "planned": 6, "heldout_progress": {"complete": 4}, "methods": [
+                            {"method": "glso_nodr", "runs": 3, "distinct": 160.0, "search": 4.5,
+                             "reported_heldout": 4.4, "heldout": 4.45},
+                            {"method": "glso", "runs": 2, "distinct": 76.0, "search": 4.6,
+                             "reported_heldout": float("nan"), "heldout": float("nan")}]}
+    (tmp_path / "metrics" / "glso_campaign.json").write_text(json.dumps(summary))
+    pilot = campaign_section(tmp_path).split("#### The pilot")[1]
+    assert "5 of 6 pilot runs committed (measured/glso_pilot), 200 objective calls each at rung s8_h8_e48" in pilot
+    assert "| GLSO, no domain reduction | 3 | 160 | 4.500 | 4.400 | 4.450 |" in pilot
+    assert "| GLSO | 2 | 76 | 4.600 | - | - |" in pilot  # no held-out mean yet: no number made up
+    assert ("Winner: **GLSO, no domain reduction** (160 distinct designs, held-out best 4.450); variants reaching "
+            "150 distinct designs per 200 calls: GLSO, no domain reduction. Interim") in pilot
