@@ -3,7 +3,15 @@ import pytest
 from bayes_opt import BayesianOptimization, acquisition
 
 from robocompose.glso import bo as bo_module
-from robocompose.glso.bo import BOConfig, ExpectedImprovement, LatentBO, ReaskConfig, decode
+from robocompose.glso.bo import (
+    BOConfig,
+    ExpectedImprovement,
+    LatentBO,
+    NoReductionConfig,
+    ReaskConfig,
+    WideFloorConfig,
+    decode,
+)
 from robocompose.glso.method import Proposal, SearchEnv
 from robocompose.grammar.tree import DesignTree
 from robocompose.latent.model import GraphVAE, VAEConfig
@@ -112,3 +120,33 @@ def test_reasking_sends_no_repeat_of_a_bo_step_until_its_bound_then_a_random_poi
     for design, rejected, random_step in reask:  # a repeat is sent only by a random point: the bound or scheduled
         assert design not in seen or random_step or rejected == 3
         seen.add(design)
+
+
+@pytest.mark.slow  # three 30-call BO runs (~1 min)
+def test_the_window_setting_bounds_the_designs_a_run_can_still_reach(monkeypatch):
+    """The collapse (issue 42): a decoder that maps the 2-D latent box onto a 24 x 24 grid of designs (cells 0.25
+    wide) and a bowl with its best at (1, 1). GLSO's domain reduction narrows the window to its 0.5 floor, which
+    holds at most 3 x 3 cells, so its last calls can only send those few designs; a floor of 2 keeps a 9 x 9
+    block reachable and no reduction the whole grid."""
+    def cell(z: np.ndarray) -> tuple[int, int]:
+        i, j = np.clip(((z + 3.0) / 0.25).astype(int), 0, 23)
+        return int(i), int(j)
+
+    monkeypatch.setattr(bo_module, "decode", lambda model, z: DesignTree((-1, 0), cell(z)))
+
+    def run(config: BOConfig, calls: int = 30) -> tuple[list[str], np.ndarray]:
+        bo, sent = LatentBO(config, seed=0, budget=calls, env=LATENT_2), []
+        for _ in range(calls):
+            proposal = bo.propose(LATENT_2)
+            sent.append(proposal.tree.design_id)
+            bo.tell(proposal, float(-np.sum((proposal.z - 1.0) ** 2)))
+        bounds = bo.optimizer.space.bounds
+        return sent, bounds[:, 1] - bounds[:, 0]
+
+    windows, late = {}, {}
+    for config in (BOConfig(init=5), WideFloorConfig(init=5), NoReductionConfig(init=5)):
+        sent, windows[type(config)] = run(config)
+        late[type(config)] = len(set(sent[-10:]))
+    assert np.allclose(windows[BOConfig], 0.5) and late[BOConfig] <= 9  # collapsed onto its floor
+    assert np.allclose(windows[WideFloorConfig], 2.0) and np.allclose(windows[NoReductionConfig], 6.0)
+    assert late[NoReductionConfig] > late[BOConfig]
