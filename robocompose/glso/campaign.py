@@ -39,7 +39,10 @@ re-score cannot be simulated); per run, the held-out mean of its search best, th
 that) and the held-out best, per method the median inflation beside the evaluator's seed-to-seed sd on the
 measured designs. On each of the matched, final, re-scored and held-out bests: one-sided Mann-Whitney U of
 GLSO > each other method, Holm-corrected within a family (the baselines of Fig. 8.1; the ablations of Fig.
-8.2); the median difference GLSO - method with a percentile bootstrap 95% interval. With n seeds per side the
+8.2); the median difference GLSO - method with a percentile bootstrap 95% interval; beside them the
+Kruskal-Wallis omnibus test over GLSO and the baselines (`omnibus`). GLSO's arms with runs
+(`challengers`: the thesis-protocol arm `glso_thesis`, the improved GLSO the pilot picks) are tested the same
+way against the baselines, each in a family of its own. With n seeds per side the
 smallest one-sided p is 1 / C(n + m, n) (5 vs 5: 0.004; 3 vs 5: 0.018), so small campaigns cannot reach
 significance after correction; the summary says so.
 """
@@ -624,6 +627,25 @@ def compare(final: pd.DataFrame, column: str, bootstrap: int, alpha: float, seed
     return rows
 
 
+def omnibus(final: pd.DataFrame, column: str) -> list[dict]:
+    """Per task, the Kruskal-Wallis test of `column` over GLSO and the baselines of Fig. 8.1 (the methods with
+    values there, at least two): are any of them distinguishable at all? Beside the pairwise tests, which ask
+    whether GLSO is better than each."""
+    from scipy.stats import kruskal
+
+    rows = []
+    for task, group in final.groupby("task", sort=False):
+        samples = {m: group.loc[group["method"] == m, column].dropna().to_numpy()
+                   for m in (REFERENCE, *family("baselines"))}
+        samples = {m: v for m, v in samples.items() if len(v)}
+        if len(samples) < 2 or len(set(np.concatenate(list(samples.values())))) < 2:  # no ranks to compare
+            continue
+        h, p = kruskal(*samples.values())
+        rows.append({"task": task, "on": column, "methods": list(samples), "n": [len(v) for v in samples.values()],
+                     "h": float(h), "p": float(p)})
+    return rows
+
+
 def summarise(config: CampaignConfig) -> dict:
     """The campaign's statistics from the committed runs, re-scores and held-out scores (as far as they go; see
     the module docstring). Never simulates."""
@@ -633,7 +655,7 @@ def summarise(config: CampaignConfig) -> dict:
     steps = read_runs(config)
     planned = len(run_specs(config))
     if steps.empty:
-        return {"runs": 0, "planned": planned, "finals": [], "spend": [], "k": {}, "tests": [],
+        return {"runs": 0, "planned": planned, "finals": [], "spend": [], "k": {}, "tests": [], "omnibus": [],
                 "curves": {axis: [] for axis in AXES}, "methods": describe()}
     return {"planned": planned, "rung": read_manifest(config.directory).get("rung", ""),
             **statistics(steps, read_scores(config.directory, RESCORES_FILE),
@@ -660,8 +682,9 @@ def statistics(steps: pd.DataFrame, rescores: pd.DataFrame, heldout: pd.DataFram
                                  "evaluations": int(final["heldout_measured"].sum()),
                                  "planned": int(final["heldout_planned"].sum()),
                                  "rescores_missing": int(missing.sum())},
-            "tests": tests, "curves": {axis: table[["task", "method", axis, "median", "q25", "q75", "runs"]]
-                                       .to_dict("records") for axis, table in curves.items()},
+            "tests": tests, "omnibus": [row for column in COMPARED for row in omnibus(final, column)],
+            "curves": {axis: table[["task", "method", axis, "median", "q25", "q75", "runs"]].to_dict("records")
+                       for axis, table in curves.items()},
             "methods": describe()}
 
 

@@ -281,6 +281,14 @@ def _pilot_lines(pilot: dict | None, methods: list[dict]) -> list[str]:
     return lines
 
 
+def _omnibus_lines(summary: dict, on: list[str], titles: dict[str, str]) -> list[str]:
+    """The Kruskal-Wallis omnibus test over GLSO and the baselines `on` these comparisons (the summary's
+    `omnibus`), one line each: are any of the methods distinguishable at all."""
+    rows = [r for r in summary.get("omnibus", []) if r["on"] in on]
+    return [f"Kruskal-Wallis over {', '.join(titles[m] for m in r['methods'])} ({COMPARED[r['on']].title}, "
+            f"{r['task']}; runs {'/'.join(map(str, r['n']))}): H = {r['h']:.2f}, p = {r['p']:.3f}." for r in rows]
+
+
 def _arm_lines(summary: dict, tests: pd.DataFrame, spend: pd.DataFrame, methods: list[dict]) -> list[str]:
     """GLSO's arms (the thesis-protocol arm, the improved GLSO): per arm with runs, its tests against the
     baselines on every comparison and a verdict per protocol; nothing while no arm has runs."""
@@ -347,6 +355,7 @@ def campaign_section(reports_dir: Path) -> str:
         align="llrrrl")
     if not tests.empty:
         lines += ["", *_tests_table(tests, spend, titles, ["matched"]), "",
+                  *_omnibus_lines(summary, ["matched"], titles), "",
                   "Verdicts at K distinct designs (search rung):", "",
                   *campaign_verdicts(tests, "matched", summary["alpha"], methods)]
     lines += ["", f"#### Per objective call (the thesis's axis): every run at {summary['budget']} calls", ""]
@@ -361,6 +370,7 @@ def campaign_section(reports_dir: Path) -> str:
         lines += ["", f"{alone}: nothing to compare."]
     else:
         lines += ["", *_tests_table(tests, spend, titles, ["search", "rescored"]), "",
+                  *_omnibus_lines(summary, ["search", "rescored"], titles), "",
                   f"Verdicts (re-scored finals, {summary['budget']} calls):", "",
                   *campaign_verdicts(tests, "rescored", summary["alpha"], methods)]
     return "\n".join(lines + ["", *_heldout_lines(summary, finals, tests, spend, ran, methods), "",
@@ -414,6 +424,7 @@ def _heldout_lines(summary: dict, finals: pd.DataFrame, tests: pd.DataFrame, spe
         return lines + ["", "No verdict under held-out scoring yet: it needs complete GLSO runs and complete runs "
                             "of another method."]
     return lines + ["", *_tests_table(tests, spend, titles, ["heldout"]), "",
+                    *_omnibus_lines(summary, ["heldout"], titles), "",
                     "Verdicts under held-out scoring (the held-out bests, at the search rung):", "",
                     *campaign_verdicts(tests, "heldout", summary["alpha"], methods)]
 

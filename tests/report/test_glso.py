@@ -147,6 +147,9 @@ def test_the_campaign_section_leads_with_distinct_designs_and_gives_verdicts_onl
     assert "GLSO best of Fig. 8.1: **not shown**" in verdicts_calls
     assert "all ablations worse than GLSO (Fig. 8.2): **holds**" in verdicts_calls
     assert "cannot show it" not in text  # 5 vs 5 and 5 vs 3 seeds can reach significance
+    # Beside the pairwise tests, whether the five methods of Fig. 8.1 are distinguishable at all
+    assert "Kruskal-Wallis over GLSO, Random, GA, MCTS, GHS (best so far at K distinct designs, flat; runs " \
+           "5/5/5/5/5): H = " in verdicts_k
 
     _campaign(tmp_path, {m: v for m, v in finals.items() if m != "glso_nogram"}, planned=40)
     assert "GLSO_nopred p = 0.018) (no runs yet of GLSO_nogram)" in campaign_section(tmp_path)
