@@ -4,7 +4,7 @@ a section, as the three latent ablations share `bo`), its name is what `glso.met
 `METHODS` is the only list of them: titles, figure groups (`robocompose.glso.GROUPS`) and legend order live on
 the entries, and the stages write them into their artifacts (`describe`) for the report, which imports no torch.
 
-Importing this module imports every method (torch, bayes_opt): the command line's parser does not.
+Importing this module imports every method (torch, bayes_opt, botorch): the command line's parser does not.
 """
 
 from __future__ import annotations

@@ -489,7 +489,7 @@ def test_the_pilot_runs_glso_and_its_variants_as_the_campaign_does_and_ranks_the
                             checkpoints=str(tmp_path / "data" / "glso_campaign"), budget=4, init=2, bootstrap=20)
     pilot = campaign.pilot_config(config)
     assert pilot.directory == str(tmp_path / "measured" / "glso_pilot") and pilot.rescore_seeds == []
-    assert pilot.seeds == {"glso": 3, "glso_nodr": 3, "glso_floor": 3, "glso_reask": 3}
+    assert pilot.seeds == {"glso": 3, "glso_nodr": 3, "glso_floor": 3, "glso_reask": 3, "glso_turbo": 3}
     assert (pilot.rung, pilot.budget, pilot.init, pilot.heldout_seeds) == (
         "s8_h8_e48", 4, 2, config.heldout_seeds)
     monkeypatch.setitem(fidelity.LADDER, "tiny", (2, 2, 2, 3))

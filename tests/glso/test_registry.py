@@ -10,6 +10,7 @@ from robocompose.glso.method import Proposal, SearchEnv
 from robocompose.glso.random_search import RandomConfig, RandomSearch
 from robocompose.glso.registry import METHODS, Method, describe, family, settings_sections
 from robocompose.glso.runs import GLSOConfig, RunSpec, run_search
+from robocompose.glso.turbo import TurboConfig
 from robocompose.io.errors import InputError
 from robocompose.params import build_config
 from tests.glso.conftest import fake_objective
@@ -17,10 +18,10 @@ from tests.glso.conftest import fake_objective
 
 def test_the_registry_holds_the_thesis_methods_and_the_latent_ones_name_their_vae():
     assert list(METHODS) == ["glso", "glso_nopred", "glso_nogram", "random", "ga", "mcts", "ghs", "glso_nodr",
-                             "glso_floor", "glso_reask", "glso_thesis"]
+                             "glso_floor", "glso_reask", "glso_turbo", "glso_thesis"]
     assert {name: m.variant for name, m in METHODS.items() if m.variant} == {
         "glso": "full", "glso_nopred": "nopred", "glso_nogram": "nogram", "glso_nodr": "full", "glso_floor": "full",
-        "glso_reask": "full", "glso_thesis": "full"}
+        "glso_reask": "full", "glso_turbo": "full", "glso_thesis": "full"}
     for name, method in METHODS.items():  # SearchMethod's constructor, propose and tell
         assert callable(method.cls.propose) and callable(method.cls.tell), name
         assert list(inspect.signature(method.cls).parameters) == ["config", "seed", "budget", "env"], name
@@ -29,7 +30,7 @@ def test_the_registry_holds_the_thesis_methods_and_the_latent_ones_name_their_va
         ("GLSO", ["baselines", "ablations"]), ("GLSO_nopred", ["ablations"]), ("GLSO_nogram", ["ablations"]),
         ("Random", ["baselines"]), ("GA", ["baselines"]), ("MCTS", ["baselines"]), ("GHS", ["baselines"]),
         ("GLSO, no domain reduction", []), ("GLSO, window floor 2", []), ("GLSO, repeats re-asked", []),
-        ("GLSO, thesis protocol", [])]
+        ("GLSO, trust region (TuRBO)", []), ("GLSO, thesis protocol", [])]
     assert family("baselines") == ("random", "ga", "mcts", "ghs") and family("ablations") == (
         "glso_nopred", "glso_nogram")  # the methods GLSO is compared with in Figs. 8.1 and 8.2
     with pytest.raises(TypeError, match=r"figure groups \['baseline'\] are not of \['baselines', 'ablations'\]"):
@@ -38,7 +39,8 @@ def test_the_registry_holds_the_thesis_methods_and_the_latent_ones_name_their_va
 
 def test_the_config_has_one_section_per_registered_settings_and_names_a_bad_field():
     assert settings_sections() == {"bo": BOConfig, **{s: METHODS[s].settings for s in ("random", "ga", "mcts", "ghs")},
-                                   "bo_nodr": NoReductionConfig, "bo_floor": WideFloorConfig, "bo_reask": ReaskConfig}
+                                   "bo_nodr": NoReductionConfig, "bo_floor": WideFloorConfig, "bo_reask": ReaskConfig,
+                                   "bo_turbo": TurboConfig}
     config = GLSOConfig(bo={"init": 4})
     assert config.settings("glso_nogram") == BOConfig(init=4) and config.settings("random") == RandomConfig()
     # a variant's section defaults to what makes it the variant, whatever `bo` says

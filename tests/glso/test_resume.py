@@ -60,10 +60,11 @@ def global_rngs_seeded(seed: int):
 
 
 # Every registered method, stopped after its random start and across its own boundaries: GLSO's init 3 (the
-# replay fits the GP again), the GA's generations of population 4, GHS's and MCTS's growing networks and trees.
+# replay fits the GP again; the trust-region BO's too, its Thompson draws seeded per step), the GA's generations of
+# population 4, GHS's and MCTS's growing networks and trees.
 CASES = [("glso", 4), ("glso", 7), ("glso_nopred", 5), ("glso_nogram", 5), ("random", 3), ("ga", 5), ("ga", 7),
          ("mcts", 3), ("ghs", 2), ("ghs", 6), ("glso_nodr", 5), ("glso_floor", 5), ("glso_reask", 5),
-         ("glso_reask", 7), ("glso_thesis", 5)]
+         ("glso_reask", 7), ("glso_thesis", 5), ("glso_turbo", 4), ("glso_turbo", 7)]
 
 
 def test_every_registered_method_has_a_resume_case():
