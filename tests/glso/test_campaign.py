@@ -162,6 +162,17 @@ def test_an_arm_of_glso_meets_the_baselines_alone_in_its_own_family_and_glso_kee
                                                                        ("ablations", "glso_nopred"): False}
 
 
+def test_the_omnibus_test_covers_glso_and_the_baselines_only_and_tells_separated_from_level_groups():
+    separated = _finals({"glso": [5.0, 5.1, 5.2], "random": [4.0, 4.1, 4.2], "ga": [3.0, 3.1, 3.2],
+                         "glso_nopred": [9.0, 9.1, 9.2], "glso_thesis": [9.0, 9.1]})
+    row, = campaign.omnibus(separated, "search")
+    assert row["methods"] == ["glso", "random", "ga"] and row["n"] == [3, 3, 3]  # Fig. 8.1's, in registry order
+    assert row["p"] < 0.05
+    level = _finals({"glso": [4.0, 4.2, 4.1], "random": [4.1, 4.0, 4.2], "ga": [4.2, 4.1, 4.0]})
+    assert campaign.omnibus(level, "search")[0]["p"] > 0.9
+    assert campaign.omnibus(_finals({"glso": [4.0, 4.1]}), "search") == []  # one method: nothing to compare
+
+
 def test_the_holm_floor_is_set_by_the_smallest_samples_not_by_the_family_size():
     # Floors 1/252, 1/252, 1/21, 1/21: at best Holm gives 4/252, 3/252, 2/21, 1/21 -> the largest is 2/21.
     finals = _finals({"glso": [5.0, 5.1, 5.2, 5.3, 5.4], "random": [4.0, 4.1], "ga": [4.0, 4.1],
@@ -285,7 +296,8 @@ def test_a_missing_campaign_directory_is_an_error_not_zero_runs(tmp_path):
 
 def test_the_summary_of_no_runs_says_so(tmp_path):
     summary = campaign.summarise(CampaignConfig(directory=str(tmp_path)))
-    assert summary["runs"] == 0 and summary["planned"] == 36  # 5 seeds of 5 methods and the arm, 3 of 2 ablations
+    # 5 seeds of GLSO, GA, MCTS, GHS and the thesis-protocol arm, 10 of random search, 3 of the two ablations
+    assert summary["runs"] == 0 and summary["planned"] == 41
 
 
 def test_the_top_designs_are_a_runs_best_distinct_simulated_designs_by_search_score_ties_by_first_call():
@@ -492,13 +504,17 @@ def test_the_pilot_runs_glso_and_its_variants_as_the_campaign_does_and_ranks_the
     assert pilot.seeds == {"glso": 3, "glso_nodr": 3, "glso_floor": 3, "glso_reask": 3, "glso_turbo": 3}
     assert (pilot.rung, pilot.budget, pilot.init, pilot.heldout_seeds) == (
         "s8_h8_e48", 4, 2, config.heldout_seeds)
+    assert campaign.pilot_summary(config) is None  # no pilot committed: the stage records none
     monkeypatch.setitem(fidelity.LADDER, "tiny", (2, 2, 2, 3))
     tiny = CampaignConfig(**{**pilot.__dict__, "seeds": {name: 1 for name in pilot.seeds}, "rung": "tiny"})
     campaign.run_campaign(tiny, GLSOConfig(models=tiny_models), EvaluationConfig(), "tiny")
     assert not (tmp_path / "measured" / "glso_pilot" / campaign.RESCORES_FILE).exists()
     summary = campaign.summarise(tiny)
-    assert summary["heldout_progress"]["complete"] == 4
+    assert summary["heldout_progress"]["complete"] == len(pilot.seeds)
     table = campaign.pilot_table(summary)
     assert sorted(table["method"]) == sorted(pilot.seeds) and (table["runs"] == 1).all()
     assert table["heldout"].is_monotonic_decreasing  # the pick is the first row
     assert (table["distinct"] <= 4).all() and (table["distinct"] >= 1).all()
+    recorded = campaign.pilot_summary(config)  # what the stage records: the pilot's plan, its seed-0 runs so far
+    assert (recorded["runs"], recorded["planned"], recorded["budget"]) == (len(pilot.seeds), 3 * len(pilot.seeds), 4)
+    assert recorded["methods"] == table.to_dict("records")
