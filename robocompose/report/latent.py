@@ -212,4 +212,32 @@ def _landscape(path: Path, knn_path: Path, figures: Path, plt, titles: dict[str,
             lines += ["", "Above the shuffled 95th percentile: "
                       + "; ".join(f"{titles[name]} in {len(above[name])} of {groups[name]} groups"
                                   for name in ("full", "nopred")) + "."]
+            lines += _gate(read_json(knn_path), knn_path, titles)
+    return lines
+
+
+def _gate(metrics: dict, path: Path, titles: dict[str, str]) -> list[str]:
+    """The gate table (issue 42, item 6) from the `gate` of reports/metrics/vae_landscape.json; ArtifactError naming
+    the file if a stage older than the gate wrote it."""
+    if "gate" not in metrics:
+        raise ArtifactError(f"{path}: no `gate` (written before the VAE gate existed; rerun stage `vae_landscape`)")
+    gate = metrics["gate"]
+    if not gate:
+        return []
+    first = next(iter(gate.values()))
+    width, samples, top = first["window_width"], first["window_samples"], first["gate_top"]
+    lines = ["", "The gate a thesis-scale VAE must pass before a campaign uses it (issue 42): its latent k-NN "
+             "Spearman (above) must beat the same statistic on a learning-free baseline, each design's count of "
+             f"every node type, by >= {first['gate_margin']:g}, and a box {width:g} wide in every latent coordinate "
+             f"(GLSO's collapsed domain-reduction window) around the latent means of the group's {top} best designs "
+             f"must decode to >= {first['gate_distinct']} distinct designs of {samples} uniform draws (the median "
+             f"over the {top}). From the scores the searches already have: no simulation.", "",
+             "| VAE | task | rung | designs | latent k-NN Spearman | node-type-count k-NN Spearman | margin | "
+             f"distinct designs in a {width:g}-wide window around the top {top} (of {samples} samples) | passes |",
+             "|---|---|---|---:|---:|---:|---:|---:|---|"]
+    for key, row in gate.items():
+        name, task, rung = key.split("/")
+        lines.append(f"| {titles[name]} | {task} | {rung} | {row['designs']} | {row['latent_spearman']:.3f} | "
+                     f"{row['node_count_spearman']:.3f} | {row['margin']:+.3f} | {row['window_distinct']:g} | "
+                     f"{'yes' if row['passes'] else 'no'} |")
     return lines

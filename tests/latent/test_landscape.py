@@ -8,6 +8,7 @@ import torch
 
 from robocompose.control.mppi import MPPIConfig
 from robocompose.evaluation.evaluate import EvaluationConfig
+from robocompose.grammar.tree import N_TOKENS, DesignTree
 from robocompose.io import read_table, write_table
 from robocompose.io.errors import InputError
 from robocompose.latent.constraints import replay
@@ -15,11 +16,23 @@ from robocompose.latent.landscape import (
     LandscapeConfig,
     knn_predictability,
     landscape,
+    node_type_counts,
     principal_axes,
     read_search_designs,
+    vae_gate,
+    window_distinct,
 )
 from robocompose.latent.model import GraphVAE, VAEConfig
 from robocompose.latent.train import Designs
+
+
+@pytest.fixture(autouse=True)
+def one_torch_thread():
+    """The models here are tiny: one thread is fastest, and a busy machine's second core does not stall them."""
+    previous = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(previous)
 
 
 def test_principal_axes_find_the_long_axis():
@@ -41,8 +54,9 @@ def test_landscape_scores_the_subset_with_the_evaluator(make_trees):
                       np.zeros((len(trees), 16), dtype=np.float32))
     models = {name: GraphVAE(VAEConfig(hidden=8, latent=3)) for name in ("full", "nopred")}
     quick = EvaluationConfig(mppi=MPPIConfig(samples=2, first_samples=2, horizon=2, episode=2))
-    table, knn = landscape(models, designs, LandscapeConfig(designs=10, evaluated=2, searches="", campaign=""), quick)
-    assert len(table) == 20 and knn == {} and set(table["source"]) == {"dataset"}
+    table, knn, gate = landscape(models, designs, LandscapeConfig(designs=10, evaluated=2, searches="", campaign=""),
+                                 quick)
+    assert len(table) == 20 and knn == {} == gate and set(table["source"]) == {"dataset"}
     assert set(table["variant"]) == {"full", "nopred"}
     for _, part in table.groupby("variant"):
         assert (part["status"] != "").sum() == 2 and part["status"].iloc[2:].eq("").all()
@@ -104,13 +118,20 @@ def test_search_designs_join_the_projection_on_the_dataset_axes(make_trees, tmp_
     quick = EvaluationConfig(mppi=MPPIConfig(samples=2, first_samples=2, horizon=2, episode=2))
     config = LandscapeConfig(designs=10, evaluated=1, searches=str(tmp_path), campaign="", neighbours=2, min_group=5,
                              shuffles=20)
-    table, knn = landscape(models, designs, config, quick)
+    table, knn, gate = landscape(models, designs, config, quick)
     dataset, found = table[table["source"] == "dataset"], table[table["source"] != "dataset"]
     assert len(dataset) == 10 and abs(dataset["pc1"].mean()) < 1e-6  # the axes are the dataset designs' own
     # files in name order: the mcts table, read first, claims the 4 designs it repeats
     assert found[found["task"] == "flat"]["source"].value_counts().to_dict() == {"search:random": 8, "search:mcts": 4}
     assert set(knn) == {"full/flat/s8_h8_e48"}  # ridged has 4 designs, fewer than min_group
     assert knn["full/flat/s8_h8_e48"]["designs"] == int((found[found["task"] == "flat"]["status"] == "ok").sum())
+    assert set(gate) == set(knn)  # the gate beside each k-NN figure, its latent Spearman the same number
+    row = gate["full/flat/s8_h8_e48"]
+    assert row["latent_spearman"] == knn["full/flat/s8_h8_e48"]["spearman"]
+    assert row["designs"] == knn["full/flat/s8_h8_e48"]["designs"]
+    assert row["margin"] == pytest.approx(row["latent_spearman"] - row["node_count_spearman"])
+    assert len(row["window_distinct_each"]) == 5 and row["window_samples"] == 200
+    assert row["passes"] == (row["margin"] >= 0.1 and row["window_distinct"] >= 10)
 
 
 def test_knn_predictability_tells_a_smooth_score_from_a_shuffled_one():
@@ -123,3 +144,52 @@ def test_knn_predictability_tells_a_smooth_score_from_a_shuffled_one():
     assert noise["spearman"] < noise["shuffled_95"] and noise["p_value"] > 0.05
     assert knn_predictability(latents, latents[:, 0], k=5, shuffles=50, seed=3) == \
         knn_predictability(latents, latents[:, 0], k=5, shuffles=50, seed=3)  # seeded
+
+
+def test_node_type_counts_count_each_token_over_a_designs_nodes():
+    trees = [DesignTree((-1,), (14,)), DesignTree((-1, 0, 0, 1), (14, 31, 31, 5))]
+    counts = node_type_counts(trees)
+    assert counts.shape == (2, N_TOKENS) and counts.sum(1).tolist() == [1, 4]
+    assert counts[0, 14] == 1 and counts[1, 14] == 1 and counts[1, 31] == 2 and counts[1, 5] == 1
+    assert node_type_counts([]).shape == (0, N_TOKENS)
+
+
+def test_the_gate_fails_a_latent_space_that_node_counts_beat():
+    """Scores that are the number of one token: node counts predict them (ties included), a random latent does not."""
+    rng = np.random.default_rng(0)
+    trees = [DesignTree(tuple(range(-1, n - 1)), (14,) + (5,) * (n - 1)) for n in rng.integers(1, 12, size=90)]
+    scores = np.array([t.n_links for t in trees], dtype=float) + 0.01 * rng.normal(size=90)
+    counts = node_type_counts(trees)
+    baseline = knn_predictability(counts, scores, k=5, shuffles=50, seed=0)
+    latent = knn_predictability(rng.normal(size=(90, 4)), scores, k=5, shuffles=50, seed=0)
+    assert baseline["spearman"] > 0.9 and abs(latent["spearman"]) < 0.3
+    model = GraphVAE(VAEConfig(hidden=8, latent=4, max_nodes=12))
+    config = LandscapeConfig(window_samples=20, gate_distinct=1)  # the window cannot fail this one: the margin does
+    gate = vae_gate(model, rng.normal(size=(90, 4)), baseline, scores, latent, config)
+    assert gate["margin"] < 0 and not gate["passes"] and gate["window_distinct"] >= 1
+    assert gate["node_count_spearman"] == baseline["spearman"] and gate["designs"] == 90
+    swapped = vae_gate(model, rng.normal(size=(90, 4)), latent, scores, baseline, config)  # the other way round
+    assert swapped["margin"] > 0.1 and swapped["passes"]
+
+
+def test_a_wider_window_decodes_to_more_designs():
+    torch.manual_seed(0)
+    model = GraphVAE(VAEConfig(hidden=16, latent=4))
+    centre = np.zeros(4)
+    assert window_distinct(model, centre, width=0.0, samples=30, seed=0) == 1  # every draw is the centre
+    assert window_distinct(model, centre, width=6.0, samples=30, seed=0) > 1
+    assert window_distinct(model, np.full(4, 5.0), width=0.0, samples=5) == 1  # a centre outside: moved inside
+    with pytest.raises(InputError, match="width: expected a finite number in"):
+        window_distinct(model, centre, width=7.0)
+
+
+@pytest.mark.parametrize(("field", "value", "message"), [
+    ("gate_margin", float("nan"), "gate_margin: expected a finite number in"),
+    ("window_width", 0.0, r"window_width: expected a finite number in \(0, 6\]"),
+    ("window_samples", 0, "window_samples: expected an integer >= 1"),
+    ("gate_distinct", 201, r"gate_distinct: expected an integer in \[1, window_samples \(200\)\]"),
+    ("gate_top", 0, "gate_top: expected an integer in"),
+])
+def test_the_gates_settings_are_checked(field, value, message):
+    with pytest.raises(InputError, match=message):
+        LandscapeConfig(**{field: value})

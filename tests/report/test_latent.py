@@ -87,8 +87,21 @@ def test_section_shows_metrics_curves_and_landscape(tmp_path):
 
     knn = {"spearman": 0.4, "shuffled_mean": 0.0, "shuffled_95": 0.15, "p_value": 0.001, "designs": 120}
     (tmp_path / "metrics").mkdir(exist_ok=True)
-    (tmp_path / "metrics" / "vae_landscape.json").write_text(json.dumps({"knn_predictability": {
-        "full/flat/s8_h8_e48": knn, "nopred/flat/s8_h8_e48": {**knn, "spearman": 0.1}}}))
+    knns = {"full/flat/s8_h8_e48": knn, "nopred/flat/s8_h8_e48": {**knn, "spearman": 0.1}}
+    (tmp_path / "metrics" / "vae_landscape.json").write_text(json.dumps({"knn_predictability": knns}))
+    with pytest.raises(ArtifactError, match=r"vae_landscape.json: no `gate` .*rerun stage `vae_landscape`"):
+        section(tmp_path, tmp_path, TRAIN_VAE)  # written before the gate existed
+
+    settings = {"window_samples": 200, "window_width": 0.5, "gate_margin": 0.1, "gate_distinct": 10, "gate_top": 5}
+    gate = {"full/flat/s8_h8_e48": {**settings, "designs": 120, "latent_spearman": 0.4, "node_count_spearman": 0.25,
+                                    "margin": 0.15, "window_distinct": 12.0, "passes": True},
+            "nopred/flat/s8_h8_e48": {**settings, "designs": 120, "latent_spearman": 0.1, "node_count_spearman": 0.25,
+                                      "margin": -0.15, "window_distinct": 2.0, "passes": False}}
+    (tmp_path / "metrics" / "vae_landscape.json").write_text(json.dumps({"knn_predictability": knns, "gate": gate}))
     text = section(tmp_path, tmp_path, TRAIN_VAE)
     assert "| GLSO | flat | s8_h8_e48 | 120 | 0.400 | 0.000 | 0.150 | 0.001 |" in text
     assert "GLSO in 1 of 1 groups; GLSO_nopred in 0 of 1 groups" in text
+    assert "The gate a thesis-scale VAE must pass before a campaign uses it (issue 42)" in text
+    assert "by >= 0.1, and a box 0.5 wide" in text and ">= 10 distinct designs of 200 uniform draws" in text
+    assert "| GLSO | flat | s8_h8_e48 | 120 | 0.400 | 0.250 | +0.150 | 12 | yes |" in text
+    assert "| GLSO_nopred | flat | s8_h8_e48 | 120 | 0.100 | 0.250 | -0.150 | 2 | no |" in text
