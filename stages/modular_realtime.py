@@ -2,9 +2,9 @@
 
 params (modular, eggan_modular) + the generators of `train_eggan_modular` + the test terrains' exhaustive table
 (data/modular/exhaustive.parquet) + the training pool's tables (data/modular/pool.parquet, stage modular_pool;
-its training terrains give the portfolio) -> data/modular/realtime.parquet,
+its training terrains give the portfolios, top-k and greedy) -> data/modular/realtime.parquet,
 reports/metrics/modular_realtime.json (per method, with its title and whether it is learned: the report reads
-them there; the portfolio's designs; DQN's symmetric-space ceiling on the
+them there; the portfolios' designs; DQN's symmetric-space ceiling on the
 test terrains), and Fig. 5.1's designs on the first two test terrains (data/modular/fig5_1.json).
 Every candidate is answered from the test terrain's exhaustive table: no rollout. A test terrain without a table
 stops the stage with one line naming it.
@@ -19,7 +19,12 @@ from robocompose.modular.eggan_params import EgganModularParams
 from robocompose.modular.experiments.figure_5_1 import figure_5_1
 from robocompose.modular.experiments.generative import make_problem, method_info, realtime_proposers
 from robocompose.modular.experiments.protocol import realtime_table, summarise
-from robocompose.modular.experiments.table_designs import portfolio, symmetric_ceiling, top_designs
+from robocompose.modular.experiments.table_designs import (
+    greedy_portfolio,
+    portfolio,
+    symmetric_ceiling,
+    top_designs,
+)
 from robocompose.modular.params import ModularParams
 from robocompose.params import load_section
 from robocompose.stage import run_stage
@@ -33,12 +38,13 @@ def main() -> None:
     truth = read_table(EXHAUSTIVE, "modular_exhaustive")
     fitness, protocol = params.fitness, params.protocol
     pool = read_table(fitness.pool, "modular_exhaustive")
-    designs = portfolio(pool[pool.terrain_seed.isin(fitness.train_seeds)], protocol.candidates)
+    training = pool[pool.terrain_seed.isin(fitness.train_seeds)]
+    designs, greedy = portfolio(training, protocol.candidates), greedy_portfolio(training, protocol.candidates)
     test = truth[truth.terrain_seed.isin(protocol.test_terrains)]
     optima = {int(seed): top_designs(table, protocol.candidates) for seed, table in test.groupby("terrain_seed")}
     with timed("modular_realtime") as timing:
         problem = make_problem(modular, params, None, None)  # task encodings only: nothing is simulated
-        proposers = realtime_proposers(problem, params, Path("models"), designs, optima)
+        proposers = realtime_proposers(problem, params, Path("models"), designs, optima, greedy)
         table, timing["query_ms_median"] = realtime_table(proposers, problem, modular, params, truth)
         timing["queries"] = len(table)
         fig_5_1 = figure_5_1(load_generator(FIG_5_1_GENERATOR, problem)[0], problem, modular.fitness,
@@ -49,7 +55,7 @@ def main() -> None:
     atomic_write_json("reports/metrics/modular_realtime.json", {
         **{row["method"]: {**{k: (None if v != v else round(float(v), 4)) for k, v in row.items() if k != "method"},
                            **method_info(row["method"])} for row in summarise(table).to_dict("records")},
-        "portfolio_designs": {"pool_terrains": len(fitness.train_seeds), "designs": designs},
+        "portfolio_designs": {"pool_terrains": len(fitness.train_seeds), "designs": designs, "greedy": greedy},
         "dqn_symmetric_ceiling": {k: round(v, 4) if isinstance(v, float) else v for k, v in ceiling.items()}})
 
 

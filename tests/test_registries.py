@@ -121,8 +121,8 @@ def test_a_registered_learner_trains_is_checked_by_its_profile_and_reaches_table
     train = pd.read_parquet(pool)
     problem = make_problem(modular, params, None, None)
     proposers = realtime_proposers(problem, params, tmp_path, portfolio(train[train.terrain_seed < 20_002], 1),
-                                   {1001: top_designs(truth, 1)})
-    assert list(proposers) == ["fixed", "random", "portfolio", "optimum"]
+                                   {1001: top_designs(truth, 1)}, ["bbbbbb"])
+    assert list(proposers) == ["fixed", "random", "portfolio", "portfolio_greedy", "optimum"]
     table, _ = realtime_table(proposers, problem, modular, params, truth)
     data, reports = tmp_path / "data", tmp_path / "reports"
     write_table(table, data / "modular" / "realtime.parquet", "modular_realtime")

@@ -159,6 +159,12 @@ def _table_rows_lines(protocol: dict, methods: set[str]) -> list[str]:
                      f"{chosen['pool_terrains']} exhaustive tables (penalties included): "
                      + ", ".join(f"`{d}`" for d in chosen["designs"]) + ". A method that reads the terrain should "
                      "beat it.")
+    if chosen and chosen.get("greedy") and "portfolio_greedy" in methods:
+        lines.append(f"Portfolio, greedy (terrain-agnostic): the same {len(chosen['greedy'])} designs for every "
+                     "query, picked one at a time on the same pool, each the design that most raises the pool's mean "
+                     "of the best of those picked (its best-of-k, not each design's own mean, is what it "
+                     "maximises), answered in pick order: "
+                     + ", ".join(f"`{d}`" for d in chosen["greedy"]) + ".")
     if "optimum" in methods:
         lines.append("Exhaustive optimum (oracle): each test terrain's fittest designs of its table; no method can "
                      "score more (regret 0 by construction). An upper bound, not a method.")

@@ -70,7 +70,7 @@ def test_the_table_rows_and_dqns_ceiling_come_from_the_stage_metrics(tmp_path):
     data, reports = tmp_path / "data", tmp_path / "reports"
     write_table(_table(), data / "modular" / "realtime.parquet", "modular_realtime")
     _stage_metrics(reports, {
-        "portfolio_designs": {"pool_terrains": 40, "designs": ["wnbwnw", "bnbwnw"]},
+        "portfolio_designs": {"pool_terrains": 40, "designs": ["wnbwnw", "bnbwnw"], "greedy": ["wnbwnw", "lblbwb"]},
         "dqn_symmetric_ceiling": {"terrains": 10, "designs": 64, "ceiling": 2.7876, "best_design": "wnwwnw",
                                   "best_design_mean": 2.2283}})
     text = section(reports, data)
@@ -78,6 +78,11 @@ def test_the_table_rows_and_dqns_ceiling_come_from_the_stage_metrics(tmp_path):
     assert "the best symmetric design of each terrain averages 2.79 m" in text and "`wnwwnw`, 2.23 m" in text
     assert "same 2 designs, those of highest mean fitness over the training pool's 40 exhaustive tables" in text
     assert "`wnbwnw`, `bnbwnw`" in text and "Exhaustive optimum (oracle): each test terrain's" in text
+    assert "Portfolio, greedy" not in text  # the table has no greedy row: no paragraph on it
+    write_table(pd.concat([_table(), _table().query("method == 'portfolio'").assign(method="portfolio_greedy")]),
+                data / "modular" / "realtime.parquet", "modular_realtime")
+    text = section(reports, data)
+    assert "Portfolio, greedy (terrain-agnostic): the same 2 designs" in text and "`wnbwnw`, `lblbwb`." in text
 
 
 def test_section_says_what_is_missing(tmp_path):

@@ -87,12 +87,13 @@ def train_variant(variant: str, modular: ModularParams, params: EgganModularPara
 
 def realtime_methods() -> tuple[str, ...]:
     """Table 5.1's rows, in its order: the learned baselines, random sampling, EG-GAN's variants; ours beside them,
-    read from tables: the terrain-agnostic portfolio (after random sampling) and the oracle (last). Read from the
-    registry at each call, so that a learner registered at run time (a test's) is a row."""
-    return (*baselines("modular"), "random", "portfolio", *variants("modular"), "optimum")
+    read from tables: the terrain-agnostic portfolios, top-k and greedy (after random sampling), and the oracle
+    (last). Read from the registry at each call, so that a learner registered at run time (a test's) is a row."""
+    return (*baselines("modular"), "random", "portfolio", "portfolio_greedy", *variants("modular"), "optimum")
 
 
 UNLEARNED = {"random": "Random sampling", "portfolio": "Portfolio (terrain-agnostic baseline)",
+             "portfolio_greedy": "Portfolio, greedy (terrain-agnostic)",
              "optimum": "Exhaustive optimum (oracle)"}  # the rows no learner answers -> their titles
 
 
@@ -108,10 +109,11 @@ def method_info(method: str) -> dict:
 
 
 def realtime_proposers(problem: ModularEgganProblem, params: EgganModularParams, models: Path,
-                       portfolio: list[str], optima: dict[int, list[str]]) -> dict[str, Proposer]:
+                       portfolio: list[str], optima: dict[int, list[str]], greedy: list[str]) -> dict[str, Proposer]:
     """Every row of Table 5.1: each learned method from its trained model under `models`, random sampling, and the
-    rows from tables (`table_proposers` of the `portfolio` designs and each test terrain's fittest designs)."""
-    tables = table_proposers(portfolio, optima)
+    rows from tables (`table_proposers` of the `portfolio` designs, the `greedy` portfolio's and each test
+    terrain's fittest designs)."""
+    tables = table_proposers(portfolio, optima, greedy)
     proposers: dict[str, Proposer] = {}
     for method in realtime_methods():
         path = models / f"eggan_modular_{method}.pt"

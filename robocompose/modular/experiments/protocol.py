@@ -10,9 +10,11 @@ terrain -> candidate designs) on every held-out test terrain and query (`realtim
   so EC is a distance; a query whose candidates are all invalid is counted as a failure, not averaged;
 - regret = the terrain's exhaustive optimum minus max distance.
 
-Beside the thesis's rows, two from tables (`table_proposers`): the terrain-agnostic portfolio (the designs best on
-average over the training pool, `robocompose.modular.experiments.table_designs.portfolio`) and the exhaustive
-optimum (each test terrain's fittest designs, `table_designs.top_designs`: an oracle upper bound, not a method).
+Beside the thesis's rows, three from tables (`table_proposers`): the terrain-agnostic portfolio (the designs best on
+average over the training pool, `robocompose.modular.experiments.table_designs.portfolio`), the greedy portfolio
+(the designs whose best-of-k is best on average over the pool, `table_designs.greedy_portfolio`, answered in pick
+order) and the exhaustive optimum (each test terrain's fittest designs, `table_designs.top_designs`: an oracle
+upper bound, not a method).
 """
 
 from __future__ import annotations
@@ -42,10 +44,12 @@ def random_proposer(problem: ModularEgganProblem, terrain_seed: int, query_seed:
     return ["".join("nlwb"[int(i)] for i in row) for row in rng.integers(4, size=(candidates, 6))]
 
 
-def table_proposers(portfolio: list[str], optima: dict[int, list[str]]) -> dict[str, Proposer]:
+def table_proposers(portfolio: list[str], optima: dict[int, list[str]],
+                    greedy: list[str] | None = None) -> dict[str, Proposer]:
     """Table 5.1's rows from tables: "portfolio" answers every query with the same `portfolio` designs (best on
-    average over the training pool); "optimum" with `optima[terrain]`, the terrain's fittest designs in its
-    exhaustive table (the oracle upper bound)."""
+    average over the training pool); "portfolio_greedy" (when `greedy` is given) with the greedy portfolio's
+    designs in pick order; "optimum" with `optima[terrain]`, the terrain's fittest designs in its exhaustive table
+    (the oracle upper bound)."""
 
     def first(designs: list[str], candidates: int, what: str) -> list[str]:
         if candidates > len(designs):
@@ -57,11 +61,16 @@ def table_proposers(portfolio: list[str], optima: dict[int, list[str]]) -> dict[
                            candidates: int) -> list[str]:
         return first(portfolio, candidates, "the portfolio")
 
+    def greedy_proposer(problem: ModularEgganProblem, terrain_seed: int, query_seed: int,
+                        candidates: int) -> list[str]:
+        return first(greedy, candidates, "the greedy portfolio")
+
     def optimum_proposer(problem: ModularEgganProblem, terrain_seed: int, query_seed: int,
                          candidates: int) -> list[str]:
         return first(optima[terrain_seed], candidates, f"terrain {terrain_seed}'s optimum")
 
-    return {"portfolio": portfolio_proposer, "optimum": optimum_proposer}
+    greedy_row = {} if greedy is None else {"portfolio_greedy": greedy_proposer}
+    return {"portfolio": portfolio_proposer, **greedy_row, "optimum": optimum_proposer}
 
 
 def realtime_table(proposers: dict[str, Proposer], problem: ModularEgganProblem, modular: ModularParams,

@@ -54,17 +54,20 @@ def test_molgan_baseline_trains_on_the_shared_budget_and_answers_queries(tmp_pat
     assert 20 < metrics["real_evaluations"] <= 40 and metrics["method"] == "MolGAN" and metrics["lam"] == 0.5
     saved = json.loads((tmp_path / "eggan_modular_molgan.json").read_text())
     assert saved["train"]["n_critic"] == 2 and "train_seconds" not in saved["metrics"]  # the file's bytes: params only
-    assert realtime_methods() == ("fit2form", "dqn", "molgan", "random", "portfolio", "ga", "crowding", "optimum")
+    assert realtime_methods() == ("fit2form", "dqn", "molgan", "random", "portfolio", "portfolio_greedy", "ga",
+                                  "crowding", "optimum")
     assert [method_title(m) for m in realtime_methods()] == [
-        "Fit2form", "DQN", "MolGAN", "Random sampling", "Portfolio (terrain-agnostic baseline)", "EG-GAN",
-        "EG-GAN-crowding",
+        "Fit2form", "DQN", "MolGAN", "Random sampling", "Portfolio (terrain-agnostic baseline)",
+        "Portfolio, greedy (terrain-agnostic)", "EG-GAN", "EG-GAN-crowding",
         "Exhaustive optimum (oracle)"]  # Table 5.1's rows
     for method in ("fit2form", "ga", "crowding"):  # the other generators' files, stood in by MolGAN's
         (tmp_path / f"eggan_modular_{method}.pt").write_bytes((tmp_path / "eggan_modular_molgan.pt").read_bytes())
     train_baseline("dqn", MODULAR, params, None, None, tmp_path)  # the protocol wants every method's model
     problem = eggan_problem.ModularEgganProblem(MODULAR, params.fitness)
-    proposers = realtime_proposers(problem, params, tmp_path, ["lwlwlw"] * 10, {1000: ["wwwwww"] * 10})
+    proposers = realtime_proposers(problem, params, tmp_path, ["lwlwlw"] * 10, {1000: ["wwwwww"] * 10},
+                                   ["bbbwww"] * 10)
     assert list(proposers) == list(realtime_methods())
+    assert proposers["portfolio_greedy"](problem, 1000, 7, 3) == ["bbbwww"] * 3
     for method in ("molgan", "dqn"):
         candidates = proposers[method](problem, 1000, 7, 10)
         assert len(set(candidates)) == 10 and all(len(d) == 6 for d in candidates)

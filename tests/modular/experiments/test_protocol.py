@@ -21,11 +21,11 @@ def test_the_protocol_answers_from_the_tables_with_the_portfolio_and_the_oracle(
                                                                        "candidates": 4, "ec_draws": 3}}, "test")
     chosen = ["lwlwlw", "bwbbwb", "wlwwlw", "lllwll"]  # a portfolio as the pool would pick it
     optima = {seed: top_designs(table, 4) for seed, table in truth.groupby("terrain_seed")}
-    proposers = {"random": random_proposer, **table_proposers(chosen, optima)}
+    proposers = {"random": random_proposer, **table_proposers(chosen, optima, chosen[::-1])}
     problem = make_problem(MODULAR, params, None, None)
     table, query_ms = realtime_table(proposers, problem, MODULAR, params, truth)
-    assert fake_rollouts == [] and set(query_ms) == {"random", "portfolio", "optimum"}  # no rollout: tables only
-    assert len(table) == 3 * 2 * 2
+    assert fake_rollouts == [] and set(query_ms) == {"random", "portfolio", "portfolio_greedy", "optimum"}
+    assert len(table) == 4 * 2 * 2  # no rollout: tables only
     optimum = table[table.method == "optimum"].groupby("terrain_seed")
     assert optimum.max_distance.max().to_dict() == truth.groupby("terrain_seed").distance.max().to_dict() == \
         optimum.max_distance.min().to_dict() == {1007: 6.0, 1008: 3.0}
@@ -34,5 +34,7 @@ def test_the_protocol_answers_from_the_tables_with_the_portfolio_and_the_oracle(
     folio = table[table.method == "portfolio"]
     assert set(folio.best_design) == {"wlwwlw", "lllwll"}  # the same designs on both terrains, each best on one
     assert (folio.set_index(["terrain_seed", "query"]).regret > 0).all()
+    greedy = table[table.method == "portfolio_greedy"]  # the same designs in its own order: the same best
+    assert greedy.best_design.tolist() == folio.best_design.tolist()
     with pytest.raises(InputError, match=r"protocol.test_terrains: .* missing \[1008\]"):
         realtime_table(proposers, problem, MODULAR, params, truth[truth.terrain_seed == 1007])
