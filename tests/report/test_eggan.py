@@ -194,8 +194,9 @@ def test_the_verdict_tests_crowding_against_the_others_paired_by_terrain(tmp_pat
     write_table(pd.DataFrame(rows), data / "modular" / "realtime.parquet", "modular_realtime")
     _stage_metrics(reports)
     text = section(reports, data)
-    assert "Paired by terrain (Wilcoxon signed-rank, 10 terrains), Holm-corrected over the 2 comparisons" in text
-    header = "| EG-GAN-crowding vs | paired terrains | p | Holm p |"
+    assert "Paired by terrain (Wilcoxon signed-rank, 10 terrains): EG-GAN-crowding against every other row but " \
+        "the oracle, Holm-corrected over each best-of-k's family of comparisons (2 at best of 10)" in text
+    header = "| EG-GAN-crowding vs | paired terrains | best of 10: p | best of 10: Holm p |"
     lines = text.splitlines()
     start = lines.index(header)
     rows = {cells[0]: cells[1:] for cells in ([c.strip() for c in line.strip("|").split("|")]
@@ -205,3 +206,35 @@ def test_the_verdict_tests_crowding_against_the_others_paired_by_terrain(tmp_pat
     assert rows["Random sampling"] == ["10", "0.002", "0.004"]
     ga_p, ga_holm = map(float, rows["EG-GAN"][1:])
     assert ga_holm == max(ga_p, 0.004)  # the larger p: step-down, kept monotone
+
+
+def test_the_best_of_k_table_and_a_holm_family_per_k_cover_every_row_but_the_oracle(tmp_path):
+    """With the stage's best-of-k record: a table of every row's best of 1, 3 and 10 with its look-ups, and per k
+    the tests of EG-GAN-crowding against every other row (the oracle excluded), Holm-corrected within that k."""
+    data, reports = tmp_path / "data", tmp_path / "reports"
+    write_table(_table(), data / "modular" / "realtime.parquet", "modular_realtime")
+    rng = np.random.default_rng(1)
+    terrains = [str(seed) for seed in range(1000, 1010)]
+    lifts = {"crowding": 1.0, "ga": 0.9, "fit2form": 0.0, "molgan": 0.0, "dqn": 0.0, "random": -1.0,
+             "portfolio": 1.0, "optimum": 3.0}
+    base = dict(zip(terrains, rng.uniform(1, 3, 10), strict=True))
+    per_terrain = {m: {str(k): {t: base[t] + lift + (k == 1) * (m == "crowding") + rng.normal(0, 0.3) * (m == "ga")
+                                for t in terrains} for k in (1, 3, 10)} for m, lift in lifts.items()}
+    methods = {m: {str(k): {"mean": 2.0 + (k == 10), "std": 0.5, "no_valid": int(m == "random" and k == 1),
+                            "lookups": float(k)} for k in (1, 3, 10)} for m in lifts}
+    _stage_metrics(reports, {"best_of": {"ks": [1, 3, 10], "methods": methods, "per_terrain": per_terrain}})
+    text = section(reports, data)
+    assert "| method | best of 1 (m) | look-ups per query | best of 3 (m) | look-ups per query | best of 10 (m) |" \
+        in text
+    assert "| Random sampling | 2.00 ± 0.50 (1 without a valid one) | 1 | 2.00 ± 0.50 | 3 | 3.00 ± 0.50 | 10 |" in text
+    lines = text.splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith("| EG-GAN-crowding vs |"))
+    rows = {cells[0]: cells[1:] for cells in ([c.strip() for c in line.strip("|").split("|")]
+                                              for line in lines[start + 2:lines.index("", start)])}
+    # every row but crowding itself and the oracle; the portfolio only at best of 1, where crowding leads it by 1 m
+    assert set(rows) == {"EG-GAN", "Fit2form", "MolGAN", "DQN", "Random sampling",
+                         "Portfolio (terrain-agnostic baseline)"}
+    assert "(6 at best of 1, 5 at best of 3, 5 at best of 10)" in text
+    assert rows["Portfolio (terrain-agnostic baseline)"] == ["10", "0.002", "0.012", "-", "-", "-", "-"]
+    # four rows 1 m below on every terrain at best of 10: p 0.002 each, Holm x5, x4, ... kept monotone -> 0.010
+    assert rows["Fit2form"][5:] == ["0.002", "0.010"] and rows["Random sampling"][5:] == ["0.002", "0.010"]

@@ -8,7 +8,10 @@ terrain -> candidate designs) on every held-out test terrain and query (`realtim
 - EC: `ec_draws` random caps on one module type; the answer is the best satisfying valid candidate, else a
   random valid satisfying design (modular `ec_answers`), looked up the same way. Answers are valid designs,
   so EC is a distance; a query whose candidates are all invalid is counted as a failure, not averaged;
-- regret = the terrain's exhaustive optimum minus max distance.
+- regret = the terrain's exhaustive optimum minus max distance;
+- best of k (`best_of`, asked by the stage for `best_of_ks`: 1, 3 and all the candidates): the best valid one of
+  the query's first k candidates (NaN if none), and the distinct look-ups those k cost: the same queries and
+  candidates, no further look-up. `best_of_summary` gives each method's mean per k and per terrain for the report.
 
 Beside the thesis's rows, three from tables (`table_proposers`): the terrain-agnostic portfolio (the designs best on
 average over the training pool, `robocompose.modular.experiments.table_designs.portfolio`), the greedy portfolio
@@ -73,11 +76,21 @@ def table_proposers(portfolio: list[str], optima: dict[int, list[str]],
     return {"portfolio": portfolio_proposer, **greedy_row, "optimum": optimum_proposer}
 
 
+BEST_OF = (1, 3)  # best of the first k candidates, beside the best of them all (Table 5.1's max distance)
+
+
+def best_of_ks(candidates: int) -> tuple[int, ...]:
+    """The k of the best-of-k columns for `candidates` candidates per query: those of `BEST_OF` below it, and it."""
+    return (*(k for k in BEST_OF if k < candidates), candidates)
+
+
 def realtime_table(proposers: dict[str, Proposer], problem: ModularEgganProblem, modular: ModularParams,
-                   params: EgganModularParams, truth: pd.DataFrame) -> tuple[pd.DataFrame, dict[str, float]]:
+                   params: EgganModularParams, truth: pd.DataFrame,
+                   best_of: tuple[int, ...] = ()) -> tuple[pd.DataFrame, dict[str, float]]:
     """One row per method x test terrain x query (see the module docstring), every candidate answered from the
     exhaustive table `truth`, and each method's median query wall time in ms (kept apart from the table, so that
-    the table's bytes depend on the inputs only)."""
+    the table's bytes depend on the inputs only). For each k of `best_of` the row also holds `best_of_K`, the
+    best valid one of the first k candidates, and `lookups_K`, the distinct designs among them."""
     p = params.protocol
     rule = modular.fitness
     missing = sorted(set(p.test_terrains) - set(truth.terrain_seed.unique()))
@@ -120,8 +133,44 @@ def realtime_table(proposers: dict[str, Proposer], problem: ModularEgganProblem,
                     "distinct": distinct_solutions(ok, fitness[valid], lambda a, b: float(hamming(a, b)), DELTA,
                                                    EPSILON),
                     "ec_distance": float(np.mean(ec_ok)) if ec_ok else np.nan,
-                    "ec_failures": len(ec) - len(ec_ok), "optimum": optimum, "regret": optimum - best})
+                    "ec_failures": len(ec) - len(ec_ok), "optimum": optimum, "regret": optimum - best,
+                    **_best_of(candidates, fitness, valid, best_of)})
     return pd.DataFrame(rows), {method: round(float(np.median(ms)), 3) for method, ms in query_ms.items()}
+
+
+def _best_of(candidates: list[str], fitness: np.ndarray, valid: np.ndarray, ks: tuple[int, ...]) -> dict:
+    """best_of_K (the best valid fitness among the first k candidates, NaN if none) and lookups_K (the distinct
+    designs among them) for each k of `ks`."""
+    out = {}
+    for k in ks:
+        first = valid[:k]
+        out[f"best_of_{k}"] = float(fitness[:k][first].max()) if first.any() else np.nan
+        out[f"lookups_{k}"] = len(set(candidates[:k]))
+    return out
+
+
+def best_of_columns(ks: tuple[int, ...]) -> list[str]:
+    """The columns `realtime_table(..., best_of=ks)` adds (not part of the realtime table's schema)."""
+    return [f"{name}_{k}" for k in ks for name in ("best_of", "lookups")]
+
+
+def best_of_summary(table: pd.DataFrame, ks: tuple[int, ...]) -> dict:
+    """Per method and k of `ks` (the table's best_of_K columns): the mean and std (population) over terrains x
+    queries of the best of the first k candidates, its queries without a valid one among them and the mean distinct
+    look-ups a query spent on them; and per method, k and terrain the mean over its queries (the pairs of the
+    report's tests). Keys are strings (JSON); numbers rounded to 4 places."""
+    def number(value: float) -> float | None:
+        return None if value != value else round(float(value), 4)
+
+    methods, per_terrain = {}, {}
+    for method, group in table.groupby("method", sort=False):
+        methods[method] = {str(k): {"mean": number(group[f"best_of_{k}"].mean()),
+                                    "std": number(group[f"best_of_{k}"].std(ddof=0)),
+                                    "no_valid": int(group[f"best_of_{k}"].isna().sum()),
+                                    "lookups": number(group[f"lookups_{k}"].mean())} for k in ks}
+        per_terrain[method] = {str(k): {str(seed): number(v) for seed, v in
+                                        group.groupby("terrain_seed")[f"best_of_{k}"].mean().items()} for k in ks}
+    return {"ks": list(ks), "methods": methods, "per_terrain": per_terrain}
 
 
 def summarise(table: pd.DataFrame) -> pd.DataFrame:

@@ -1,5 +1,6 @@
 """The real-time protocol answers every candidate from the test terrains' tables: no rollout; the oracle rows
-score the optimum; the portfolio gives the same designs on every terrain; a terrain without a table is an error."""
+score the optimum; the portfolio gives the same designs on every terrain; a terrain without a table is an error;
+the best of the first k candidates is read from the same candidates."""
 
 import pandas as pd
 import pytest
@@ -7,7 +8,14 @@ import pytest
 from robocompose.io.errors import InputError
 from robocompose.modular.eggan_params import EgganModularParams
 from robocompose.modular.experiments.generative import make_problem
-from robocompose.modular.experiments.protocol import random_proposer, realtime_table, table_proposers
+from robocompose.modular.experiments.protocol import (
+    best_of_columns,
+    best_of_ks,
+    best_of_summary,
+    random_proposer,
+    realtime_table,
+    table_proposers,
+)
 from robocompose.modular.experiments.table_designs import top_designs
 from robocompose.params import build_config
 from tests.modular.experiments.test_generative import MODULAR, SECTION
@@ -38,3 +46,29 @@ def test_the_protocol_answers_from_the_tables_with_the_portfolio_and_the_oracle(
     assert greedy.best_design.tolist() == folio.best_design.tolist()
     with pytest.raises(InputError, match=r"protocol.test_terrains: .* missing \[1008\]"):
         realtime_table(proposers, problem, MODULAR, params, truth[truth.terrain_seed == 1007])
+
+
+def test_the_best_of_the_first_k_candidates_comes_from_the_same_candidates(synthetic_truth):
+    truth = pd.concat([synthetic_truth(lambda d: float(d.count("w")), 1007),
+                       synthetic_truth(lambda d: d.count("l") / 2, 1008)], ignore_index=True)
+    params = build_config(EgganModularParams, {**SECTION, "protocol": {"test_terrains": [1007, 1008], "queries": 2,
+                                                                       "candidates": 4, "ec_draws": 3}}, "test")
+    assert best_of_ks(10) == (1, 3, 10) and best_of_ks(3) == (1, 3) and best_of_ks(1) == (1,)
+    chosen = ["lwlwlw", "bwbbwb", "wlwwlw", "lllwll"]  # wheels (1007): 3, 2, 4, 1; legs / 2 (1008): 1.5, 0, 1, 2.5
+    ks = best_of_ks(4)
+    problem = make_problem(MODULAR, params, None, None)
+    table, _ = realtime_table({"portfolio": table_proposers(chosen, {})["portfolio"], "random": random_proposer},
+                              problem, MODULAR, params, truth, ks)
+    folio = table[table.method == "portfolio"].set_index("terrain_seed")
+    assert folio.loc[1007, "best_of_1"].tolist() == [3.0, 3.0] and folio.loc[1007, "best_of_3"].tolist() == [4.0, 4.0]
+    assert folio.loc[1008, "best_of_3"].tolist() == [1.5, 1.5] and folio.loc[1008, "best_of_4"].tolist() == [2.5, 2.5]
+    assert table.best_of_4.fillna(-1).tolist() == table.max_distance.fillna(-1).tolist()  # NaN: none valid
+    assert (folio.lookups_3 == 3).all() and table.lookups_3.between(1, 3).all()  # random draws may repeat
+    best = table[["best_of_1", "best_of_3", "best_of_4"]].fillna(-1)
+    assert (best.best_of_1 <= best.best_of_3).all() and (best.best_of_3 <= best.best_of_4).all()
+    summary = best_of_summary(table, ks)
+    assert summary["ks"] == [1, 3, 4]
+    assert summary["methods"]["portfolio"]["3"] == {"mean": 2.75, "std": 1.25, "no_valid": 0, "lookups": 3.0}
+    assert summary["per_terrain"]["portfolio"]["1"] == {"1007": 3.0, "1008": 1.5}
+    assert set(table.columns) - set(realtime_table({"random": random_proposer}, problem, MODULAR, params,
+                                                   truth)[0].columns) == set(best_of_columns(ks))
