@@ -63,6 +63,7 @@ def main() -> None:
         **{row["method"]: {**{k: (None if v != v else round(float(v), 4)) for k, v in row.items() if k != "method"},
                            **method_info(row["method"])} for row in summarise(table).to_dict("records")},
         "best_of": best_of_summary(table, ks),
+        "diverse_query": {"min_hamming": protocol.diverse_hamming},
         "portfolio_designs": {"pool_terrains": len(fitness.train_seeds), "designs": designs, "greedy": greedy},
         "dqn_symmetric_ceiling": {k: round(v, 4) if isinstance(v, float) else v for k, v in ceiling.items()}})
 

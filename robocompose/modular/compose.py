@@ -5,8 +5,10 @@
 
 Prints one JSON object: `designs` (each: `design`, the port string `modular evaluate` takes, and `score`, the
 generator's probability of it for this terrain), ranked without simulating; `--simulate` adds each design's
-distance and status. Designs the fitness rule rejects and designs over a `--max` cap are never answered. With
-no `--model`, the generator shipped in the repository (trained by the default profile) is used.
+distance and status. `--min-hamming 2` asks for a diverse answer: designs pairwise at Hamming distance >= 2,
+taken in probability order (`robocompose.modular.diverse`; `found` says when fewer than `--k` are that far
+apart). Designs the fitness rule rejects and designs over a `--max` cap are never answered. With no `--model`,
+the generator shipped in the repository (trained by the default profile) is used.
 """
 
 from __future__ import annotations
@@ -51,6 +53,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                          default=64, help="generator draws per query, doubled up to 16x while fewer than --k designs "
                          f"are found (default 64, at most {MAX_SAMPLES:,})")
     modular.add_argument("--seed", type=non_negative_int, default=0, help="seed of the noise vectors")
+    modular.add_argument("--min-hamming", type=int, default=1, help="answer designs pairwise at Hamming distance >= "
+                         "this many ports, taken in probability order (default 1: distinct designs; 2..6: a diverse "
+                         "answer, fewer than --k designs if the draws hold too few that far apart)")
     modular.add_argument("--simulate", action="store_true", help="also simulate each design (distance, status)")
     modular.add_argument("--params", type=Path, default=None, help="params file with a modular: section (default: "
                          "params.yaml if there is one, else the defaults); a file named here must exist")
@@ -167,13 +172,16 @@ class ModularComposer:
 
     def query(self, terrain_seed: int | None = None, heights: np.ndarray | None = None, k: int = 10,
               caps: dict[str, int] | None = None, samples: int = 64, seed: int = 0,
-              distances: str | None = None) -> dict:
+              distances: str | None = None, min_hamming: int = 1) -> dict:
         """The k most probable distinct designs for a terrain (its seed, or a checked (50, 20) height map) that the
         fitness rule accepts and `caps` allows, each with its score; `distances` adds each design's distance from
-        the terrain's committed exhaustive table ("table") or a pybullet rollout ("rollout"), both by seed only."""
+        the terrain's committed exhaustive table ("table") or a pybullet rollout ("rollout"), both by seed only.
+        `min_hamming` > 1: the designs are pairwise at least that many ports apart, taken in probability order
+        (`robocompose.modular.diverse.diverse_distinct`; fewer than k if the draws hold too few)."""
         import torch
 
         from robocompose.eggan.query import top_distinct
+        from robocompose.modular.diverse import check_min_hamming, diverse_distinct
 
         if (terrain_seed is None) == (heights is None):
             raise InputError("terrain: expected a terrain seed or a height map, exactly one")
@@ -182,13 +190,18 @@ class ModularComposer:
         if distances is not None and terrain_seed is None:
             raise InputError(f"distances: {distances!r} needs a terrain seed (a height map alone does not define the "
                              "blocks)")
+        check_min_hamming(min_hamming, "min_hamming")
         caps = caps or {}
         table = self._table(terrain_seed) if distances == "table" else None
         started = time.perf_counter()
         tensor = self.problem.encode_task(terrain_seed) if heights is None else torch.from_numpy(heights)
-        ranked = top_distinct(self.generator, self.problem, terrain_seed, k, samples, seed, tensor,
-                              keep=lambda d: not self.params.fitness.skips(d)
-                              and all(d.count(m) <= c for m, c in caps.items()))
+
+        def keep(d: str) -> bool:
+            return not self.params.fitness.skips(d) and all(d.count(m) <= c for m, c in caps.items())
+
+        ranked = top_distinct(self.generator, self.problem, terrain_seed, k, samples, seed, tensor, keep=keep) \
+            if min_hamming == 1 else diverse_distinct(self.generator, self.problem, terrain_seed, k, samples,
+                                                      min_hamming, seed, tensor, keep=keep)
         query_ms = (time.perf_counter() - started) * 1000
         designs = [{"design": r.design, "score": round(r.score, 6)} for r in ranked]
         if distances == "rollout":
@@ -201,7 +214,8 @@ class ModularComposer:
         elif table is not None:
             for entry in designs:
                 entry["distance"] = float(table[entry["design"]])
-        return {"terrain_seed": terrain_seed, "k": k, "found": len(designs), "max": caps, "designs": designs,
+        return {"terrain_seed": terrain_seed, "k": k, "found": len(designs), "min_hamming": min_hamming, "max": caps,
+                "designs": designs,
                 "distances": distances, "model": str(self.path), "model_run_key": self.info.get("run_key"),
                 "query_ms": round(query_ms, 2)}
 
@@ -221,8 +235,10 @@ def _compose(args: argparse.Namespace) -> None:
     import torch
 
     from robocompose.modular.cli import _params, params_source
+    from robocompose.modular.diverse import check_min_hamming
 
     caps = parse_caps(args.max)
+    check_min_hamming(args.min_hamming, "--min-hamming")
     if args.simulate and args.heightmap is not None:
         raise InputError("--simulate needs --terrain-seed (a height map alone does not define the blocks)")
     params = _params(args.params)
@@ -233,6 +249,6 @@ def _compose(args: argparse.Namespace) -> None:
     composer = ModularComposer.load(args.model, params)
     load_ms = (time.perf_counter() - started) * 1000
     answer = composer.query(args.terrain_seed, heights, args.k, caps, args.samples, args.seed,
-                            "rollout" if args.simulate else None)
+                            "rollout" if args.simulate else None, args.min_hamming)
     print(json.dumps({**answer, "heightmap": str(args.heightmap) if args.heightmap else None,
                       "load_ms": round(load_ms, 2)}))

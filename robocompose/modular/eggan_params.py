@@ -9,6 +9,7 @@ from robocompose.eggan.learners import baselines, variants
 from robocompose.eggan.networks import NetworkConfig
 from robocompose.eggan.train import TrainConfig
 from robocompose.io.errors import InputError, check_field
+from robocompose.modular.diverse import check_min_hamming
 from robocompose.modular.plugins.eggan_problem import FitnessConfig
 from robocompose.params import build_config
 
@@ -22,12 +23,15 @@ class ProtocolConfig:
     candidates: int = 10  # designs every real-time method outputs per query (all simulated)
     samples: int = 64  # generator samples per query, of which the `candidates` most probable distinct are kept
     ec_draws: int = 20  # emergency-constraint draws per terrain and query
+    # the diverse query's row (EG-GAN-crowding's generator): candidates pairwise at Hamming distance >= this
+    diverse_hamming: int = 2
 
     def __post_init__(self):
         if not self.test_terrains:
             raise InputError("test_terrains: expected at least one terrain seed")
         for name in ("queries", "candidates", "samples", "ec_draws"):
             check_field(getattr(self, name) >= 1, name, "a positive integer", getattr(self, name))
+        check_min_hamming(self.diverse_hamming, "diverse_hamming")
 
 
 @dataclass(frozen=True)

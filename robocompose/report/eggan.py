@@ -91,7 +91,8 @@ def section(reports_dir: Path, data_dir: Path) -> str:
     rows = []
     for method, name in titles.items():
         group = table[table.method == method]
-        spent = metrics[method]["real_evaluations"] if protocol[method]["learned"] else "-"
+        trained = method if protocol[method]["learned"] else protocol[method].get("generator")
+        spent = metrics[trained]["real_evaluations"] if trained in metrics else "-"
         label = f"{name} (symmetric designs only: ceiling {ceiling['ceiling']:.2f} m)" if method == "dqn" and ceiling \
             else name
         rows.append((label, _ms(group.max_distance), _ms(group.distinct, 1), _ms(group.ec_distance), _ms(group.regret),
@@ -166,6 +167,14 @@ def _table_rows_lines(protocol: dict, methods: set[str]) -> list[str]:
                      "of the best of those picked (its best-of-k, not each design's own mean, is what it "
                      "maximises), answered in pick order: "
                      + ", ".join(f"`{d}`" for d in chosen["greedy"]) + ".")
+    diverse = protocol.get("diverse_query")
+    for method in sorted(m for m in methods if isinstance(protocol.get(m), dict) and protocol[m].get("generator")):
+        lines.append(f"{protocol[method]['title']}: the same trained generator and look-up budget, its candidates "
+                     "taken in probability order, each skipped if it is within "
+                     + (f"{diverse['min_hamming'] - 1} port(s) of one already taken (pairwise Hamming distance >= "
+                        f"{diverse['min_hamming']})" if diverse else "the stated Hamming distance of one already taken")
+                     + "; where even 16x the draws leave fewer far enough apart, the query answers the fewer it has "
+                     "(the column `candidates` of the realtime table says so).")
     if "optimum" in methods:
         lines.append("Exhaustive optimum (oracle): each test terrain's fittest designs of its table; no method can "
                      "score more (regret 0 by construction). An upper bound, not a method.")

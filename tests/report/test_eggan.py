@@ -83,6 +83,13 @@ def test_the_table_rows_and_dqns_ceiling_come_from_the_stage_metrics(tmp_path):
                 data / "modular" / "realtime.parquet", "modular_realtime")
     text = section(reports, data)
     assert "Portfolio, greedy (terrain-agnostic): the same 2 designs" in text and "`wnbwnw`, `lblbwb`." in text
+    diverse = _table().query("method == 'crowding'").assign(method="crowding_diverse")
+    write_table(pd.concat([_table(), diverse]), data / "modular" / "realtime.parquet", "modular_realtime")
+    _stage_metrics(reports, {"diverse_query": {"min_hamming": 2}})
+    text = section(reports, data)
+    row = next(line for line in text.splitlines() if line.startswith("| EG-GAN-crowding, diverse query |"))
+    assert "| 1 / 0 | 100 | - |" in row  # the spend of the crowding generator that answers it; no thesis row
+    assert "each skipped if it is within 1 port(s) of one already taken (pairwise Hamming distance >= 2)" in text
 
 
 def test_section_says_what_is_missing(tmp_path):

@@ -6,8 +6,10 @@ baseline's own trainer, all on the same problem and budget; with the table sourc
 pool's validation terrains (`validation_scores`) goes into its log and metrics, its score on the training terrains
 (`training_scores`) into its metrics. A model is saved with its params, metrics and provenance.
 
-Table 5.1's methods (`realtime_methods`, `realtime_proposers`): the learned ones from their model files, random
-sampling and the rows from tables (`robocompose.modular.experiments.protocol`, which runs the test protocol).
+Table 5.1's methods (`realtime_methods`, `realtime_proposers`): the learned ones from their model files, the diverse
+query of EG-GAN-crowding's generator (`DIVERSE`: candidates pairwise at Hamming distance >= the protocol's
+`diverse_hamming`, `robocompose.modular.diverse`), random sampling and the rows from tables
+(`robocompose.modular.experiments.protocol`, which runs the test protocol).
 Every learned row is an entry of `robocompose.eggan.learners.LEARNERS["modular"]`, the only list of them: its title and
 whether it trained are written beside its results (`method_info`) for the report.
 """
@@ -28,6 +30,7 @@ from robocompose.eggan.query import save_generator
 from robocompose.eggan.train import train
 from robocompose.fanout.cache import EvaluationCache
 from robocompose.fanout.executor import Executor
+from robocompose.modular.diverse import diverse_answer
 from robocompose.modular.eggan_params import EgganModularParams
 from robocompose.modular.experiments.protocol import (
     Proposer,
@@ -87,13 +90,21 @@ def train_variant(variant: str, modular: ModularParams, params: EgganModularPara
 
 def realtime_methods() -> tuple[str, ...]:
     """Table 5.1's rows, in its order: the learned baselines, random sampling, EG-GAN's variants; ours beside them,
-    read from tables: the terrain-agnostic portfolios, top-k and greedy (after random sampling), and the oracle
-    (last). Read from the registry at each call, so that a learner registered at run time (a test's) is a row."""
-    return (*baselines("modular"), "random", "portfolio", "portfolio_greedy", *variants("modular"), "optimum")
+    read from tables: the terrain-agnostic portfolios, top-k and greedy (after random sampling), the diverse
+    query of a registered variant's generator (after the variants) and the oracle (last). Read from the registry at
+    each call, so that a learner registered at run time (a test's) is a row."""
+    learned = variants("modular")
+    diverse = [row for row, of in DIVERSE.items() if of in learned]
+    return (*baselines("modular"), "random", "portfolio", "portfolio_greedy", *learned, *diverse, "optimum")
+
+
+# the diverse query's rows -> the EG-GAN variant whose trained generator answers them (the same model file)
+DIVERSE = {"crowding_diverse": "crowding"}
 
 
 UNLEARNED = {"random": "Random sampling", "portfolio": "Portfolio (terrain-agnostic baseline)",
              "portfolio_greedy": "Portfolio, greedy (terrain-agnostic)",
+             "crowding_diverse": "EG-GAN-crowding, diverse query",
              "optimum": "Exhaustive optimum (oracle)"}  # the rows no learner answers -> their titles
 
 
@@ -104,8 +115,10 @@ def method_title(method: str) -> str:
 
 def method_info(method: str) -> dict:
     """What the stages write beside a row's results for the report (which reads no registry): its title and
-    whether it is a learner, whose training metrics the report then requires."""
-    return {"title": method_title(method), "learned": method in LEARNERS["modular"]}
+    whether it is a learner, whose training metrics the report then requires; a diverse query's row also names
+    the learner whose generator answers it (`generator`)."""
+    generator = {"generator": DIVERSE[method]} if method in DIVERSE else {}
+    return {"title": method_title(method), "learned": method in LEARNERS["modular"], **generator}
 
 
 def realtime_proposers(problem: ModularEgganProblem, params: EgganModularParams, models: Path,
@@ -116,16 +129,19 @@ def realtime_proposers(problem: ModularEgganProblem, params: EgganModularParams,
     tables = table_proposers(portfolio, optima, greedy)
     proposers: dict[str, Proposer] = {}
     for method in realtime_methods():
-        path = models / f"eggan_modular_{method}.pt"
+        trained = DIVERSE.get(method, method)
+        path = models / f"eggan_modular_{trained}.pt"
         if method == "random":
             proposers[method] = random_proposer
         elif method in tables:
             proposers[method] = tables[method]
         elif path.exists():
-            learner = LEARNERS["modular"][method]
-            proposers[method] = learner.answer(learner.load(path, problem)[0], params.protocol.samples)
+            learner = LEARNERS["modular"][trained]
+            model = learner.load(path, problem)[0]
+            proposers[method] = diverse_answer(model, params.protocol.samples, params.protocol.diverse_hamming) \
+                if method in DIVERSE else learner.answer(model, params.protocol.samples)
         else:
-            raise FileNotFoundError(f"{path}: no trained {method_title(method)} model (run train_eggan_modular)")
+            raise FileNotFoundError(f"{path}: no trained {method_title(trained)} model (run train_eggan_modular)")
     return proposers
 
 

@@ -20,6 +20,7 @@ from robocompose.modular.eggan_params import EgganModularParams
 from robocompose.modular.evaluate import EvalSettings, FitnessRule
 from robocompose.modular.experiments.generative import (
     make_problem,
+    method_info,
     method_title,
     realtime_methods,
     realtime_proposers,
@@ -55,11 +56,13 @@ def test_molgan_baseline_trains_on_the_shared_budget_and_answers_queries(tmp_pat
     saved = json.loads((tmp_path / "eggan_modular_molgan.json").read_text())
     assert saved["train"]["n_critic"] == 2 and "train_seconds" not in saved["metrics"]  # the file's bytes: params only
     assert realtime_methods() == ("fit2form", "dqn", "molgan", "random", "portfolio", "portfolio_greedy", "ga",
-                                  "crowding", "optimum")
+                                  "crowding", "crowding_diverse", "optimum")
     assert [method_title(m) for m in realtime_methods()] == [
         "Fit2form", "DQN", "MolGAN", "Random sampling", "Portfolio (terrain-agnostic baseline)",
-        "Portfolio, greedy (terrain-agnostic)", "EG-GAN", "EG-GAN-crowding",
+        "Portfolio, greedy (terrain-agnostic)", "EG-GAN", "EG-GAN-crowding", "EG-GAN-crowding, diverse query",
         "Exhaustive optimum (oracle)"]  # Table 5.1's rows
+    assert method_info("crowding_diverse") == {"title": "EG-GAN-crowding, diverse query", "learned": False,
+                                               "generator": "crowding"}  # the report prints its training spend
     for method in ("fit2form", "ga", "crowding"):  # the other generators' files, stood in by MolGAN's
         (tmp_path / f"eggan_modular_{method}.pt").write_bytes((tmp_path / "eggan_modular_molgan.pt").read_bytes())
     train_baseline("dqn", MODULAR, params, None, None, tmp_path)  # the protocol wants every method's model
@@ -68,6 +71,9 @@ def test_molgan_baseline_trains_on_the_shared_budget_and_answers_queries(tmp_pat
                                    ["bbbwww"] * 10)
     assert list(proposers) == list(realtime_methods())
     assert proposers["portfolio_greedy"](problem, 1000, 7, 3) == ["bbbwww"] * 3
+    diverse = proposers["crowding_diverse"](problem, 1000, 7, 10)  # the crowding file's generator (MolGAN's here)
+    assert all(sum(x != y for x, y in zip(a, b, strict=True)) >= params.protocol.diverse_hamming == 2
+               for i, a in enumerate(diverse) for b in diverse[:i])
     for method in ("molgan", "dqn"):
         candidates = proposers[method](problem, 1000, 7, 10)
         assert len(set(candidates)) == 10 and all(len(d) == 6 for d in candidates)
