@@ -272,11 +272,13 @@ def _pilot_lines(pilot: dict | None, methods: list[dict]) -> list[str]:
           _number(r.reported_heldout, "{:.3f}"), _number(r.heldout, "{:.3f}")) for r in table.itertuples()],
         align="lrrrrr")
     best = table.iloc[0]
-    reach = table[table["distinct"] >= DISTINCT_TARGET * pilot["budget"] / 200]
-    lines += ["", f"Winner: **{titles[best['method']]}** ({best['distinct']:g} distinct designs, held-out best "
-              f"{_number(best['heldout'], '{:.3f}')}); variants reaching {DISTINCT_TARGET} distinct designs per "
-              "200 calls: "
-              f"{', '.join(titles[m] for m in reach['method']) or 'none'}."
+    reach = ", ".join(titles[m] for m in table.loc[table["distinct"] >= DISTINCT_TARGET * pilot["budget"] / 200,
+                                                    "method"]) or "none"
+    winner = ("No winner yet: no variant has held-out scores (they are measured once every pilot run is "
+              "finished)" if pd.isna(best["heldout"]) else
+              f"Winner: **{titles[best['method']]}** ({best['distinct']:g} distinct designs, held-out best "
+              f"{best['heldout']:.3f})")
+    lines += ["", f"{winner}; variants reaching {DISTINCT_TARGET} distinct designs per 200 calls: {reach}."
               + (" Interim: not every run is committed." if pilot["runs"] < pilot["planned"] else ""), ""]
     return lines
 

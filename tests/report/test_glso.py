@@ -232,3 +232,6 @@ def test_the_pilot_names_its_winner_by_held_out_best_and_says_which_variants_rea
     assert "| GLSO | 2 | 76 | 4.600 | - | - |" in pilot  # no held-out mean yet: no number made up
     assert ("Winner: **GLSO, no domain reduction** (160 distinct designs, held-out best 4.450); variants reaching "
             "150 distinct designs per 200 calls: GLSO, no domain reduction. Interim") in pilot
+    summary["pilot"]["methods"][0]["heldout"] = float("nan")  # runs finished, none held-out scored yet
+    (tmp_path / "metrics" / "glso_campaign.json").write_text(json.dumps(summary))
+    assert "No winner yet: no variant has held-out scores" in campaign_section(tmp_path)
