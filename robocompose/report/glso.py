@@ -272,8 +272,8 @@ def _pilot_lines(pilot: dict | None, methods: list[dict]) -> list[str]:
           _number(r.reported_heldout, "{:.3f}"), _number(r.heldout, "{:.3f}")) for r in table.itertuples()],
         align="lrrrrr")
     best = table.iloc[0]
-    reach = ", ".join(titles[m] for m in table.loc[table["distinct"] >= DISTINCT_TARGET * pilot["budget"] / 200,
-                                                    "method"]) or "none"
+    reaching = table.loc[table["distinct"] >= DISTINCT_TARGET * pilot["budget"] / 200, "method"]
+    reach = "; ".join(titles[m] for m in reaching) or "none"  # "; ": titles hold commas
     winner = ("No winner yet: no variant has held-out scores (they are measured once every pilot run is "
               "finished)" if pd.isna(best["heldout"]) else
               f"Winner: **{titles[best['method']]}** ({best['distinct']:g} distinct designs, held-out best "

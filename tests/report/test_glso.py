@@ -223,15 +223,15 @@ def test_the_pilot_names_its_winner_by_held_out_best_and_says_which_variants_rea
                         "planned": 6, "heldout_progress": {"complete": 4}, "methods": [
                             {"method": "glso_nodr", "runs": 3, "distinct": 160.0, "search": 4.5,
                              "reported_heldout": 4.4, "heldout": 4.45},
-                            {"method": "glso", "runs": 2, "distinct": 76.0, "search": 4.6,
+                            {"method": "glso", "runs": 2, "distinct": 150.0, "search": 4.6,
                              "reported_heldout": float("nan"), "heldout": float("nan")}]}
     (tmp_path / "metrics" / "glso_campaign.json").write_text(json.dumps(summary))
     pilot = campaign_section(tmp_path).split("#### The pilot")[1]
     assert "5 of 6 pilot runs committed (measured/glso_pilot), 200 objective calls each at rung s8_h8_e48" in pilot
     assert "| GLSO, no domain reduction | 3 | 160 | 4.500 | 4.400 | 4.450 |" in pilot
-    assert "| GLSO | 2 | 76 | 4.600 | - | - |" in pilot  # no held-out mean yet: no number made up
+    assert "| GLSO | 2 | 150 | 4.600 | - | - |" in pilot  # no held-out mean yet: no number made up
     assert ("Winner: **GLSO, no domain reduction** (160 distinct designs, held-out best 4.450); variants reaching "
-            "150 distinct designs per 200 calls: GLSO, no domain reduction. Interim") in pilot
+            "150 distinct designs per 200 calls: GLSO, no domain reduction; GLSO. Interim") in pilot
     summary["pilot"]["methods"][0]["heldout"] = float("nan")  # runs finished, none held-out scored yet
     (tmp_path / "metrics" / "glso_campaign.json").write_text(json.dumps(summary))
     assert "No winner yet: no variant has held-out scores" in campaign_section(tmp_path)
