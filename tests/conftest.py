@@ -321,3 +321,16 @@ def tiny_modular_model(tmp_path_factory):
     problem = ModularEgganProblem(ModularParams(EvalSettings(), FitnessRule(), ExperimentsConfig()), FitnessConfig())
     generator = Generator(problem.task_shape, problem.design_shape, NetworkConfig(latent=8, hidden=16)).eval()
     return save_generator(generator, problem, tmp_path_factory.mktemp("modular") / "g.pt", {"run_key": "test"})
+
+
+@pytest.fixture
+def one_torch_thread():
+    """One torch thread for the test (a module opts in with `pytestmark = pytest.mark.usefixtures(...)`): small
+    tensors and GPs are fastest on one, a busy machine's second core does not stall them, and a run
+    (`runs.run_search`) has one."""
+    import torch
+
+    previous = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(previous)

@@ -22,8 +22,8 @@ if TYPE_CHECKING:
     import torch
 
     from robocompose.eggan.networks import Generator
+    from robocompose.eggan.problem import EgganProblem  # the world does not import its plugins (test_layout)
     from robocompose.eggan.query import Ranked
-    from robocompose.modular.plugins.eggan_problem import ModularEgganProblem
 
 
 def check_min_hamming(value: object, field: str) -> int:
@@ -50,7 +50,7 @@ def spread(designs: Iterable[str], k: int, min_hamming: int) -> list[str]:
     return taken
 
 
-def diverse_distinct(generator: Generator, problem: ModularEgganProblem, task: int | None, k: int, samples: int,
+def diverse_distinct(generator: Generator, problem: EgganProblem, task: int | None, k: int, samples: int,
                      min_hamming: int, seed: int = 0, task_tensor: torch.Tensor | None = None,
                      keep: Callable[[str], bool] | None = None) -> list[Ranked]:
     """The `spread` of the generator's distinct designs for `task` that `keep` accepts, ranked by probability among
@@ -79,7 +79,7 @@ def diverse_answer(generator: Generator, samples: int, min_hamming: int):
     """A Table 5.1 proposer (problem, terrain seed, query seed, candidates -> designs) of the diverse query."""
     check_min_hamming(min_hamming, "min_hamming")
 
-    def answer(problem: ModularEgganProblem, terrain_seed: int, query_seed: int, candidates: int) -> list[str]:
+    def answer(problem: EgganProblem, terrain_seed: int, query_seed: int, candidates: int) -> list[str]:
         return [r.design for r in diverse_distinct(generator, problem, terrain_seed, candidates, samples,
                                                    min_hamming, query_seed)]
 

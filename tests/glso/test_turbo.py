@@ -26,13 +26,7 @@ LATENT_2 = SearchEnv("flat", SimpleNamespace(config=SimpleNamespace(latent=2))) 
 FEW = 256  # Thompson sampling's candidates in these 2-D tests (a tenth of a step's time at the default 2000)
 
 
-@pytest.fixture(autouse=True)
-def one_thread():
-    """One torch thread, as a run has (`runs.run_search`): small GPs are slower on more."""
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(threads)
+pytestmark = pytest.mark.usefixtures("one_torch_thread")  # tests/conftest.py
 
 
 @pytest.fixture

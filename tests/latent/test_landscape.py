@@ -25,14 +25,7 @@ from robocompose.latent.landscape import (
 from robocompose.latent.model import GraphVAE, VAEConfig
 from robocompose.latent.train import Designs
 
-
-@pytest.fixture(autouse=True)
-def one_torch_thread():
-    """The models here are tiny: one thread is fastest, and a busy machine's second core does not stall them."""
-    previous = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(previous)
+pytestmark = pytest.mark.usefixtures("one_torch_thread")  # tests/conftest.py
 
 
 def test_principal_axes_find_the_long_axis():
