@@ -50,24 +50,18 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import gpytorch
 import numpy as np
 import torch
-from botorch.exceptions.warnings import OptimizationWarning
-from botorch.fit import fit_gpytorch_mll
-from botorch.generation import MaxPosteriorSampling
-from botorch.models import SingleTaskGP
-from botorch.models.transforms.outcome import Standardize
-from gpytorch.constraints import Interval
-from gpytorch.kernels import MaternKernel, ScaleKernel
-from gpytorch.likelihoods import GaussianLikelihood
-from gpytorch.mlls import ExactMarginalLogLikelihood
 from torch.quasirandom import SobolEngine
 
 from robocompose.glso.bo import decode
 from robocompose.glso.method import Proposal, SearchEnv
 from robocompose.io.errors import check_field
+
+if TYPE_CHECKING:  # BoTorch and GPyTorch are imported where a BO step needs them: the registry imports this module
+    from botorch.models import SingleTaskGP
 
 DTYPE = torch.float64  # the GP's precision (the tutorial's)
 SOBOL, TRUST_REGION = "sobol", "trust region"  # a proposal's `info`: an initial or restart point, or a BO step
@@ -119,6 +113,15 @@ def step_seed(seed: int, step: int) -> int:
 
 def fit_gp(x: torch.Tensor, y: torch.Tensor) -> SingleTaskGP:
     """The tutorial's GP on points `x` (n, d) of the unit cube and scores `y` (n, 1), fitted."""
+    from botorch.exceptions.warnings import OptimizationWarning
+    from botorch.fit import fit_gpytorch_mll
+    from botorch.models import SingleTaskGP
+    from botorch.models.transforms.outcome import Standardize
+    from gpytorch.constraints import Interval
+    from gpytorch.kernels import MaternKernel, ScaleKernel
+    from gpytorch.likelihoods import GaussianLikelihood
+    from gpytorch.mlls import ExactMarginalLogLikelihood
+
     covar = ScaleKernel(MaternKernel(nu=2.5, ard_num_dims=x.shape[-1], lengthscale_constraint=Interval(0.005, 4.0)))
     likelihood = GaussianLikelihood(noise_constraint=Interval(1e-8, 1e-3))
     model = SingleTaskGP(x, y, covar_module=covar, likelihood=likelihood, outcome_transform=Standardize(m=1))
@@ -133,6 +136,8 @@ def thompson_candidate(model: SingleTaskGP, center: torch.Tensor, length: float,
     """The tutorial's `generate_batch` (Thompson sampling, batch 1): the candidate (d,) of the trust region of side
     `length` around `center` whose joint posterior draw is highest. Draws from torch's global generator, which the
     caller has seeded."""
+    from botorch.generation import MaxPosteriorSampling
+
     dim = center.shape[-1]
     weights = model.covar_module.base_kernel.lengthscale.detach().reshape(-1)
     weights = weights / torch.exp(torch.log(weights).mean())  # geometric mean 1
@@ -168,6 +173,8 @@ class TrustRegionBO:
     def propose(self, env: SearchEnv) -> Proposal:
         if self.queue:
             return self._decoded(env, self.queue[0], SOBOL)
+        import gpytorch
+
         seed = step_seed(self.seed, self.step)
         x, y = torch.stack(self.x), torch.tensor(self.y, dtype=DTYPE)[:, None]
         center = x[self.restart_start + int(torch.argmax(y[self.restart_start:]))]
