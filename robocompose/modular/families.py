@@ -210,8 +210,12 @@ def _walls(rng: np.random.Generator, x0: float, x1: float, width: tuple[float, f
 
 def _rubble(rng: np.random.Generator, x0: float, x1: float, width: tuple[float, float], height: float,
             spacing: float, side: tuple[float, float], candidates: int) -> Boxes:
-    """Poisson-disk boxes with centres in [x0, x1) x width, half-sides U(side), heights U(0, height)."""
-    centres = poisson_disk(rng, (x0, x1), width, spacing, candidates)
+    """Poisson-disk boxes lying within [x0, x1] x width (centres kept a largest half-side inside), half-sides
+    U(side), heights U(0, height)."""
+    inset = side[1]
+    if x1 - x0 <= 2 * inset:
+        return _boxes([], [], [])
+    centres = poisson_disk(rng, (x0 + inset, x1 - inset), (width[0] + inset, width[1] - inset), spacing, candidates)
     sides = rng.uniform(*side, size=(len(centres), 2))
     return centres, sides, rng.uniform(0.0, height, size=len(centres))
 
