@@ -10,7 +10,8 @@ measured through the evaluation cache and kept like the block world's committed 
 - Perturbed fitness (issue 46, item 4): with `perturbations` P >= 1 a design's distance is its mean over P
   perturbations of the terrain (every box moved by at most `shift`, 2 cm, `families.perturb`); each perturbation's
   rollout is cached on its own, so P = 4 reuses P = 2's. The block world unperturbed (P = 0) goes through
-  `evaluate.evaluate_designs`, its own key and cache rows, so its committed numbers are read, never re-made.
+  `evaluate.evaluate_designs`, its own key and cache rows, and a probe reads its committed tables where they
+  match, so its numbers are read, never re-made.
 - `probe`: per terrain, a table in the `modular_exhaustive` schema under `measured/modular/families/<name>/`
   (`<family>-<seed>.parquet`) with a JSON record (family, settings, fitness rule, perturbations, design set and the
   digest of the code that made it); a terrain whose table is there with the same record is kept, one half done
@@ -51,7 +52,7 @@ from robocompose.modular.families import FAMILIES, Course, family_config, genera
 from robocompose.modular.gate import GateConfig, GateResult, gate, height_map_features
 from robocompose.modular.robot import all_designs, valid_in_original
 from robocompose.modular.terrain import Terrain, TerrainConfig, generate_terrain, height_map
-from robocompose.modular.truth import physics_digest, read_record
+from robocompose.modular.truth import COMMITTED_DIR, physics_digest, read_committed, read_record
 
 FAMILY_CODE = ("robocompose.modular.family_truth:simulate_world", "robocompose.modular.robot:valid_in_original")
 BLOCKS = "blocks"  # the thesis's block world as a probe target (perturbed or not)
@@ -220,8 +221,14 @@ def _stored_record(path: Path) -> dict:
 
 def probe_terrain(seed: int, world: World, rule: FitnessRule, perturbations: int, designs: Sequence[str],
                   cache: EvaluationCache | None, executor: Executor | None, save_every: int = 32) -> pd.DataFrame:
-    """One terrain's table (modular_exhaustive schema) over `designs`, sorted by design."""
+    """One terrain's table (modular_exhaustive schema) over `designs`, sorted by design. The block world unperturbed
+    is read from its committed tables (test or pool) where one matches: the same numbers, no rollout."""
     designs = sorted(designs)
+    if world.family == BLOCKS and perturbations == 0:
+        for directory in (COMMITTED_DIR, POOL_DIR):
+            committed = read_committed(seed, world.settings, rule, directory)
+            if committed is not None:
+                return committed[committed.design.isin(designs)].sort_values("design", ignore_index=True)
     results = evaluate_world(designs, seed, world, rule, perturbations, cache, executor, save_every)
     return pd.DataFrame({"terrain_seed": int(seed), "design": designs,
                          "fitness": [rule.fitness(r) for r in results], "distance": [r.distance for r in results],

@@ -136,3 +136,20 @@ def test_the_commands_refuse_bad_input_in_one_line(tmp_path, capsys):
     assert "height_range" in capsys.readouterr().err
     assert main(["modular", "gate", "--dir", str(tmp_path)]) == 2
     assert "no tables" in capsys.readouterr().err
+
+
+def test_the_unperturbed_block_world_is_read_from_its_committed_tables(tmp_path, monkeypatch):
+    from robocompose.modular.params import ModularParams
+    from robocompose.params import load_command_section
+
+    params = load_command_section(ModularParams, "modular", "params.yaml")
+    monkeypatch.setattr(family_truth, "rollouts", None)  # any rollout would fail
+    monkeypatch.setattr(family_truth, "evaluate_designs", None)
+    designs = ["wnwbnb", "llllll"]
+    [path] = probe(make_world("blocks", params.eval), [20003], params.fitness, 0, "test", designs,
+                   EvaluationCache(), None, tmp_path)
+    table = read_table(path, "modular_exhaustive")
+    pool = read_table("measured/modular/pool/blocks-20003.parquet", "modular_exhaustive")
+    expected = pool[pool.design.isin(designs)].sort_values("design", ignore_index=True)
+    assert table.design.tolist() == designs[::-1] and table.distance.tolist() == expected.distance.tolist()
+    assert json.loads(path.with_suffix(".json").read_text())["digest"] == physics_digest()
