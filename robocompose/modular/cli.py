@@ -1,6 +1,6 @@
 """`robocompose modular ...`: evaluate one modular design on a block terrain; run a GA baseline on one terrain;
 measure one terrain's exhaustive table; probe candidate terrain distributions; the terrain criterion of a
-directory of exhaustive tables.
+directory of exhaustive tables; probe a terrain family (or the perturbed block world); the gate of a probe.
 
 Settings come from the `modular:` and `compute:` sections of `--params` (default: params.yaml if there is one,
 else the dataclass defaults: the default profile's episode on the reference's course); a file named with
@@ -97,6 +97,38 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     criterion.add_argument("--dir", type=Path, default=None,
                            help="a directory of blocks-<seed>.parquet tables (default measured/modular/exhaustive)")
     criterion.set_defaults(handler=_criterion)
+
+    family_probe = commands.add_parser(
+        "family-probe", help="a design set on seeded terrains of one terrain family (or the block world, perturbed), "
+        "a table per terrain under measured/modular/families/ (resumes: kept tables are skipped, a terrain half "
+        "done resumes from the cache); prints JSON per terrain")
+    family_probe.add_argument("--family", required=True, help="a terrain family (walls, steps, rubble, ice, "
+                              "mixed: robocompose/modular/families.py) or blocks (the params' block world)")
+    family_probe.add_argument("--terrain-seed", type=non_negative_int, nargs="+", required=True,
+                              help="terrain seeds, measured in this order")
+    family_probe.add_argument("--design-set", choices=("balanced", "top", "all"), default="balanced",
+                              help="balanced (default): the 25 best on the block pool's mean per composition class, "
+                              "then the best on that mean, 400 in all; top: the pool's 400 best; all: 1296 valid")
+    family_probe.add_argument("--perturbations", type=non_negative_int, default=0,
+                              help="fitness = mean distance over this many perturbed terrains (boxes moved <= 2 cm); "
+                              "0 (default): the terrain itself")
+    family_probe.add_argument("--family-settings", type=input_file("family settings YAML"),
+                              help="YAML mapping of the family's settings to override (field -> value)")
+    family_probe.add_argument("--out-dir", type=output_directory, default=None,
+                              help="where the tables go (default measured/modular/families/<family>[_p<P>])")
+    _add_evaluation_arguments(family_probe)
+    family_probe.set_defaults(handler=_family_probe)
+
+    gate = commands.add_parser(
+        "gate", help="does the terrain decide? leave one terrain out: predict-the-table top-k (k-NN, ridge) against "
+        "the greedy portfolio at k = 1, 3, 10 on the tables of one world; prints JSON")
+    gate.add_argument("--dir", type=Path, nargs="+", required=True,
+                      help="directories of one world's tables (a family probe's, or e.g. measured/modular/pool "
+                      "measured/modular/exhaustive)")
+    gate.add_argument("--neighbours", type=int_at_least(1), default=3, help="k-NN: terrains averaged (default 3)")
+    gate.add_argument("--scores", type=output_file(".csv", "CSV"),
+                      help="write the per-terrain scores (terrain, k, method, score) as CSV")
+    gate.set_defaults(handler=_gate)
 
 
 def _add_evaluation_arguments(parser: argparse.ArgumentParser) -> None:
@@ -254,3 +286,38 @@ def _criterion(args: argparse.Namespace) -> None:
 
     per_terrain, totals = directory_criterion(args.dir or COMMITTED_DIR)
     print(json.dumps({**totals, "per_terrain": per_terrain.to_dict("records")}))
+
+
+def _family_probe(args: argparse.Namespace) -> None:
+    from robocompose.arguments import command_compute
+    from robocompose.io.errors import InputError
+    from robocompose.modular.family_truth import default_directory, design_set, make_world, probe
+    from robocompose.modular.params import course_reach
+    from robocompose.params import read_params
+
+    params = _params(args.params)
+    overrides = read_params(args.family_settings) if args.family_settings else None
+    world = make_world(args.family, params.eval, overrides, str(args.family_settings or "family settings"))
+    reach = course_reach(params.eval)
+    if world.config.x_range[1] < reach:  # as the block world's check_course: no design may run off the course
+        raise InputError(f"{args.family_settings or args.family}: x_range: the course ends at "
+                         f"x = {world.config.x_range[1]:g} m, but the fastest design reaches x = {reach:.2f} m within "
+                         f"the episode; expected x_range[1] >= {reach:.2f}")
+    designs = design_set(args.design_set)
+    directory = args.out_dir or default_directory(args.family, args.perturbations)
+    compute = command_compute(args, args.params)
+    with compute.executor() as executor:
+        probe(world, args.terrain_seed, params.fitness, args.perturbations, args.design_set, designs,
+              compute.open_cache(), executor, directory, on_terrain=lambda row: print(json.dumps(row), flush=True))
+
+
+def _gate(args: argparse.Namespace) -> None:
+    from robocompose.modular.family_truth import gate_directories
+    from robocompose.modular.gate import GateConfig
+
+    result = gate_directories(args.dir, GateConfig(neighbours=args.neighbours))
+    if args.scores is not None:
+        from robocompose.io import atomic_write_text
+
+        atomic_write_text(args.scores, result.scores.round(4).to_csv(index=False))
+    print(json.dumps(result.summary))
