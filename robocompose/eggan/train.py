@@ -13,6 +13,18 @@ Every iteration t:
    Continuous designs: the conditional GAN loss log(1 - D(G(z, T), T)) (eq. 4.1), minimised;
 5. discriminator step: cross-entropy with X_pop labelled 1 and X_gen labelled 0 (eq. 4.3), one batch.
 
+Elite archive (`archive` K > 0, ours, single-objective problems): per training task the K fittest distinct designs
+found so far (generated or evolved) are kept with their fitness, and step 3 evolves X_gen together with the task's
+archive, X_pop being the `per` fittest of the evolved union. Without it X_pop is a few evolution steps from X_gen,
+so once the generator concentrates X_pop is mostly X_gen again (issue 46: the evolved share fell from 0.55 to
+0.085 and the discriminator to chance). An archived design's fitness is the one recorded when it was evaluated:
+it is not asked again (on exact tables a re-read would cost no look-up anyway; a problem that counts every
+evaluation counts only the evolution's children), so the budget is counted as without the archive.
+
+Early stopping (`best_by`, ours): with a `validate` callback, the generator weights of the best value of that
+validation score so far (maximised) are kept beside the running ones; the trained generator returned is the best
+one, and `Trained.best_iteration` (and each validated log row's `best_iteration`) says where it was.
+
 Several tasks per iteration (the thesis draws one): each task's designs are evolved as their own population,
 and the networks' layer normalisation keeps every row a function of its own (z, task) (networks.py says why
 not batch norm). `tasks: 1` is the thesis's literal setting.
@@ -76,6 +88,8 @@ class TrainConfig:
     log_every: int = 10  # iterations per logged row (means over the rows' iterations)
     validate_every: int = 0  # iterations between validation scores (a multiple of log_every; 0: none)
     checkpoint_every: int = 50  # iterations between checkpoints (a multiple of log_every)
+    archive: int = 0  # K: fittest distinct designs kept per training task and evolved with X_gen (0: none, thesis)
+    best_by: str = ""  # a validation score (maximised) whose best generator is kept (early stopping); "": the last
 
     def __post_init__(self):
         for name in ("iterations", "batch", "samples", "evolution_steps", "threads", "log_every",
@@ -95,6 +109,12 @@ class TrainConfig:
         for name in ("lr_generator", "lr_discriminator"):
             if not getattr(self, name) > 0:
                 raise InputError(f"{name}: expected a positive learning rate, found {getattr(self, name)}")
+        if not isinstance(self.archive, int) or isinstance(self.archive, bool) or self.archive < 0 or self.archive % 2:
+            raise InputError(f"archive: expected 0 or a positive even number of designs per task (the evolution pairs "
+                             f"parents), found {self.archive!r}")
+        if not isinstance(self.best_by, str) or (self.best_by and not self.validate_every):
+            raise InputError(f"best_by: expected \"\" or a validation score with validate_every > 0, found "
+                             f"{self.best_by!r} (validate_every {self.validate_every})")
 
 
 # Settings that do not change what iteration t computes: a finished run continues when only these grow.
@@ -112,6 +132,7 @@ class Trained:
     network: NetworkConfig
     config: TrainConfig
     stopped: int | None = None  # the iterations completed when the problem's budget ran out (None: it did not)
+    best_iteration: int | None = None  # with `best_by`: the iteration whose generator this is (None: the last)
 
 
 def run_key(problem: EgganProblem, network: NetworkConfig, config: TrainConfig) -> str:
@@ -156,10 +177,35 @@ def _objective_stats(prefix: str, problem: EgganProblem, values: np.ndarray) -> 
     return stats
 
 
+Archive = dict  # task -> [(design, objective values)], fittest first: a task's elite archive (`TrainConfig.archive`)
+
+
+def evolve_with_archive(problem: EgganProblem, task, designs: list, values: np.ndarray, archive: Archive,
+                        config: TrainConfig, rng: np.random.Generator) -> tuple[list, np.ndarray]:
+    """X_pop of one task and its (per, 1) fitness: evolution on X_gen and the task's archive (an even number of its
+    fittest), the `per` fittest of the result; the archive then keeps the K fittest distinct designs seen (ties:
+    the earlier kept first, so the archive is a function of the run's draws)."""
+    per, elite = len(designs), archive.get(task, [])
+    elite = elite[:len(elite) - len(elite) % 2]  # crowding and the GA pair parents
+    parents = designs + [d for d, _ in elite]
+    fitness = np.concatenate([values, np.array([v for _, v in elite], dtype=np.float64).reshape(-1, 1)])
+    evolved, evolved_values = problem.evolve(task, parents, fitness, config.evolution, config.evolution_steps, rng)
+    evolved_values = np.asarray(evolved_values, dtype=np.float64).reshape(len(evolved), 1)
+    fittest = np.argsort(-evolved_values[:, 0], kind="stable")[:per]
+    seen: dict[str, tuple] = {}
+    for design, value in [*archive.get(task, []), *zip(designs, values.tolist(), strict=True),
+                          *zip(evolved, evolved_values.tolist(), strict=True)]:
+        seen.setdefault(problem.design_id(design), (design, [float(v) for v in value]))
+    kept = sorted(seen.values(), key=lambda item: -item[1][0])  # stable: earlier first among equals
+    archive[task] = kept[:config.archive]
+    return [evolved[i] for i in fittest], evolved_values[fittest]
+
+
 def train_step(problem: EgganProblem, generator: Generator, discriminator: Discriminator,
                opt_g: torch.optim.Optimizer, opt_d: torch.optim.Optimizer, config: TrainConfig,
-               iteration: int) -> dict[str, float]:
-    """One iteration of Algorithm 1 on `config.tasks` tasks of `config.batch // config.tasks` z each."""
+               iteration: int, archive: Archive | None = None) -> dict[str, float]:
+    """One iteration of Algorithm 1 on `config.tasks` tasks of `config.batch // config.tasks` z each; with
+    `config.archive`, X_pop is evolved with each task's `archive` (which the step updates)."""
     rng, stream = iteration_streams(config.seed, iteration)
     k, per, m = config.tasks, config.batch // config.tasks, config.samples
     b = k * per
@@ -177,8 +223,11 @@ def train_step(problem: EgganProblem, generator: Generator, discriminator: Discr
     for g, task in enumerate(tasks):
         designs = list(generated.designs[g * per:(g + 1) * per])
         values = np.asarray(problem.evaluate(task, designs), dtype=np.float64).reshape(per, -1)
-        evolved, evolved_values = problem.evolve(task, designs, values, config.evolution, config.evolution_steps,
-                                                 rng)  # X_pop of this task
+        if config.archive:
+            evolved, evolved_values = evolve_with_archive(problem, task, designs, values, archive, config, rng)
+        else:
+            evolved, evolved_values = problem.evolve(task, designs, values, config.evolution, config.evolution_steps,
+                                                     rng)  # X_pop of this task
         drawn = {problem.design_id(d) for d in designs}
         new += sum(problem.design_id(d) not in drawn for d in evolved)
         gen_objectives.append(values)
@@ -242,6 +291,12 @@ def train(problem: EgganProblem, network: NetworkConfig, config: TrainConfig, ch
     if config.evolution not in problem.evolution_methods:
         raise InputError(f"evolution: problem {problem.name} supports {list(problem.evolution_methods)}, "
                          f"found {config.evolution!r}")
+    if config.archive and (len(problem.objectives) != 1 or not problem.objectives[0].maximise):
+        raise InputError(f"archive: expected 0 for problem {problem.name} (an archive keeps the fittest designs of one "
+                         f"maximised objective), found {config.archive}")
+    if config.best_by and validate is None:
+        raise InputError(f"best_by: {config.best_by!r} needs a validation callback (problem {problem.name} gives "
+                         "none here)")
     torch.set_num_threads(config.threads)
     torch.manual_seed(config.seed)
     generator = Generator(problem.task_shape, problem.design_shape, network)
@@ -250,6 +305,8 @@ def train(problem: EgganProblem, network: NetworkConfig, config: TrainConfig, ch
     opt_d = torch.optim.Adam(discriminator.parameters(), lr=config.lr_discriminator, betas=(config.beta1, 0.999))
     key = run_key(problem, network, config)
     start, rows, stopped = 0, [], None
+    archive: Archive = {}
+    best: dict | None = None  # with best_by: {"iteration", "score", "generator": its weights}
     saved = load_checkpoint(checkpoint, key)  # None unless it holds this run (a damaged one is moved aside)
     if saved is not None and saved["iteration"] > config.iterations:
         print(f"{checkpoint} is at iteration {saved['iteration']}, past this run's {config.iterations}: starting "
@@ -262,6 +319,8 @@ def train(problem: EgganProblem, network: NetworkConfig, config: TrainConfig, ch
         opt_d.load_state_dict(saved["opt_d"])
         problem.load_state_dict(saved["problem"])
         start, rows, stopped = saved["iteration"], saved["rows"], saved.get("stopped")
+        archive = {task: [(design, list(values)) for design, values in kept] for task, kept in saved["archive"]}
+        best = saved["best"]
         print(f"resuming from {checkpoint} at iteration {start}", flush=True)
 
     from tqdm import tqdm
@@ -273,7 +332,7 @@ def train(problem: EgganProblem, network: NetworkConfig, config: TrainConfig, ch
     done = start
     for iteration in range(start, config.iterations if stopped is None else start):
         try:
-            pending.append(train_step(problem, generator, discriminator, opt_g, opt_d, config, iteration))
+            pending.append(train_step(problem, generator, discriminator, opt_g, opt_d, config, iteration, archive))
         except BudgetSpent as spent:
             stopped = iteration
             print(f"eggan {problem.name}: budget spent at iteration {iteration} ({spent})", flush=True)
@@ -286,6 +345,9 @@ def train(problem: EgganProblem, network: NetworkConfig, config: TrainConfig, ch
             if validate is not None and config.validate_every and (done % config.validate_every == 0
                                                                    or final):
                 row.update(validate(generator))
+                if config.best_by:
+                    best = _keep_best(best, row, generator, config.best_by)
+                    row["best_iteration"] = best["iteration"]
             rows.append(row)
             pending = []
             bar.set_postfix(loss_d=f"{row['loss_d']:.3f}", real=row["real_evaluations"])
@@ -293,7 +355,8 @@ def train(problem: EgganProblem, network: NetworkConfig, config: TrainConfig, ch
             save_checkpoint(checkpoint, key, {
                 "iteration": done, "generator": generator.state_dict(), "discriminator": discriminator.state_dict(),
                 "opt_g": opt_g.state_dict(), "opt_d": opt_d.state_dict(), "problem": problem.state_dict(),
-                "rows": rows, "stopped": stopped})
+                "rows": rows, "stopped": stopped, "best": best,
+                "archive": [[task, [[design, values] for design, values in kept]] for task, kept in archive.items()]})
             write_logs(rows, csv_path, mcap_path, topic)
         bar.update(1)
         if stopped is not None:
@@ -301,4 +364,21 @@ def train(problem: EgganProblem, network: NetworkConfig, config: TrainConfig, ch
     bar.close()
     if done == start or checkpoint is None:
         write_logs(rows, csv_path, mcap_path, topic)
-    return Trained(generator.eval(), discriminator.eval(), rows, key, network, config, stopped)
+    if best is not None:
+        generator.load_state_dict(best["generator"])
+        print(f"eggan {problem.name}: keeping the generator of iteration {best['iteration']} ({config.best_by} "
+              f"{best['score']:.4f})", flush=True)
+    return Trained(generator.eval(), discriminator.eval(), rows, key, network, config, stopped,
+                   None if best is None else best["iteration"])
+
+
+def _keep_best(best: dict | None, row: dict, generator: Generator, score: str) -> dict:
+    """The best validated generator so far: this row's, if its `score` beats the kept one's (ties keep the
+    earlier), else the kept one."""
+    if score not in row:
+        raise InputError(f"best_by: expected one of the validation scores {sorted(k for k in row if k != 'iteration')}"
+                         f", found {score!r}")
+    if best is not None and not row[score] > best["score"]:
+        return best
+    return {"iteration": int(row["iteration"]), "score": float(row[score]),
+            "generator": {k: v.detach().clone() for k, v in generator.state_dict().items()}}

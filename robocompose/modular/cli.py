@@ -1,6 +1,7 @@
 """`robocompose modular ...`: evaluate one modular design on a block terrain; run a GA baseline on one terrain;
 measure one terrain's exhaustive table; probe candidate terrain distributions; the terrain criterion of a
-directory of exhaustive tables; probe a terrain family (or the perturbed block world); the gate of a probe.
+directory of exhaustive tables; probe a terrain family (or the perturbed block world); the gate of a probe; train
+a Table 5.1 learner at a further training seed.
 
 Settings come from the `modular:` and `compute:` sections of `--params` (default: params.yaml if there is one,
 else the dataclass defaults: the default profile's episode on the reference's course); a file named with
@@ -26,7 +27,7 @@ VARIANTS = ("ga20", "ga50", "crowding", "random")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    """Add `modular evaluate` and `modular ga` to the robocompose CLI."""
+    """Add the `modular ...` commands to the robocompose CLI."""
     modular = subparsers.add_parser("modular", help="modular robots on block terrains (thesis 5.1)")
     commands = modular.add_subparsers(dest="modular_command", required=True)
 
@@ -129,6 +130,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     gate.add_argument("--scores", type=output_file(".csv", "CSV"),
                       help="write the per-terrain scores (terrain, k, method, score) as CSV")
     gate.set_defaults(handler=_gate)
+
+    seeded = commands.add_parser(
+        "train-seed", help="train one Table 5.1 learner at another training seed with the params' eggan_modular "
+        "settings (pool tables, budget), into a directory of its own (resumes from its checkpoint); prints its "
+        "metrics as JSON. The stage trains each learner at its configured seed; further seeds are measurements")
+    seeded.add_argument("--method", required=True, help="crowding, ga, fit2form, dqn or molgan")
+    seeded.add_argument("--seed", type=non_negative_int, required=True, help="the training seed")
+    seeded.add_argument("--out-dir", type=output_directory, required=True,
+                        help="where the model, its checkpoint and curve go (e.g. measured/modular/seeds/seed-1)")
+    _add_params_argument(seeded)
+    seeded.set_defaults(handler=_train_seed)
 
 
 def _add_evaluation_arguments(parser: argparse.ArgumentParser) -> None:
@@ -321,3 +333,13 @@ def _gate(args: argparse.Namespace) -> None:
 
         atomic_write_text(args.scores, result.scores.round(4).to_csv(index=False))
     print(json.dumps(result.summary))
+
+
+def _train_seed(args: argparse.Namespace) -> None:
+    from robocompose.modular.eggan_params import EgganModularParams
+    from robocompose.modular.experiments.generative import train_seed
+    from robocompose.params import load_command_section
+
+    params = load_command_section(EgganModularParams, "eggan_modular", args.params)
+    metrics = train_seed(args.method, args.seed, _params(args.params), params, args.out_dir)
+    print(json.dumps(metrics, default=float))

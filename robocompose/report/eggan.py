@@ -374,11 +374,14 @@ def _training_lines(metrics: dict, reports_dir: Path) -> list[str]:
         surrogate = m.get("surrogate_heldout") or {}
         source = {"table": "exact (pool tables)", "surrogate": "surrogate + rollouts"}.get(m.get("fitness_source"),
                                                                                            "surrogate + rollouts")
-        rows.append((name, source, f"{m.get('iterations_done', m.get('iterations'))} / {m.get('iterations')}",
-                     f"{m.get('real_evaluations')} / {m.get('evaluation_budget', '-')}",
+        kept = m.get("best") or final  # early stopping: the saved model is the best-validated iteration's
+        done = f"{m.get('iterations_done', m.get('iterations'))} / {m.get('iterations')}"
+        if "best_iteration" in m:
+            done += f" (kept {m['best_iteration']})"
+        rows.append((name, source, done, f"{m.get('real_evaluations')} / {m.get('evaluation_budget', '-')}",
                      _accuracy(accuracy, final.get("pop_new")),
-                     (m.get("training_terrains") or {}).get("train_max_distance"), final.get("val_max_distance"),
-                     final.get("val_regret"), surrogate.get("spearman_within_terrain")))
+                     (m.get("training_terrains") or {}).get("train_max_distance"), kept.get("val_max_distance"),
+                     kept.get("val_regret"), surrogate.get("spearman_within_terrain")))
     lines = ["### Training", "",
              *markdown_table(["method", "fitness", "iterations (done / asked)", "evaluations / budget",
                               "discriminator accuracy (ceiling)", "training max distance (m)",
@@ -388,7 +391,8 @@ def _training_lines(metrics: dict, reports_dir: Path) -> list[str]:
               "table (the pybullet rollout); evaluations = distinct (terrain, design) look-ups, the same budget for "
               "every learner, which stops when it is spent. Training and validation max distance: the best of each "
               "learner's 10 candidates on the pool's training terrains and on its validation terrains (never "
-              "trained on), from their tables; the gap between them is what the learner fits but does not "
+              "trained on), from their tables, for the model kept (with early stopping: the best-validated "
+              "iteration's generator, \"kept\"); the gap between them is what the learner fits but does not "
               "carry to terrains it never saw. Ceiling: evolution leaves most of X_gen in X_pop, and a design in "
               "both halves of the discriminator's batch is right only half the time, so a perfect discriminator "
               "reaches (1 + the evolved share of X_pop) / 2.", ""]

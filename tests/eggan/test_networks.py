@@ -3,7 +3,7 @@
 import pytest
 import torch
 
-from robocompose.eggan.networks import Discriminator, Generator, NetworkConfig
+from robocompose.eggan.networks import Discriminator, Generator, NetworkConfig, height_features
 
 
 def test_height_map_tasks_go_through_two_convolutions_and_flat_tasks_do_not():
@@ -69,3 +69,42 @@ def test_bad_sizes():
         NetworkConfig(norm="group")
     with pytest.raises(ValueError, match="at least 5 x 5"):
         Generator((4, 4), (6, 4), NetworkConfig())
+    with pytest.raises(ValueError, match=r"^network\.encoder: expected one of \['conv', 'pooled', 'features'\], "
+                       "found 'mlp'"):
+        NetworkConfig(encoder="mlp")
+    with pytest.raises(ValueError, match=r"^network\.segments: expected a positive integer, found 0"):
+        NetworkConfig(segments=0)
+    with pytest.raises(ValueError, match=r"^network\.segments: expected at most 46 stretches of a 50-cell course "
+                       r"\(encoder pooled\), found 47"):
+        Generator((50, 20), (6, 4), NetworkConfig(encoder="pooled", segments=47))
+
+
+def test_the_small_encoders_read_the_course_in_stretches_with_few_weights():
+    config = NetworkConfig(latent=8, hidden=16)
+    sizes = {}
+    for encoder in ("conv", "pooled", "features"):
+        net = Generator((50, 20), (6, 4), NetworkConfig(latent=8, hidden=16, encoder=encoder))
+        sizes[encoder] = sum(p.numel() for p in net.task.parameters())
+        assert net.encode(torch.rand(3, 50, 20)).shape == (3, 8)
+    assert sizes["conv"] > 15 * sizes["pooled"] > 15 * sizes["features"]  # 198k, 11k, 440 weights (P 32: 763k)
+    assert config.encoder == "conv"  # the thesis's: the default of the dataclass (old generator files load)
+
+
+def test_height_features_are_each_stretchs_mean_tallest_and_raised_share():
+    maps = torch.zeros(1, 10, 5)
+    maps[0, 0:2, 0] = 0.3  # two raised cells in the first stretch (of 2)
+    maps[0, 7, 1:3] = 0.1  # two in the second
+    features = height_features(maps, 2).view(-1)
+    means, tallest, raised = features[:2], features[2:4], features[4:6]
+    assert torch.allclose(means, torch.tensor([0.6 / 25, 0.2 / 25]))
+    assert torch.allclose(tallest, torch.tensor([0.3, 0.1])) and torch.allclose(raised, torch.tensor([0.08, 0.08]))
+    assert torch.allclose(features[6:], torch.tensor([0.8 / 50, 0.3, 4 / 50]))  # the whole map
+    # a block moved across the course (same stretch) reads the same; moved along it, it does not
+    across, along = maps.clone(), maps.clone()
+    across[0, 0:2, 0], across[0, 0:2, 3] = 0.0, 0.3
+    along[0, 0:2, 0], along[0, 5:7, 0] = 0.0, 0.3
+    assert torch.allclose(height_features(across, 2), height_features(maps, 2))
+    assert not torch.allclose(height_features(along, 2), height_features(maps, 2))
+    net = Generator((10, 5), (6, 4), NetworkConfig(latent=8, hidden=16, encoder="features", segments=2))
+    assert torch.allclose(net.encode(across), net.encode(maps), atol=1e-5)
+    assert not torch.allclose(net.encode(along), net.encode(maps), atol=1e-3)

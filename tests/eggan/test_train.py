@@ -26,7 +26,7 @@ from robocompose.eggan.train import (
     write_logs,
 )
 from robocompose.io.checkpoint import load_checkpoint
-from tests.eggan.conftest import MatchProblem
+from tests.eggan.conftest import MatchProblem, TwoFamilies
 
 NETWORK = NetworkConfig(latent=16)
 CONFIG = TrainConfig(iterations=1500, batch=32, tasks=8, samples=8, evolution_steps=3, lr_generator=1e-3,
@@ -108,7 +108,7 @@ sys.path.insert(0, {root!r})
 from robocompose.eggan.networks import NetworkConfig
 from robocompose.eggan.train import TrainConfig, train
 import robocompose.eggan.train as T
-from tests.eggan.conftest import MatchProblem
+from tests.eggan.conftest import MatchProblem, TwoFamilies
 slow = {slow}
 if slow:  # give the parent time to kill us after the first checkpoint
     original = T.train_step
@@ -187,3 +187,86 @@ def test_a_corrupt_checkpoint_is_moved_aside_and_training_starts_afresh(tmp_path
     assert (tmp_path / "run.pt.corrupt").exists() and again.rows == first.rows
     for name, value in first.generator.state_dict().items():
         assert torch.equal(value, again.generator.state_dict()[name]), name
+
+
+def test_an_archive_keeps_x_pop_evolved_and_evaluates_only_the_evolutions_children():
+    """Without an archive X_pop is 2 steps from X_gen; with one it is the fittest of the evolution on X_gen and the
+    task's K fittest designs so far (the two-family world's 20 training terrains come back): more of it is new and
+    fitter, the discriminator can tell it apart, and archived designs are not evaluated again."""
+    rows, asked = {}, {}
+    for archive in (0, 8):
+        problem = TwoFamilies()
+        calls = []
+        evaluate = problem.evaluate
+        problem.evaluate = lambda task, designs, evaluate=evaluate, calls=calls: calls.append(len(designs)) or \
+            evaluate(task, designs)
+        config = TrainConfig(iterations=100, batch=16, tasks=2, samples=4, evolution_steps=2, archive=archive,
+                             lr_generator=3e-3, lr_discriminator=3e-3, log_every=50, checkpoint_every=50)
+        rows[archive] = train(problem, NetworkConfig(latent=8, hidden=32, encoder="features", segments=3),
+                              config).rows[-1]
+        asked[archive] = sorted(set(calls))
+    assert rows[8]["pop_new"] > rows[0]["pop_new"] + 0.1  # 0.74 vs 0.54
+    assert rows[8]["d_accuracy"] > rows[0]["d_accuracy"] + 0.1  # 0.81 vs 0.53
+    assert rows[8]["pop_distance_mean"] > rows[0]["pop_distance_mean"] + 1  # 5.4 vs 3.2
+    assert asked[0] == [8]  # X_gen, then one child per design and step
+    assert asked[8] == [8, 16]  # children of X_gen + archive (8 once the task has been seen); X_gen alone first
+
+
+def test_early_stopping_keeps_the_best_validated_generator_and_resumes_with_it(tmp_path):
+    scores = iter([1.0, 3.0, 2.0, 2.5])  # validation at iterations 10, 20, 30, 40: the best is at 20
+    kept = {}
+
+    def validate(generator):
+        score = next(scores)
+        kept[score] = {k: v.clone() for k, v in generator.state_dict().items()}
+        return {"val_score": score}
+
+    config = TrainConfig(iterations=40, batch=16, tasks=4, samples=4, log_every=10, checkpoint_every=10,
+                         validate_every=10, best_by="val_score", archive=4)
+    network = NetworkConfig(latent=8, hidden=16)
+    trained = train(MatchProblem(), network, config, tmp_path / "run.pt", validate=validate)
+    assert trained.best_iteration == 20 and [r["best_iteration"] for r in trained.rows] == [10, 20, 20, 20]
+    for name, value in trained.generator.state_dict().items():
+        assert torch.equal(value, kept[3.0][name]), name
+    assert not all(torch.equal(v, kept[2.5][k]) for k, v in trained.generator.state_dict().items())
+    saved = load_checkpoint(tmp_path / "run.pt", trained.key)
+    assert saved["best"]["iteration"] == 20 and saved["archive"]  # the best weights and the archive resume
+    again = train(MatchProblem(), network, config, tmp_path / "run.pt", validate=validate)  # finished: no step
+    assert again.best_iteration == 20 and again.rows == trained.rows
+    for name, value in again.generator.state_dict().items():
+        assert torch.equal(value, kept[3.0][name]), name
+
+
+def test_a_run_with_an_archive_resumes_to_the_same_bytes(tmp_path):
+    config = TrainConfig(iterations=20, batch=16, tasks=4, samples=4, log_every=5, checkpoint_every=5, archive=4)
+    network = NetworkConfig(latent=8, hidden=16)
+    straight = train(MatchProblem(), network, config)
+    half = tmp_path / "half.pt"
+    train(MatchProblem(), network, TrainConfig(**{**config.__dict__, "iterations": 10}), half)
+    resumed = train(MatchProblem(), network, config, half)  # iterations are bookkeeping: the run continues
+    assert resumed.rows == straight.rows
+    for name, value in straight.generator.state_dict().items():
+        assert torch.equal(value, resumed.generator.state_dict()[name]), name
+
+
+def test_bad_archive_and_early_stopping_settings_are_refused_naming_the_field(match_problem):
+    with pytest.raises(ValueError, match=r"^archive: expected 0 or a positive even number .*found 3"):
+        TrainConfig(archive=3)
+    with pytest.raises(ValueError, match=r"^best_by: expected \"\" or a validation score with validate_every > 0, "
+                       r"found 'val_score' \(validate_every 0\)"):
+        TrainConfig(best_by="val_score")
+    config = TrainConfig(iterations=10, batch=16, tasks=4, samples=4, log_every=5, checkpoint_every=5,
+                         validate_every=5, best_by="val_score")
+    with pytest.raises(ValueError, match=r"^best_by: 'val_score' needs a validation callback"):
+        train(match_problem, NETWORK, config)
+    with pytest.raises(ValueError, match=r"^best_by: expected one of the validation scores .*'val_other'.*found "
+                       r"'val_score'"):
+        train(MatchProblem(), NETWORK, config, validate=lambda generator: {"val_other": 1.0})
+    match_problem.objectives = (*match_problem.objectives, match_problem.objectives[0])
+    with pytest.raises(ValueError, match=r"^archive: expected 0 for problem match"):
+        train(match_problem, NETWORK, TrainConfig(iterations=1, batch=16, tasks=4, archive=2))
+    assert run_key(MatchProblem(), NETWORK, TrainConfig(archive=2)) != run_key(MatchProblem(), NETWORK, TrainConfig())
+    assert run_key(MatchProblem(), NETWORK, TrainConfig(validate_every=10, best_by="v")) != \
+        run_key(MatchProblem(), NETWORK, TrainConfig(validate_every=10))
+    assert run_key(MatchProblem(), NetworkConfig(latent=16, encoder="features"), TrainConfig()) != \
+        run_key(MatchProblem(), NETWORK, TrainConfig())

@@ -12,7 +12,10 @@ from robocompose.params import build_config, load_section
 def test_default_profile_parses():
     params = load_section(EgganModularParams, "eggan_modular", "profiles/default.yaml")
     assert params.train.batch // params.train.tasks >= 32 and params.protocol.candidates == 10  # EA population 32+
-    assert params.fitness.source == "table" and params.train.iterations >= 5000 and params.network.norm != "batch"
+    assert params.fitness.source == "table" and params.train.iterations >= 2000 and params.network.norm != "batch"
+    # issue 46's measured training: a small encoder, an elite archive, the best-validated generator kept
+    assert params.network.encoder == "pooled" and params.train.archive > 0
+    assert params.train.best_by == "val_max_distance" and params.train.validate_every > 0
     assert params.protocol.test_terrains == list(range(1000, 1010)) and params.protocol.queries == 20  # thesis
     truth = load_section(ModularParams, "modular", "profiles/default.yaml").experiments.truth_terrains
     assert set(params.protocol.test_terrains) <= set(truth)  # every test terrain has its exhaustive table
@@ -26,6 +29,9 @@ def test_default_profile_parses():
     ({"protocol": {"test_terrains": []}}, "test_terrains"),
     ({"fitness": {"surrogate": {"steps": 0}}}, "surrogate.steps"),
     ({"colour": 1}, "colour"),
+    ({"network": {"encoder": "mlp"}}, r"network\.encoder: expected one of \['conv', 'pooled', 'features'\]"),
+    ({"train": {"archive": 3}}, "archive: expected 0 or a positive even number"),
+    ({"train": {"validate_every": 0, "best_by": "val_max_distance"}}, "best_by: expected"),
 ])
 def test_bad_fields_are_named(section, message):
     base = yaml.safe_load(open("profiles/default.yaml"))["eggan_modular"]

@@ -30,6 +30,7 @@ from robocompose.eggan.query import save_generator
 from robocompose.eggan.train import train
 from robocompose.fanout.cache import EvaluationCache
 from robocompose.fanout.executor import Executor
+from robocompose.io.errors import InputError
 from robocompose.modular.diverse import diverse_answer
 from robocompose.modular.eggan_params import EgganModularParams
 from robocompose.modular.experiments.protocol import (
@@ -58,9 +59,12 @@ def make_problem(modular: ModularParams, params: EgganModularParams, cache: Eval
 
 
 def train_variant(variant: str, modular: ModularParams, params: EgganModularParams, cache: EvaluationCache | None,
-                  executor: Executor | None, out: Path, progress: bool = False) -> dict:
-    """Train one EG-GAN variant; writes out/eggan_modular_VARIANT.{pt,json,mcap,csv} and its checkpoint; returns
-    its metrics (no wall times: they go to reports/timings.json, so that the files stay byte-reproducible)."""
+                  executor: Executor | None, out: Path, progress: bool = False,
+                  plots: Path = Path("reports/plots")) -> dict:
+    """Train one EG-GAN variant; writes out/eggan_modular_VARIANT.{pt,json,mcap}, its checkpoint and its curve
+    plots/eggan_modular_VARIANT.csv; returns its metrics (no wall times: they go to reports/timings.json, so that
+    the files stay byte-reproducible). With `train.best_by` the saved generator is the best-validated one: the
+    metrics give its iteration (`best_iteration`) and log row (`best`) beside the last row (`final`)."""
     known = variants("modular")
     if variant not in known:
         raise ValueError(f"variant {variant!r}: expected one of {sorted(known)}")
@@ -77,8 +81,11 @@ def train_variant(variant: str, modular: ModularParams, params: EgganModularPara
             return validation_scores(problem, generator_answer(generator, params.protocol.samples),
                                      params.protocol.candidates)
     trained = train(problem, params.network, config, out / "checkpoints" / f"{name}.pt",
-                    Path("reports/plots") / f"{name}.csv", out / f"{name}.mcap", progress=progress, validate=validate)
-    metrics = {"method": learner.title, **_common_metrics(problem, config.iterations, trained.rows),
+                    plots / f"{name}.csv", out / f"{name}.mcap", progress=progress, validate=validate)
+    best = {} if trained.best_iteration is None else {
+        "best_iteration": trained.best_iteration,
+        "best": next(row for row in trained.rows if row["iteration"] == trained.best_iteration)}
+    metrics = {"method": learner.title, **_common_metrics(problem, config.iterations, trained.rows), **best,
                **_training_fit(problem, generator_answer(trained.generator, params.protocol.samples), params),
                "batch": config.batch, "tasks_per_iteration": config.tasks, "evolution": learner.evolution,
                "evolution_steps": config.evolution_steps}
@@ -174,6 +181,29 @@ def train_method(method: str, modular: ModularParams, params: EgganModularParams
     trainer = train_variant if method in variants("modular") else train_baseline
     metrics = trainer(method, modular, params, cache, executor, out, progress)
     return {**metrics, "seconds": round(time.perf_counter() - started, 1)}
+
+
+def with_seed(params: EgganModularParams, method: str, seed: int) -> EgganModularParams:
+    """`params` with learner `method`'s training seed set to `seed` (`train.seed` for an EG-GAN variant, its own
+    `seed` setting for a learned baseline): one of the further training seeds, trained apart from the stage."""
+    if method in variants("modular"):
+        return dataclasses.replace(params, train=dataclasses.replace(params.train, seed=seed))
+    if method not in baselines("modular"):
+        raise InputError(f"method: expected one of {list(training_order('modular'))}, found {method!r}")
+    return dataclasses.replace(params, baselines={**params.baselines, method: {**params.baselines[method],
+                                                                               "seed": seed}})
+
+
+def train_seed(method: str, seed: int, modular: ModularParams, params: EgganModularParams, out: Path) -> dict:
+    """Train learner `method` at training seed `seed` with the stage's settings otherwise, into `out` (its model,
+    checkpoint and curve; `robocompose modular train-seed`); returns its metrics with the wall time."""
+    seeded = with_seed(params, method, seed)
+    started = time.perf_counter()
+    if method in variants("modular"):
+        metrics = train_variant(method, modular, seeded, None, None, out, progress=True, plots=out)
+    else:
+        metrics = train_baseline(method, modular, seeded, None, None, out, progress=True)
+    return {**metrics, "seed": seed, "seconds": round(time.perf_counter() - started, 1)}
 
 
 def _train_job(job: tuple[str, ModularParams, EgganModularParams, Path]) -> dict:

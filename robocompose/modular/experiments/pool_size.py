@@ -52,7 +52,7 @@ def _study_run(job: tuple) -> pd.DataFrame:
                                 fitness=dataclasses.replace(params.fitness, train_terrains=n))
     train_config = dataclasses.replace(sized.train, iterations=config.iterations, evolution="crowding",
                                        evolution_steps=sized.evolution_steps["crowding"], validate_every=0,
-                                       seed=sized.train.seed + seed)
+                                       best_by="", seed=sized.train.seed + seed)  # no validation: the last model
     problem = ModularEgganProblem(modular, sized.fitness, mutation_rate=modular.experiments.mutation_rate,
                                   crossover_rate=modular.experiments.crossover_rate)
     trained = train(problem, sized.network, train_config, checkpoints / f"crowding_{n}_seed{seed}.pt")
