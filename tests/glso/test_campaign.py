@@ -511,9 +511,12 @@ def test_the_pilot_runs_glso_and_its_variants_as_the_campaign_does_and_ranks_the
     assert not (tmp_path / "measured" / "glso_pilot" / campaign.RESCORES_FILE).exists()
     summary = campaign.summarise(tiny)
     assert summary["heldout_progress"]["complete"] == len(pilot.seeds)
-    table = campaign.pilot_table(summary)
+    table = campaign.pilot_table(summary, tiny.budget)
     assert sorted(table["method"]) == sorted(pilot.seeds) and (table["runs"] == 1).all()
-    assert table["heldout"].is_monotonic_decreasing  # the pick is the first row
+    assert (table["reaches"] == (table["distinct"] >= campaign.DISTINCT_TARGET * 4 / 200)).all()
+    for _, group in table.groupby("reaches"):  # the variants reaching the target first, each part by held-out best
+        assert group["heldout"].is_monotonic_decreasing
+    assert table["reaches"].is_monotonic_decreasing  # the pick is the first row
     assert (table["distinct"] <= 4).all() and (table["distinct"] >= 1).all()
     recorded = campaign.pilot_summary(config)  # what the stage records: the pilot's plan, its seed-0 runs so far
     assert (recorded["runs"], recorded["planned"], recorded["budget"]) == (len(pilot.seeds), 3 * len(pilot.seeds), 4)

@@ -213,18 +213,19 @@ def test_the_thesis_protocol_arm_gets_its_own_verdicts_naming_each_protocol(tmp_
     assert text.index("#### Under held-out scoring") < text.index("#### GLSO's arms against the baselines")
 
 
-def test_the_pilot_names_its_winner_by_held_out_best_and_says_which_variants_reach_150_distinct_designs(tmp_path):
+def test_the_pilot_names_its_winner_among_the_variants_reaching_150_distinct_designs_by_held_out_best(tmp_path):
     from robocompose.report.glso import campaign_section
 
     _campaign(tmp_path, FINALS, planned=31)
     assert "Not run yet (`robocompose glso-campaign pilot`" in campaign_section(tmp_path)
     summary = json.loads((tmp_path / "metrics" / "glso_campaign.json").read_text())
-    summary["pilot"] = {"directory": "measured/glso_pilot", "rung": "s8_h8_e48", "budget": 200, "runs": 5,
-                        "planned": 6, "heldout_progress": {"complete": 4}, "methods": [
+    summary["pilot"] = {"directory": "measured/glso_pilot", "rung": "s8_h8_e48", "budget": 200,
+                        "distinct_target": 150, "runs": 5, "planned": 6, "heldout_progress": {"complete": 4},
+                        "methods": [
                             {"method": "glso_nodr", "runs": 3, "distinct": 160.0, "search": 4.5,
-                             "reported_heldout": 4.4, "heldout": 4.45},
+                             "reported_heldout": 4.4, "heldout": 4.45, "reaches": True},
                             {"method": "glso", "runs": 2, "distinct": 150.0, "search": 4.6,
-                             "reported_heldout": float("nan"), "heldout": float("nan")}]}
+                             "reported_heldout": float("nan"), "heldout": float("nan"), "reaches": True}]}
     (tmp_path / "metrics" / "glso_campaign.json").write_text(json.dumps(summary))
     pilot = campaign_section(tmp_path).split("#### The pilot")[1]
     assert "5 of 6 pilot runs committed (measured/glso_pilot), 200 objective calls each at rung s8_h8_e48" in pilot
@@ -232,6 +233,12 @@ def test_the_pilot_names_its_winner_by_held_out_best_and_says_which_variants_rea
     assert "| GLSO | 2 | 150 | 4.600 | - | - |" in pilot  # no held-out mean yet: no number made up
     assert ("Winner: **GLSO, no domain reduction** (160 distinct designs, held-out best 4.450); variants reaching "
             "150 distinct designs per 200 calls: GLSO, no domain reduction; GLSO. Interim") in pilot
+    for row in summary["pilot"]["methods"]:  # the pilot's own order put a variant short of the target first
+        row["reaches"] = False
+    (tmp_path / "metrics" / "glso_campaign.json").write_text(json.dumps(summary))
+    assert ("Winner: **GLSO, no domain reduction** (160 distinct designs, held-out best 4.450); it does not reach "
+            "the target, and no variant does; variants reaching 150 distinct designs per 200 calls: none.") in (
+        campaign_section(tmp_path))
     summary["pilot"]["methods"][0]["heldout"] = float("nan")  # runs finished, none held-out scored yet
     (tmp_path / "metrics" / "glso_campaign.json").write_text(json.dumps(summary))
     assert "No winner yet: no variant has held-out scores" in campaign_section(tmp_path)
