@@ -78,6 +78,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_params_argument(chip_count)
     chip_count.set_defaults(handler=_chip_count)
 
+    verify = commands.add_parser(
+        "verify-pieces", help="after a code change: re-make one stale generator piece and one stale chip-count "
+        "piece under today's code and compare every result; with --rekey, the stale pieces of a kind whose re-made "
+        "piece agrees take today's key (each records the key it had and the proof); prints JSON per kind")
+    verify.add_argument("--rekey", action="store_true", help="re-key the stale pieces of a kind that reproduced")
+    add_params_argument(verify)
+    verify.set_defaults(handler=_verify_pieces)
+
 
 
 def _add_chip_arguments(parser: argparse.ArgumentParser) -> None:
@@ -217,6 +225,23 @@ def _chip_count(args: argparse.Namespace) -> None:
     print(json.dumps({"piece": str(path), "root": str(PIECES),
                       **{name: piece[name] for name in ("train_chips", "seed", "validation_hypervolume",
                                                         "training_seconds")}}))
+
+
+def _verify_pieces(args: argparse.Namespace) -> None:
+    import torch
+
+    from robocompose.io import read_table
+    from robocompose.params import load_section
+    from robocompose.teams.experiments import decomposed_chips
+    from robocompose.teams.params import TeamsParams
+    from robocompose.teams.pieces import verify_chip_count, verify_generators
+
+    params = load_section(TeamsParams, "teams", path=args.params)
+    regions = read_table("data/regions.parquet", "regions")  # stage decompose's: the same chips and split
+    torch.set_num_threads(params.threads)
+    train, test = decomposed_chips(regions, "train"), decomposed_chips(regions, "test")
+    print(json.dumps(verify_generators(params, train, test, args.rekey)), flush=True)
+    print(json.dumps(verify_chip_count(params, train, args.rekey)), flush=True)
 
 
 def _coverage(args: argparse.Namespace) -> None:
