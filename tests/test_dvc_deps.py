@@ -59,6 +59,10 @@ NOT_READ = {
     | {"measured/references/eval_cache.parquet": "runs.py imports robocompose.evaluation.references for "
                                                  "record_rollout; the committed evaluations are evaluate_references'"},
     "glso_campaign": {"measured/references/eval_cache.parquet": "it imports robocompose.glso.runs (see glso)"},
+    "modular_realtime": {"measured/modular/exhaustive": "it imports robocompose.modular.truth to read the partial "
+                                                        "test tables (measured/modular/test_partial, a dep) as "
+                                                        "committed tables; the exhaustive ones come through "
+                                                        "data/modular/exhaustive.parquet"},
 }
 
 

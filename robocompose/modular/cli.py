@@ -59,6 +59,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                             help="one or more terrain seeds, measured in this order")
     exhaustive.add_argument("--out-dir", type=output_directory, default=None,
                             help="where the table and its provenance record go (default measured/modular/exhaustive)")
+    exhaustive.add_argument("--design-set", choices=("balanced", "top", "all"), default=None,
+                            help="a partial test table of this design set only (balanced: 400 designs that keep "
+                            "the block test optimum; family-probe's sets), kept under measured/modular/test_partial "
+                            "(default: every design, an exhaustive table)")
     exhaustive.add_argument("--candidates", type=input_file("candidates YAML"),
                             help="with --distribution: a YAML of candidate terrain distributions (as for probe)")
     exhaustive.add_argument("--distribution", help="measure under this candidate of --candidates instead of the "
@@ -207,14 +211,10 @@ def _exhaustive(args: argparse.Namespace) -> None:
     from robocompose.arguments import command_compute
     from robocompose.io import read_table
     from robocompose.io.errors import InputError
+    from robocompose.modular.experiments.held_out import PARTIAL_DIR, design_set_record, read_partial
     from robocompose.modular.experiments.terrain_study import candidate_settings
-    from robocompose.modular.truth import (
-        COMMITTED_DIR,
-        committed_path,
-        measure_committed,
-        read_committed,
-        truth_summary,
-    )
+    from robocompose.modular.family_truth import design_set
+    from robocompose.modular.truth import COMMITTED_DIR, committed_path, measure_committed, truth_summary
     from robocompose.params import read_params
 
     params = _params(args.params)
@@ -229,16 +229,23 @@ def _exhaustive(args: argparse.Namespace) -> None:
                              f"{sorted(document)})")
         settings = candidate_settings(settings, {args.distribution: document[args.distribution]},
                                       str(args.candidates))[args.distribution]
-    directory = args.out_dir or COMMITTED_DIR
+    designs, extra, directory = None, None, args.out_dir or COMMITTED_DIR
+    if args.design_set is not None:
+        designs = design_set(args.design_set)
+        extra, directory = design_set_record(args.design_set, designs), args.out_dir or PARTIAL_DIR
+        if directory.resolve() == COMMITTED_DIR.resolve():  # the stages would read it as an exhaustive table
+            raise InputError(f"--out-dir {directory}: expected a directory for partial tables (default "
+                             f"{PARTIAL_DIR}), not that of the exhaustive ones")
     # every committed record is checked before the first rollout
-    kept_seeds = {seed for seed in args.terrain_seed if read_committed(seed, settings, params.fitness, directory)
-                  is not None}
+    kept_seeds = {seed for seed in args.terrain_seed
+                  if read_partial(seed, settings, params.fitness, directory, extra) is not None}
     cache = compute.open_cache()
     with compute.executor() as executor:
         for seed in args.terrain_seed:
             kept = seed in kept_seeds
             path = (committed_path(seed, directory) if kept
-                    else measure_committed(seed, settings, params.fitness, cache, executor, directory))
+                    else measure_committed(seed, settings, params.fitness, cache, executor, directory, designs,
+                                           extra))
             best = truth_summary(read_table(path, "modular_exhaustive"), params.experiments.near_optimal).iloc[0]
             print(json.dumps({"terrain_seed": seed, "table": str(path), "source": "kept" if kept else "measured",
                               "optimum": best.optimum, "best_design": best.best_design,

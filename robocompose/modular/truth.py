@@ -70,15 +70,16 @@ def committed_path(terrain_seed: int, directory: Path = COMMITTED_DIR) -> Path:
 
 
 def write_committed(table: pd.DataFrame, settings: EvalSettings, rule: FitnessRule, seconds: float,
-                    directory: Path = COMMITTED_DIR) -> Path:
-    """Keep one terrain's table and its provenance record (`.json` beside it) under `directory`."""
+                    directory: Path = COMMITTED_DIR, extra: dict | None = None) -> Path:
+    """Keep one terrain's table and its provenance record (`.json` beside it, with the fields of `extra`: a partial
+    table's design set) under `directory`."""
     seeds = table.terrain_seed.unique()
     if len(seeds) != 1:
         raise ValueError(f"a committed table holds one terrain, found seeds {sorted(seeds)}")
     path = committed_path(int(seeds[0]), directory)
     write_table(table, path, "modular_exhaustive")
     atomic_write_json(path.with_suffix(".json"), {
-        **provenance(settings, rule), "terrain_seed": int(seeds[0]), "designs": len(table),
+        **provenance(settings, rule), **(extra or {}), "terrain_seed": int(seeds[0]), "designs": len(table),
         "simulated": int((table.sim_steps > 0).sum()), "wall_seconds": round(seconds, 1)})
     return path
 
@@ -152,12 +153,14 @@ def truth_tables(terrain_seeds: list[int], settings: EvalSettings, rule: Fitness
 
 
 def measure_committed(terrain_seed: int, settings: EvalSettings, rule: FitnessRule, cache: EvaluationCache,
-                      executor: Executor | None, directory: Path = COMMITTED_DIR) -> Path:
-    """Simulate one terrain's table (resuming from the cache) and commit it under `directory`."""
+                      executor: Executor | None, directory: Path = COMMITTED_DIR, designs: list[str] | None = None,
+                      extra: dict | None = None) -> Path:
+    """Simulate one terrain's table (resuming from the cache; `designs`: a partial table of those only) and commit
+    it under `directory`, `extra` added to its record."""
     started = time.perf_counter()
-    table = exhaustive_terrain(terrain_seed, settings, rule, cache, executor)
+    table = exhaustive_terrain(terrain_seed, settings, rule, cache, executor, designs=designs)
     cache.save()
-    return write_committed(table, settings, rule, time.perf_counter() - started, directory)
+    return write_committed(table, settings, rule, time.perf_counter() - started, directory, extra)
 
 
 def verify_committed(path: Path, sample: int, seed: int, executor: Executor | None = None,

@@ -245,3 +245,19 @@ def test_the_best_of_k_table_and_a_holm_family_per_k_cover_every_row_but_the_ora
     assert rows["Portfolio (terrain-agnostic baseline)"] == ["10", "0.002", "0.012", "-", "-", "-", "-"]
     # four rows 1 m below on every terrain at best of 10: p 0.002 each, Holm x5, x4, ... kept monotone -> 0.010
     assert rows["Fit2form"][5:] == ["0.002", "0.010"] and rows["Random sampling"][5:] == ["0.002", "0.010"]
+
+
+def test_partial_test_tables_are_named_with_their_rollouts_and_the_optimum_as_a_lower_bound(tmp_path):
+    data, reports = tmp_path / "data", tmp_path / "reports"
+    write_table(_table(), data / "modular" / "realtime.parquet", "modular_realtime")
+    _stage_metrics(reports, {"test_tables": {"full": [1000], "partial": {}, "rollouts_outside_tables": 0}})
+    assert "Test tables:" not in section(reports, data)  # every terrain exhaustive: nothing to say
+    partial = {"1010": {"design_set": "balanced", "designs": 400, "table_optimum": 2.5, "optimum": 2.6,
+                        "rollouts": 12},
+               "1011": {"design_set": "balanced", "designs": 400, "table_optimum": 2.4, "optimum": 2.4, "rollouts": 3}}
+    _stage_metrics(reports, {"test_tables": {"full": [1000], "partial": partial, "rollouts_outside_tables": 15}})
+    text = section(reports, data)
+    assert "1 terrains have their exhaustive table (all designs: 1000); 2 have a partial one" in text
+    assert "`balanced` (400 designs): 1010, 1011" in text and "15 candidate rollouts outside the partial" in text
+    assert "a lower bound on its true optimum" in text and "within 0.001 m" in text
+    assert "beat the set on 1 of the 2 partial terrains" in text

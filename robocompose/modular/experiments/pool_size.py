@@ -22,7 +22,7 @@ from robocompose.eggan.learners import generator_answer
 from robocompose.eggan.train import train
 from robocompose.fanout.executor import Executor
 from robocompose.modular.eggan_params import EgganModularParams, PoolSizeConfig
-from robocompose.modular.experiments.protocol import realtime_table, table_proposers, training_scores
+from robocompose.modular.experiments.protocol import TableAnswers, realtime_table, table_proposers, training_scores
 from robocompose.modular.experiments.table_designs import portfolio
 from robocompose.modular.params import ModularParams
 from robocompose.modular.plugins.eggan_problem import ModularEgganProblem
@@ -63,6 +63,7 @@ def _study_run(job: tuple) -> pd.DataFrame:
     fit = {method: training_scores(problem, answer, protocol.candidates)["train_max_distance"]
            for method, answer in proposers.items()}
     lookups = problem.real_evaluations  # the learner's look-ups, before the scores above read the tables
-    table, _ = realtime_table(proposers, problem, modular, sized, truth)
+    table, _ = realtime_table(proposers, problem, modular, sized,
+                              TableAnswers(truth, modular.eval, modular.fitness))
     return table.assign(pool_terrains=n, seed=seed, iterations_done=trained.stopped or config.iterations,
                         lookups=lookups, train_max_distance=table.method.map(fit))

@@ -1,14 +1,15 @@
 """The real-time test protocol of Table 5.1, for every method that answers a query in real time (a `Proposer`:
 terrain -> candidate designs) on every held-out test terrain and query (`realtime_table`):
 - the method outputs `candidates` designs (EG-GAN: the most probable distinct designs among `samples` draws);
-- every candidate is answered from the terrain's exhaustive table (the simulator's measured result of every
-  design: no new rollout; a test terrain without a table is an InputError); max distance = the best valid one;
+- every candidate is answered from the terrain's table (`TableAnswers`: the simulator's measured result
+  of every design, or of a design set with the candidates outside it simulated and counted; a test terrain without
+  a table is an InputError); max distance = the best valid one;
 - distinct solutions = the niching metric (delta 1 Hamming, epsilon 0.5 m) over the valid candidates (0 if none:
   penalty scores are not distances);
 - EC: `ec_draws` random caps on one module type; the answer is the best satisfying valid candidate, else a
   random valid satisfying design (modular `ec_answers`), looked up the same way. Answers are valid designs,
   so EC is a distance; a query whose candidates are all invalid is counted as a failure, not averaged;
-- regret = the terrain's exhaustive optimum minus max distance;
+- regret = the terrain's optimum (exhaustive; on a partial table the best known, a lower bound) minus max distance;
 - best of k (`best_of`, asked by the stage for `best_of_ks`: 1, 3 and all the candidates): the best valid one of
   the query's first k candidates (NaN if none), and the distinct look-ups those k cost: the same queries and
   candidates, no further look-up. `best_of_summary` gives each method's mean per k and per terrain for the report.
@@ -23,14 +24,16 @@ upper bound, not a method).
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import pandas as pd
 
+from robocompose.fanout.cache import EvaluationCache
+from robocompose.fanout.executor import Executor
 from robocompose.io.errors import InputError
 from robocompose.modular.eggan_params import EgganModularParams
-from robocompose.modular.evaluate import Result
+from robocompose.modular.evaluate import EvalSettings, FitnessRule, Result, evaluate_designs
 from robocompose.modular.experiments.baselines import DELTA, EPSILON, _seed, ec_answers, emergency_constraints
 from robocompose.modular.params import ModularParams
 from robocompose.modular.plugins.eggan_problem import ModularEgganProblem
@@ -76,6 +79,43 @@ def table_proposers(portfolio: list[str], optima: dict[int, list[str]],
     return {"portfolio": portfolio_proposer, **greedy_row, "optimum": optimum_proposer}
 
 
+class TableAnswers:
+    """The measured result of every candidate on the test terrains of `truth`: read from its table, or simulated
+    through `cache` and `executor` when a partial table lacks it (`rollouts` counts those per terrain)."""
+
+    def __init__(self, truth: pd.DataFrame, settings: EvalSettings, rule: FitnessRule,
+                 cache: EvaluationCache | None = None, executor: Executor | None = None):
+        self.settings, self.rule, self.cache, self.executor = settings, rule, cache, executor
+        self.known: dict[int, dict[str, Result]] = {}
+        self.table_optimum: dict[int, float] = {}
+        for seed, table in truth.groupby("terrain_seed"):
+            self.known[int(seed)] = {d: Result(None if pd.isna(x) else float(x), s, 0, 0.0)
+                                     for d, x, s in zip(table.design, table.distance, table.status, strict=True)}
+            self.table_optimum[int(seed)] = float(table.fitness.max())
+        self.simulated: dict[int, list[str]] = {seed: [] for seed in self.known}
+
+    def results(self, terrain_seed: int, designs: Sequence[str]) -> list[Result]:
+        known = self.known[terrain_seed]
+        misses = sorted(set(designs) - set(known))
+        if misses:
+            results = evaluate_designs(misses, terrain_seed, self.settings, self.rule, self.cache, self.executor)
+            for design, result in zip(misses, results, strict=True):
+                known[design] = result
+                if not self.rule.skips(design):  # a design the rule skips is scored without a rollout
+                    self.simulated[terrain_seed].append(design)
+        return [known[d] for d in designs]
+
+    def optimum(self, terrain_seed: int) -> float:
+        """The best fitness known on the terrain: its table's optimum, or better a design simulated for it."""
+        extra = [self.rule.fitness(self.known[terrain_seed][d]) for d in self.simulated[terrain_seed]]
+        return max([self.table_optimum[terrain_seed], *extra])
+
+    @property
+    def rollouts(self) -> dict[int, int]:
+        """Per terrain, the candidates answered by a rollout outside its table."""
+        return {seed: len(designs) for seed, designs in self.simulated.items()}
+
+
 BEST_OF = (1, 3)  # best of the first k candidates, beside the best of them all (Table 5.1's max distance)
 
 
@@ -85,28 +125,25 @@ def best_of_ks(candidates: int) -> tuple[int, ...]:
 
 
 def realtime_table(proposers: dict[str, Proposer], problem: ModularEgganProblem, modular: ModularParams,
-                   params: EgganModularParams, truth: pd.DataFrame,
+                   params: EgganModularParams, tables: TableAnswers,
                    best_of: tuple[int, ...] = ()) -> tuple[pd.DataFrame, dict[str, float]]:
-    """One row per method x test terrain x query (see the module docstring), every candidate answered from the
-    exhaustive table `truth`, and each method's median query wall time in ms (kept apart from the table, so that
+    """One row per method x test terrain x query (see the module docstring), every candidate answered by `tables`
+    (the test terrains' tables), and each method's median query wall time in ms (kept apart from the table, so that
     the table's bytes depend on the inputs only). For each k of `best_of` the row also holds `best_of_K`, the
     best valid one of the first k candidates, and `lookups_K`, the distinct designs among them."""
     p = params.protocol
     rule = modular.fitness
-    missing = sorted(set(p.test_terrains) - set(truth.terrain_seed.unique()))
+    missing = sorted(set(p.test_terrains) - set(tables.known))
     if missing:
         raise InputError(f"eggan_modular.protocol.test_terrains: expected every test terrain in the exhaustive table "
                          f"(modular.experiments.truth_terrains, stage modular_exhaustive), missing {missing}")
     rows, query_ms = [], {}
     for terrain_seed in p.test_terrains:
-        table = truth[truth.terrain_seed == terrain_seed]
-        optimum = float(table.fitness.max())
-        known = {d: Result(None if pd.isna(x) else float(x), s, 0, 0.0)
-                 for d, x, s in zip(table.design, table.distance, table.status, strict=True)}
+        first_row = len(rows)
 
-        def measured(designs: list[str], known=known) -> list[Result]:
-            """The simulator's measured results, from the terrain's exhaustive table."""
-            return [known[d] for d in designs]
+        def measured(designs: list[str], terrain_seed=terrain_seed) -> list[Result]:
+            """The simulator's measured results, from the terrain's table (or simulated outside a partial one)."""
+            return tables.results(terrain_seed, designs)
 
         for method, propose in proposers.items():
             problem.encode_task(terrain_seed)  # the height map is the query's input: not part of its time
@@ -133,8 +170,11 @@ def realtime_table(proposers: dict[str, Proposer], problem: ModularEgganProblem,
                     "distinct": distinct_solutions(ok, fitness[valid], lambda a, b: float(hamming(a, b)), DELTA,
                                                    EPSILON),
                     "ec_distance": float(np.mean(ec_ok)) if ec_ok else np.nan,
-                    "ec_failures": len(ec) - len(ec_ok), "optimum": optimum, "regret": optimum - best,
-                    **_best_of(candidates, fitness, valid, best_of)})
+                    "ec_failures": len(ec) - len(ec_ok), **_best_of(candidates, fitness, valid, best_of)})
+        # the optimum once every method has answered: on a partial table a simulated candidate may beat its set
+        optimum = tables.optimum(terrain_seed)
+        for row in rows[first_row:]:
+            row["optimum"], row["regret"] = optimum, optimum - row["max_distance"]
     return pd.DataFrame(rows), {method: round(float(np.median(ms)), 3) for method, ms in query_ms.items()}
 
 

@@ -9,6 +9,7 @@ from robocompose.io.errors import InputError
 from robocompose.modular.eggan_params import EgganModularParams
 from robocompose.modular.experiments.generative import make_problem
 from robocompose.modular.experiments.protocol import (
+    TableAnswers,
     best_of_columns,
     best_of_ks,
     best_of_summary,
@@ -21,6 +22,10 @@ from robocompose.params import build_config
 from tests.modular.experiments.test_generative import MODULAR, SECTION
 
 
+def answered(truth: pd.DataFrame) -> TableAnswers:
+    return TableAnswers(truth, MODULAR.eval, MODULAR.fitness)
+
+
 def test_the_protocol_answers_from_the_tables_with_the_portfolio_and_the_oracle(fake_rollouts, synthetic_truth):
     # the best design depends on the terrain: wheels on 1007, legs on 1008 (fewer distances on 1008)
     truth = pd.concat([synthetic_truth(lambda d: float(d.count("w")), 1007),
@@ -31,7 +36,7 @@ def test_the_protocol_answers_from_the_tables_with_the_portfolio_and_the_oracle(
     optima = {seed: top_designs(table, 4) for seed, table in truth.groupby("terrain_seed")}
     proposers = {"random": random_proposer, **table_proposers(chosen, optima, chosen[::-1])}
     problem = make_problem(MODULAR, params, None, None)
-    table, query_ms = realtime_table(proposers, problem, MODULAR, params, truth)
+    table, query_ms = realtime_table(proposers, problem, MODULAR, params, answered(truth))
     assert fake_rollouts == [] and set(query_ms) == {"random", "portfolio", "portfolio_greedy", "optimum"}
     assert len(table) == 4 * 2 * 2  # no rollout: tables only
     optimum = table[table.method == "optimum"].groupby("terrain_seed")
@@ -45,7 +50,7 @@ def test_the_protocol_answers_from_the_tables_with_the_portfolio_and_the_oracle(
     greedy = table[table.method == "portfolio_greedy"]  # the same designs in its own order: the same best
     assert greedy.best_design.tolist() == folio.best_design.tolist()
     with pytest.raises(InputError, match=r"protocol.test_terrains: .* missing \[1008\]"):
-        realtime_table(proposers, problem, MODULAR, params, truth[truth.terrain_seed == 1007])
+        realtime_table(proposers, problem, MODULAR, params, answered(truth[truth.terrain_seed == 1007]))
 
 
 def test_the_best_of_the_first_k_candidates_comes_from_the_same_candidates(synthetic_truth):
@@ -58,7 +63,7 @@ def test_the_best_of_the_first_k_candidates_comes_from_the_same_candidates(synth
     ks = best_of_ks(4)
     problem = make_problem(MODULAR, params, None, None)
     table, _ = realtime_table({"portfolio": table_proposers(chosen, {})["portfolio"], "random": random_proposer},
-                              problem, MODULAR, params, truth, ks)
+                              problem, MODULAR, params, answered(truth), ks)
     folio = table[table.method == "portfolio"].set_index("terrain_seed")
     assert folio.loc[1007, "best_of_1"].tolist() == [3.0, 3.0] and folio.loc[1007, "best_of_3"].tolist() == [4.0, 4.0]
     assert folio.loc[1008, "best_of_3"].tolist() == [1.5, 1.5] and folio.loc[1008, "best_of_4"].tolist() == [2.5, 2.5]
@@ -71,4 +76,4 @@ def test_the_best_of_the_first_k_candidates_comes_from_the_same_candidates(synth
     assert summary["methods"]["portfolio"]["3"] == {"mean": 2.75, "std": 1.25, "no_valid": 0, "lookups": 3.0}
     assert summary["per_terrain"]["portfolio"]["1"] == {"1007": 3.0, "1008": 1.5}
     assert set(table.columns) - set(realtime_table({"random": random_proposer}, problem, MODULAR, params,
-                                                   truth)[0].columns) == set(best_of_columns(ks))
+                                                   answered(truth))[0].columns) == set(best_of_columns(ks))
