@@ -98,7 +98,8 @@ class CampaignConfig:
     checkpoints: str = "data/glso_campaign"  # runs in progress (not committed)
     tasks: list[str] = field(default_factory=lambda: ["flat"])  # ridged after flat if time allows
     seeds: dict[str, int] = field(default_factory=lambda: {  # run seeds per method: 0 .. n-1
-        "glso": 5, "random": 10, "mcts": 5, "ghs": 5, "ga": 5, "glso_nopred": 3, "glso_nogram": 3, "glso_thesis": 5})
+        "glso": 5, "random": 10, "mcts": 5, "ghs": 5, "ga": 5, "glso_nopred": 3, "glso_nogram": 3, "glso_thesis": 5,
+        "glso_turbo": 10})
     budget: int = 200  # objective calls per run
     init: int = 50  # GLSO's random initial points, then budget - init BO steps (the thesis's loop)
     population: int = 50  # the GA's (thesis)
