@@ -130,6 +130,11 @@ def outputs(project: Path, paths: list[str]) -> dict[str, bytes]:
     return found
 
 
+def differing(a: dict[str, bytes], b: dict[str, bytes]) -> list[str]:
+    """The files present in one of `a`, `b` only, or with other bytes (a failure names them, not their bytes)."""
+    return sorted(name for name in a.keys() | b.keys() if a.get(name) != b.get(name))
+
+
 @pytest.fixture(scope="module")
 def project(tmp_path_factory: pytest.TempPathFactory, copy_project) -> Path:
     """A tiny copy of the project (TINY params), committed: dvclive in the train_vae stage needs a revision."""
@@ -162,7 +167,7 @@ def test_killed_enumerate_stage_reruns_to_the_same_bytes(project: Path) -> None:
     kill_stage(project, "enumerate", in_the_middle, "-f", "-s")
     assert not (project / "data" / "designs.parquet").exists()  # really killed mid-stage
     dvc(project, "repro", "enumerate")
-    assert outputs(project, ENUMERATE_OUTS) == uninterrupted and len(uninterrupted) == 3
+    assert differing(outputs(project, ENUMERATE_OUTS), uninterrupted) == [] and len(uninterrupted) == 3
 
 
 @pytest.mark.slow
@@ -180,7 +185,7 @@ def test_killed_train_vae_stage_resumes_to_the_same_bytes(project: Path) -> None
     for file in checkpoints.glob("vae_*/*"):  # the uninterrupted run starts without a checkpoint
         file.unlink()
     dvc(project, "repro", "-f", "-s", "train_vae")
-    assert outputs(project, TRAIN_OUTS) == resumed
+    assert differing(outputs(project, TRAIN_OUTS), resumed) == []
     assert {f"models/vae_{variant}.pt" for variant in VARIANTS} <= set(resumed)
 
 
@@ -196,7 +201,8 @@ def test_killed_glso_stage_resumes_to_the_same_results(project: Path) -> None:
     keeps the finished run, resumes the others from their per-step checkpoints, and gives the same step
     tables, rollouts and metrics, byte for byte, as an uninterrupted run."""
     runs = project / "data" / "glso" / "runs"
-    kill_stage(project, "glso", lambda _: runs.is_dir() and any(runs.iterdir()))
+    # a finished run's table, not the hidden temporary file it is written through
+    kill_stage(project, "glso", lambda _: runs.is_dir() and any(not p.name.startswith(".") for p in runs.iterdir()))
     assert not (project / "data" / "glso" / "steps.parquet").exists()
     dvc(project, "repro", "glso")
     resumed = outputs(project, GLSO_OUTS)
@@ -204,7 +210,7 @@ def test_killed_glso_stage_resumes_to_the_same_results(project: Path) -> None:
         for file in folder.iterdir():
             file.unlink()
     dvc(project, "repro", "-f", "-s", "glso")
-    assert outputs(project, GLSO_OUTS) == resumed and "data/glso/steps.parquet" in resumed
+    assert differing(outputs(project, GLSO_OUTS), resumed) == [] and "data/glso/steps.parquet" in resumed
 
 
 @pytest.mark.slow
@@ -218,7 +224,7 @@ def test_killed_eggan_training_resumes_to_the_same_bytes(project: Path) -> None:
     resumed = outputs(project, EGGAN_OUTS)
     checkpoint.unlink()
     dvc(project, "repro", "-f", "-s", "teams_eggan")
-    assert outputs(project, EGGAN_OUTS) == resumed and "models/teams_eggan.pt" in resumed
+    assert differing(outputs(project, EGGAN_OUTS), resumed) == [] and "models/teams_eggan.pt" in resumed
 
 
 # --- a Dask worker killed during a map ---

@@ -1,4 +1,5 @@
 import json
+import os
 from pathlib import Path
 
 import pytest
@@ -56,3 +57,22 @@ def test_read_json_round_trips_and_names_a_bad_file(tmp_path: Path) -> None:
         read_json(tmp_path / "cut.json")
     with pytest.raises(ArtifactError, match=r"none\.json: file not found"):
         read_json(tmp_path / "none.json")
+
+
+def test_a_killed_writers_temporary_is_removed_by_the_next_write_and_a_live_writers_kept(tmp_path: Path) -> None:
+    """SIGKILL runs no cleanup: the temporary file of a writer killed mid-write stays until the next write of the
+    same file removes it (a resumed stage must leave what an uninterrupted one leaves); a running writer's stays."""
+    import subprocess
+    import sys
+
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True,
+                          check=True)
+    dead_pid = int(dead.stdout)
+    killed = tmp_path / f".out.{dead_pid}.0123abcd.tmp.parquet"
+    live = tmp_path / f".out.{os.getpid()}.89abcdef.tmp.parquet"
+    other = tmp_path / f".other.{dead_pid}.0123abcd.tmp.parquet"  # another file's: not this write's business
+    for path in (killed, live, other):
+        path.write_bytes(b"half")
+    with atomic_path(tmp_path / "out.parquet") as tmp:
+        tmp.write_bytes(b"whole")
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([live.name, other.name, "out.parquet"])
