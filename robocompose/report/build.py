@@ -25,7 +25,19 @@ class ReportParams:
 
 
 def build_report(params: ReportParams, reports_dir: Path = Path("reports"), data_dir: Path = Path("data")) -> Path:
-    from robocompose.report import dataset, eggan, evaluation, fidelity, glso, latent, metadata, modular, serve, teams
+    from robocompose.report import (
+        dataset,
+        eggan,
+        evaluation,
+        fidelity,
+        gate,
+        glso,
+        latent,
+        metadata,
+        modular,
+        serve,
+        teams,
+    )
 
     sections = [
         "# robocompose report",
@@ -39,6 +51,7 @@ def build_report(params: ReportParams, reports_dir: Path = Path("reports"), data
         glso.campaign_section(reports_dir),
         modular.section(reports_dir, data_dir, params.modular),
         eggan.section(reports_dir, data_dir),
+        gate.section(reports_dir),
         teams.section(reports_dir, data_dir),
         serve.section(reports_dir),
         metadata.section(reports_dir),

@@ -1,0 +1,27 @@
+import json
+from pathlib import Path
+
+from robocompose.modular.gate import gate
+from robocompose.report.gate import section
+from tests.modular.test_gate import _world
+
+
+def _write(reports: Path, worlds: dict) -> None:
+    (reports / "metrics").mkdir(parents=True)
+    (reports / "metrics" / "modular_gate.json").write_text(json.dumps(worlds, sort_keys=True))
+
+
+def test_the_gate_section_names_the_passing_world_and_orders_best_of_k(tmp_path: Path) -> None:
+    deciding, flat = _world(30, 60, decides=True), _world(30, 60, decides=False)
+    _write(tmp_path, {"steps": gate(*deciding).summary, "block world": gate(*flat).summary})
+    text = section(tmp_path)
+    assert "**Passes the gate:** steps." in text
+    rows = [line for line in text.splitlines() if line.startswith("| block world")]
+    assert [row.split(" | ")[3] for row in rows] == ["1", "3", "10"]  # by k, not JSON's string order
+    assert all(row.endswith("| no |") for row in rows)
+
+
+def test_the_gate_section_says_when_no_world_passes_and_when_the_stage_has_not_run(tmp_path: Path) -> None:
+    assert "Not run yet" in section(tmp_path) and "modular_gate" in section(tmp_path)
+    _write(tmp_path, {"block world": gate(*_world(30, 60, decides=False)).summary})
+    assert "**No world passes the gate** (of 1)" in section(tmp_path)
