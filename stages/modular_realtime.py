@@ -11,6 +11,13 @@ simulated outside the partial ones), and Fig. 5.1's designs on the first two tes
 (data/modular/fig5_1.json). Every candidate is answered from the test terrain's table: no rollout on a full one;
 outside a partial one, a rollout through the shared cache (params compute). A test terrain without a table stops
 the stage before any work with one line naming it and the command that measures it.
+
+Further training seeds: every folder measured/modular/seeds/seed-S (`robocompose modular train-seed`) answers the
+learned rows again, on the same terrains, queries and candidates (column `training_seed`; the stage's own models
+and the unlearned rows, answered once, carry the learners' configured seed and 0). A folder whose models were
+trained under other settings, lack a learner or repeat a learner's own seed stops the stage before any work
+(`training_seeds.further_seeds`). The metrics give each learned row's mean and sd over its training seeds
+(`training_seeds`); their other numbers pool every seed's queries.
 """
 
 from contextlib import nullcontext
@@ -22,14 +29,20 @@ from robocompose.io import atomic_write_json, read_table, write_table
 from robocompose.io.timings import timed
 from robocompose.modular.eggan_params import EgganModularParams
 from robocompose.modular.experiments.figure_5_1 import figure_5_1
-from robocompose.modular.experiments.generative import make_problem, method_info, realtime_proposers
+from robocompose.modular.experiments.generative import (
+    learned_methods,
+    make_problem,
+    method_info,
+    realtime_proposers,
+    seeded_realtime_table,
+)
 from robocompose.modular.experiments.held_out import FULL, held_out_metrics, held_out_tables
 from robocompose.modular.experiments.protocol import (
     TableAnswers,
     best_of_columns,
     best_of_ks,
     best_of_summary,
-    realtime_table,
+    seed_summary,
     summarise,
 )
 from robocompose.modular.experiments.table_designs import (
@@ -38,17 +51,20 @@ from robocompose.modular.experiments.table_designs import (
     symmetric_ceiling,
     top_designs,
 )
+from robocompose.modular.experiments.training_seeds import further_seeds
 from robocompose.modular.params import ModularParams
 from robocompose.params import load_section
 from robocompose.stage import run_stage
 
 EXHAUSTIVE = Path("data/modular/exhaustive.parquet")
 FIG_5_1_GENERATOR = Path("models/eggan_modular_crowding.pt")
+SEEDS = Path("measured/modular/seeds")  # further training seeds: seed-S/eggan_modular_NAME.pt per learner
 
 
 def main() -> None:
     modular, params = load_section(ModularParams, "modular"), load_section(EgganModularParams, "eggan_modular")
     compute = load_section(ComputeConfig, "compute")
+    seeds = further_seeds(SEEDS, modular, params)  # every folder checked first: a stale seed stops the stage here
     fitness, protocol = params.fitness, params.protocol
     test, sources = held_out_tables(protocol.test_terrains, read_table(EXHAUSTIVE, "modular_exhaustive"),
                                     modular.eval, modular.fitness)
@@ -65,7 +81,8 @@ def main() -> None:
         ks = best_of_ks(protocol.candidates)
         answers = TableAnswers(test, modular.eval, modular.fitness, compute.open_cache() if partial else None,
                                executor)
-        table, timing["query_ms_median"] = realtime_table(proposers, problem, modular, params, answers, ks)
+        table, timing["query_ms_median"] = seeded_realtime_table(proposers, seeds, problem, modular, params,
+                                                                 answers, ks)
         timing["queries"] = len(table)
         fig_5_1 = figure_5_1(load_generator(FIG_5_1_GENERATOR, problem)[0], problem, modular.fitness,
                              sorted(protocol.test_terrains)[:2])
@@ -73,9 +90,13 @@ def main() -> None:
     write_table(table.drop(columns=best_of_columns(ks)), "data/modular/realtime.parquet", "modular_realtime")
     full = test[test.terrain_seed.map(sources) == FULL]  # a partial table holds too few symmetric designs
     ceiling = symmetric_ceiling(full) if not full.empty else {}
+    over_seeds = seed_summary(table, learned_methods(), ks)
     atomic_write_json("reports/metrics/modular_realtime.json", {
         **{row["method"]: {**{k: (None if v != v else round(float(v), 4)) for k, v in row.items() if k != "method"},
-                           **method_info(row["method"])} for row in summarise(table).to_dict("records")},
+                           **method_info(row["method"]),
+                           **({"training_seeds": over_seeds[row["method"]]} if row["method"] in over_seeds else {})}
+           for row in summarise(table).to_dict("records")},
+        "further_training_seeds": list(seeds),
         "best_of": best_of_summary(table, ks),
         "diverse_query": {"min_hamming": protocol.diverse_hamming},
         "portfolio_designs": {"pool_terrains": len(fitness.train_seeds), "designs": designs, "greedy": greedy},

@@ -23,8 +23,14 @@ from robocompose.io import write_table
 from robocompose.io.errors import InputError
 from robocompose.modular.eggan_params import EgganModularParams
 from robocompose.modular.evaluate import EvalSettings, FitnessRule
-from robocompose.modular.experiments.generative import make_problem, method_info, realtime_proposers, train_baseline
-from robocompose.modular.experiments.protocol import TableAnswers, realtime_table
+from robocompose.modular.experiments.generative import (
+    make_problem,
+    method_info,
+    realtime_proposers,
+    seeded_realtime_table,
+    train_baseline,
+)
+from robocompose.modular.experiments.protocol import TableAnswers
 from robocompose.modular.experiments.table_designs import portfolio, top_designs
 from robocompose.modular.params import ExperimentsConfig, ModularParams
 from robocompose.params import build_config
@@ -123,8 +129,8 @@ def test_a_registered_learner_trains_is_checked_by_its_profile_and_reaches_table
     proposers = realtime_proposers(problem, params, tmp_path, portfolio(train[train.terrain_seed < 20_002], 1),
                                    {1001: top_designs(truth, 1)}, ["bbbbbb"])
     assert list(proposers) == ["fixed", "random", "portfolio", "portfolio_greedy", "optimum"]
-    table, _ = realtime_table(proposers, problem, modular, params,
-                              TableAnswers(truth, modular.eval, modular.fitness))
+    table, _ = seeded_realtime_table(proposers, {}, problem, modular, params,
+                                     TableAnswers(truth, modular.eval, modular.fitness))
     data, reports = tmp_path / "data", tmp_path / "reports"
     write_table(table, data / "modular" / "realtime.parquet", "modular_realtime")
     (reports / "metrics").mkdir(parents=True)

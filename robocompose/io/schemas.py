@@ -156,14 +156,16 @@ SCHEMAS: dict[str, pa.Schema] = {
         _required("optimum", pa.float64()), _required("evaluations", pa.int64()), _required("sim_steps", pa.int64()),
         _required("sim_seconds", pa.float64())]),
     # The real-time test protocol (robocompose.modular.experiments.protocol, thesis Table 5.1): one row per
-    # method x held-out test terrain x query; distances in m (NaN: no valid candidate / no exhaustive optimum).
-    # Query wall times go to reports/timings.json, not here (identical runs give identical bytes).
+    # method x held-out test terrain x query, and for a learned row per training seed (training_seed: the seed of
+    # the model that answered; 0 for the rows no model answers); distances in m (NaN: no valid candidate / no
+    # exhaustive optimum). Query wall times go to reports/timings.json, not here (identical runs give identical bytes).
     "modular_realtime": pa.schema([_required(n, t) for n, t in [
         ("method", pa.string()), ("terrain_seed", pa.int64()), ("query", pa.int64()), ("candidates", pa.int64()),
         ("valid", pa.int64()), ("best_design", pa.string())]] + [
         pa.field("max_distance", pa.float64(), nullable=True), _required("distinct", pa.int64()),
         pa.field("ec_distance", pa.float64(), nullable=True), _required("ec_failures", pa.int64()),
-        pa.field("optimum", pa.float64(), nullable=True), pa.field("regret", pa.float64(), nullable=True)]),
+        pa.field("optimum", pa.float64(), nullable=True), pa.field("regret", pa.float64(), nullable=True),
+        _required("training_seed", pa.int64())]),
     # The pool-size study (robocompose.modular.experiments.pool_size): a modular_realtime row per test query,
     # with the training pool's size, the iterations its EG-GAN-crowding trained and the distinct look-ups it made.
     "modular_pool_size": pa.schema([_required(n, t) for n, t in [

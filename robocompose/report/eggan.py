@@ -3,8 +3,9 @@ EG-GAN-crowding row beside the GA runs, the training budgets and surrogate error
 Fig. 5.1 (two test terrains, the generator's top designs, a random constraint and the designs that survive it).
 
 Built from `train_eggan_modular` (reports/metrics/eggan_modular.json, reports/plots/eggan_modular_*.csv) and
-`modular_realtime` (data/modular/realtime.parquet; reports/metrics/modular_realtime.json: the portfolio's designs and
-DQN's symmetric-space ceiling; data/modular/fig5_1.json, Fig. 5.1's generated designs); every distance is a pybullet
+`modular_realtime` (data/modular/realtime.parquet; reports/metrics/modular_realtime.json: the portfolio's designs,
+DQN's symmetric-space ceiling and each learned row's mean and sd over its training seeds, `training_seeds`, which
+Table 5.1 shows for those rows; data/modular/fig5_1.json, Fig. 5.1's generated designs); every distance is a pybullet
 rollout, read from the test terrain's exhaustive table. Beside the thesis's rows: a terrain-agnostic portfolio
 (the designs best on average over the training pool) and each terrain's exhaustive optimum (an oracle bound).
 
@@ -43,6 +44,15 @@ NOT_IN_THESIS = ("-", "-", "-")
 def _ms(values: pd.Series, digits: int = 2) -> str:
     values = values.dropna()
     return f"{values.mean():.{digits}f} ± {values.std(ddof=0):.{digits}f}" if len(values) else "n/a"
+
+
+def _over_seeds(entry: dict | None, digits: int = 2) -> str:
+    """A learned row's cell from the stage's record over training seeds (`training_seeds.COLUMN`): the mean of the
+    seeds' means ± their sd; the mean alone for one seed (no spread over seeds)."""
+    if not entry or entry.get("mean") is None:
+        return "n/a"
+    sd = entry.get("sd")
+    return f"{entry['mean']:.{digits}f}" + ("" if sd is None else f" ± {sd:.{digits}f}")
 
 
 def row_titles(table: pd.DataFrame, protocol: dict, metrics: dict, where: Path) -> dict[str, str]:
@@ -95,15 +105,21 @@ def section(reports_dir: Path, data_dir: Path) -> str:
         spent = metrics[trained]["real_evaluations"] if trained in metrics else "-"
         label = f"{name} (symmetric designs only: ceiling {ceiling['ceiling']:.2f} m)" if method == "dqn" and ceiling \
             else name
-        rows.append((label, _ms(group.max_distance), _ms(group.distinct, 1), _ms(group.ec_distance), _ms(group.regret),
-                     f"{int(group.max_distance.isna().sum())} / {int(group.ec_failures.sum())}", spent,
-                     *THESIS_TABLE_5_1.get(method, NOT_IN_THESIS), THESIS_HANDCRAFTED.get(method, "-")))
+        seeds = protocol[method].get("training_seeds")
+        if seeds:  # a learned row: mean ± sd over its training seeds
+            cells = [_over_seeds(seeds.get(column), 1 if column == "distinct" else 2)
+                     for column in ("max_distance", "distinct", "ec_distance", "regret")]
+        else:
+            cells = [_ms(group.max_distance), _ms(group.distinct, 1), _ms(group.ec_distance), _ms(group.regret)]
+        rows.append((label, *cells, f"{int(group.max_distance.isna().sum())} / {int(group.ec_failures.sum())}", spent,
+                     seeds["n"] if seeds else "-", *THESIS_TABLE_5_1.get(method, NOT_IN_THESIS),
+                     THESIS_HANDCRAFTED.get(method, "-")))
     lines += markdown_table(["method", "max distance (m)", "distinct", "EC distance (m)", "regret (m)",
-                             "no valid candidate / EC failures", "evaluations in training", "thesis distance",
-                             "thesis distinct", "thesis EC", "thesis hand-crafted"], rows)
-    lines += ["", *_table_rows_lines(protocol, set(table.method)), *_test_tables_lines(protocol.get("test_tables")),
-              _verdict(table), ""]
-    lines += _best_of_lines(protocol.get("best_of"), titles)
+                             "no valid candidate / EC failures", "evaluations in training", "training seeds",
+                             "thesis distance", "thesis distinct", "thesis EC", "thesis hand-crafted"], rows)
+    lines += ["", *_seeds_lines(protocol, titles), *_table_rows_lines(protocol, set(table.method)),
+              *_test_tables_lines(protocol.get("test_tables")), _verdict(table), ""]
+    lines += _best_of_lines(protocol.get("best_of"), titles, protocol)
     lines += _significance(table, protocol.get("best_of"), titles)
     lines += _pool_lines(Path(reports_dir) / "metrics" / "modular_pool.json")
     lines += _training_lines(metrics, reports_dir)
@@ -150,6 +166,28 @@ def _figure_5_1(records: list[dict], path: Path) -> str:
     fig.savefig(path, dpi=80)
     plt.close(fig)
     return "Constraints drawn: " + "; ".join(used) + "."
+
+
+def _seeds_lines(protocol: dict, titles: dict[str, str]) -> list[str]:
+    """A paragraph on the learned rows' training seeds (reports/metrics/modular_realtime.json's `training_seeds`):
+    what their ± means, how many seeds each has; none for a stage's record without them."""
+    seeded = {method: protocol[method]["training_seeds"] for method in titles
+              if isinstance(protocol.get(method), dict) and protocol[method].get("training_seeds")}
+    if not seeded:
+        return []
+    counts = sorted({entry["n"] for entry in seeded.values()})
+    seeds = sorted({seed for entry in seeded.values() for seed in entry["seeds"]})
+    text = ("Learned rows (each learner, and the diverse query of EG-GAN-crowding's generator): mean ± sd over "
+            f"their training seeds ({' or '.join(map(str, counts))} seeds: {', '.join(map(str, seeds))}; column "
+            "`training seeds`) of each seed's mean over terrains x queries, every seed's models answering the same "
+            "terrains, queries and candidates; the other rows (no training) are answered once: mean ± sd over "
+            "terrains x queries. No valid candidate / EC failures count every seed's queries; evaluations in "
+            "training are the stage's own models'.")
+    if counts == [1]:
+        text += (" n seeds = 1: one training seed per learner (no further seed committed under "
+                 "measured/modular/seeds/), so no spread over seeds is shown; `robocompose modular train-seed` "
+                 "trains more.")
+    return [text, ""]
 
 
 def _table_rows_lines(protocol: dict, methods: set[str]) -> list[str]:
@@ -296,29 +334,34 @@ def _pool_size_lines(path: Path, figures: Path, titles: dict[str, str]) -> list[
 CHANCE = 0.05  # a discriminator whose accuracy stays within this of 1/2 gives the generator no signal
 
 
-def _best_of_lines(best_of: dict | None, titles: dict[str, str]) -> list[str]:
+def _best_of_lines(best_of: dict | None, titles: dict[str, str], protocol: dict) -> list[str]:
     """Each row's mean best of its first k candidates for every k the stage recorded (1, 3, all), with the
-    distinct look-ups a query spent on them (reports/metrics/modular_realtime.json); none for an older stage's."""
+    distinct look-ups a query spent on them (reports/metrics/modular_realtime.json; a learned row's mean ± sd over
+    its training seeds from `training_seeds`); none for an older stage's."""
     if not best_of:
         return []
     ks, methods = best_of["ks"], best_of["methods"]
     rows = []
     for method, name in titles.items():
         cells = []
+        info = protocol.get(method)
+        seeds = info.get("training_seeds") if isinstance(info, dict) else None
         for k in ks:
             entry = methods.get(method, {}).get(str(k))
             if entry is None or entry["mean"] is None:
                 cells += ["n/a", "-"]
                 continue
             failed = f" ({entry['no_valid']} without a valid one)" if entry["no_valid"] else ""
-            cells += [f"{entry['mean']:.2f} ± {entry['std']:.2f}{failed}", f"{entry['lookups']:g}"]
+            spread = _over_seeds(seeds.get(f"best_of_{k}")) if seeds else f"{entry['mean']:.2f} ± {entry['std']:.2f}"
+            cells += [f"{spread}{failed}", f"{entry['lookups']:g}"]
         rows.append((name, *cells))
     header = ["method"] + [h for k in ks for h in (f"best of {k} (m)", "look-ups per query")]
     return ["### Best of the first k candidates", "", *markdown_table(header, rows), "",
             "The same queries and candidates as Table 5.1 (no further look-up): the best valid one of each query's "
             "first k candidates, in the method's own order (the generators' most probable first, the greedy "
             "portfolio's pick order, the top-k portfolio's by mean fitness, random sampling's draw order), mean ± sd "
-            "over terrains x queries; look-ups: the distinct designs those k candidates cost a query. A method that "
+            "over terrains x queries (a learned row: over its training seeds, as in Table 5.1); look-ups: the "
+            "distinct designs those k candidates cost a query. A method that "
             "reads the terrain should lead at k = 1 and 3, where a fixed portfolio cannot cover every terrain.", ""]
 
 
@@ -327,18 +370,19 @@ ORACLE = "optimum"  # the exhaustive optimum: an upper bound, not a method, so n
 
 def _significance(table: pd.DataFrame, best_of: dict | None, titles: dict[str, str]) -> list[str]:
     """Wilcoxon signed-rank tests of EG-GAN-crowding against every other row of Table 5.1 but the oracle, paired by
-    test terrain (each terrain's mean over its queries: the queries of one terrain are not independent), for each
-    best-of-k the stage recorded (`best_of`; else max distance, the best of all the candidates), Holm-corrected
-    over the family of comparisons made at that k: the lines of their table, none if no comparison could be
-    made."""
+    test terrain (each terrain's mean over its queries, averaged over a learned row's training seeds: the queries of
+    one terrain are not independent), for each best-of-k the stage recorded (`best_of`; else max distance, the best
+    of all the candidates), Holm-corrected over the family of every comparison made at that k: the lines of their
+    table, none if no comparison could be made."""
     from scipy.stats import wilcoxon
 
     if best_of:
         pairs_by_k = {k: pd.DataFrame({m: pd.Series(best_of["per_terrain"][m][str(k)], dtype=float)
                                        for m in titles if m in best_of["per_terrain"]}) for k in best_of["ks"]}
     else:
+        per_seed = table.groupby(["method", "training_seed", "terrain_seed"]).max_distance.mean()
         pairs_by_k = {int(table.candidates.max()):
-                      table.groupby(["method", "terrain_seed"]).max_distance.mean().unstack("method")}
+                      per_seed.groupby(["method", "terrain_seed"]).mean().unstack("method")}
     others = [m for m in titles if m not in ("crowding", ORACLE)]
     raw, adjusted, pairs = {}, {}, {}
     for k, per_terrain in pairs_by_k.items():
@@ -363,7 +407,8 @@ def _significance(table: pd.DataFrame, best_of: dict | None, titles: dict[str, s
     family = ", ".join(f"{len(raw[k])} at best of {k}" for k in ks)
     return [f"Paired by terrain (Wilcoxon signed-rank, {max(pairs.values())} terrains): EG-GAN-crowding against "
             "every other row but the oracle, Holm-corrected over each best-of-k's family of comparisons "
-            f"({family}); '-': no test (fewer than 5 terrains, or no difference on any):", "",
+            f"({family}); a terrain's score is its mean over queries, averaged over a learned row's training seeds; "
+            "'-': no test (fewer than 5 terrains, or no difference on any):", "",
             *markdown_table(["EG-GAN-crowding vs", "paired terrains",
                              *(h for k in ks for h in (f"best of {k}: p", f"best of {k}: Holm p"))],
                             [(titles[m], pairs[m], *(c for k in ks for c in cells(k, m))) for m in tested],

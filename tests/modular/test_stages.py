@@ -1,5 +1,6 @@
 import json
 import runpy
+import shutil
 from pathlib import Path
 
 import matplotlib.pyplot as plt
@@ -97,3 +98,87 @@ def test_pool_stage_gathers_the_committed_pool_and_summarises_each_split(tmp_pat
     metrics = json.loads(Path("reports/metrics/modular_pool.json").read_text())
     assert metrics["training"]["optimum_designs"] == {"20000": "wwwwww", "20001": "llllll"}
     assert metrics["validation"]["optimum_designs"] == {"20002": "bbbbbb"} and metrics["sources"] == ["committed"]
+
+
+def test_realtime_answers_the_learned_rows_at_every_committed_training_seed(tmp_path, monkeypatch, capsys,
+                                                                            synthetic_truth):
+    """Stage modular_realtime with the stage's own tiny models (seed 0) and two further seeds under
+    measured/modular/seeds: one set of learned rows per training seed on the same terrains and queries, the unlearned
+    rows once, the metrics' mean and sd over the seeds; a seed folder trained under other settings stops the stage
+    before any work, naming the file; with the README alone, one seed, and the report says so."""
+    import yaml
+
+    from robocompose.eggan.learners import training_order
+    from robocompose.modular.eggan_params import EgganModularParams
+    from robocompose.modular.experiments.generative import learned_methods, train_all, train_seed, with_seed
+    from robocompose.report.eggan import section
+    from tests.modular.experiments.test_training_seeds import params_of, tiny_section
+    from tests.modular.plugins.test_eggan_problem import fake_pool
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr("sys.argv", ["stages/modular_realtime.py"])
+    Path("data/modular").mkdir(parents=True)
+    tiny = {**tiny_section(fake_pool(Path("data/modular"), [20_000, 20_001, 20_002]).as_posix()), "pool_size": {}}
+    tiny["fitness"] = {**tiny["fitness"], "surrogate": {}}
+    Path("params.yaml").write_text(TINY + yaml.safe_dump({"eggan_modular": tiny}))
+    write_table(synthetic_truth(lambda d: float(d.count("w"))), "data/modular/exhaustive.parquet", "modular_exhaustive")
+    modular, params = load_section(ModularParams, "modular"), load_section(EgganModularParams, "eggan_modular")
+    metrics, _ = train_all(modular, params, None, None, Path("models"))
+    Path("reports/metrics").mkdir(parents=True, exist_ok=True)
+    Path("reports/metrics/eggan_modular.json").write_text(json.dumps(metrics))
+    seeds = Path("measured/modular/seeds")
+    for seed in (1, 2):
+        for method in training_order("modular"):
+            train_seed(method, seed, modular, params, seeds / f"seed-{seed}")
+    (seeds / "README.md").write_text("further training seeds\n")
+    runpy.run_path(str(STAGES / "modular_realtime.py"), run_name="__main__")
+
+    table = read_table("data/modular/realtime.parquet", "modular_realtime")
+    learned = learned_methods()
+    assert set(learned) == {"fit2form", "dqn", "molgan", "ga", "crowding", "crowding_diverse"}
+    queries = {(1007, 0), (1007, 1)}
+    for method, rows in table.groupby("method"):
+        answered = {seed: set(zip(group.terrain_seed, group["query"], strict=True))
+                    for seed, group in rows.groupby("training_seed")}
+        assert answered == ({0: queries, 1: queries, 2: queries} if method in learned else {0: queries}), method
+    assert len(table) == (3 * len(learned) + 4) * len(queries)  # random, both portfolios, the oracle: once
+    assert table.optimum.nunique() == 1  # one optimum for every row of the terrain, whichever seed answered
+    pd.testing.assert_series_equal(table.regret, table.optimum - table.max_distance, check_names=False)
+    # the seeds' models answer for themselves: not three copies of seed 0's answers
+    crowding = table[table.method == "crowding"]
+    assert crowding.groupby("training_seed").best_design.apply(tuple).nunique() > 1
+    summary = json.loads(Path("reports/metrics/modular_realtime.json").read_text())
+    assert summary["further_training_seeds"] == [1, 2] and "training_seeds" not in summary["random"]
+    for method in learned:
+        over = summary[method]["training_seeds"]
+        means = table[table.method == method].groupby("training_seed").max_distance.mean()
+        assert over["seeds"] == [0, 1, 2] and over["n"] == 3
+        assert over["max_distance"]["mean"] == round(means.mean(), 4)
+        assert over["max_distance"]["sd"] == round(means.std(ddof=1), 4)
+    text = section(Path("reports"), Path("data"))
+    row = next(line for line in text.splitlines() if line.startswith("| EG-GAN-crowding |"))
+    assert f"| {metrics['crowding']['real_evaluations']} | 3 |" in row and "mean ± sd over their training seeds" in text
+
+    # a further seed trained under other settings (EG-GAN's learning rate): refused before any work
+    Path("data/modular/realtime.parquet").unlink()
+    train_seed("ga", 3, modular, params_of(tiny, train={"lr_generator": 3e-4}), seeds / "seed-3")
+    capsys.readouterr()  # the training's progress bars
+    with pytest.raises(SystemExit) as exit_:
+        runpy.run_path(str(STAGES / "modular_realtime.py"), run_name="__main__")
+    error = capsys.readouterr().err
+    assert exit_.value.code == 2 and error.count("\n") == 1
+    assert f"{seeds / 'seed-3' / 'eggan_modular_ga.pt'}: train.lr_generator: expected 0.0001" in error
+    assert not Path("data/modular/realtime.parquet").exists()
+    assert with_seed(params, "ga", 3).train.lr_generator == 1e-4  # the params' own setting, as the error says
+
+    # the README alone: every learner at its one seed, and the report says so
+    for folder in ("seed-1", "seed-2", "seed-3"):
+        shutil.rmtree(seeds / folder)
+    runpy.run_path(str(STAGES / "modular_realtime.py"), run_name="__main__")
+    table = read_table("data/modular/realtime.parquet", "modular_realtime")
+    assert (table.training_seed == 0).all() and len(table) == (len(learned) + 4) * len(queries)
+    summary = json.loads(Path("reports/metrics/modular_realtime.json").read_text())
+    assert summary["further_training_seeds"] == [] and summary["crowding"]["training_seeds"]["n"] == 1
+    assert summary["crowding"]["training_seeds"]["max_distance"]["sd"] is None
+    text = section(Path("reports"), Path("data"))
+    assert "n seeds = 1: one training seed per learner" in text

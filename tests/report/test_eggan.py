@@ -22,7 +22,8 @@ def _table() -> pd.DataFrame:
         for query in range(3):
             rows.append({"method": method, "terrain_seed": 1000, "query": query, "candidates": 10, "valid": 10,
                          "best_design": "wwwwww", "max_distance": best if query else np.nan, "distinct": distinct,
-                         "ec_distance": best - 1, "ec_failures": 0, "optimum": 7.0, "regret": 7.0 - best})
+                         "ec_distance": best - 1, "ec_failures": 0, "optimum": 7.0, "regret": 7.0 - best,
+                         "training_seed": 0})
     return pd.DataFrame(rows)
 
 
@@ -46,12 +47,13 @@ def test_section_has_table_5_1_with_thesis_numbers_and_a_verdict(tmp_path):
                                                  "real_std": 2.0}}
     (reports / "metrics" / "eggan_modular.json").write_text(json.dumps(metrics))
     text = section(reports, data)
-    assert "| EG-GAN-crowding | 6.00 ± 0.00 | 4.0 ± 0.0 | 5.00 ± 0.00 | 1.00 ± 0.00 | 1 / 0 | 400 | 5.73 ± 0.22" in text
+    assert "| EG-GAN-crowding | 6.00 ± 0.00 | 4.0 ± 0.0 | 5.00 ± 0.00 | 1.00 ± 0.00 | 1 / 0 | 400 | - | 5.73 ± 0.22" \
+        in text  # a stage record without training seeds: the spread over terrains x queries
     assert "| Random sampling | 3.00" in text and "0.86 ± 0.81" in text  # the thesis's hand-crafted row
     assert "EG-GAN-crowding beats random sampling" in text and "has more distinct solutions than EG-GAN" in text
     assert "It does not beat the terrain-agnostic portfolio (6.50 m). It reaches 86% of the exhaustive optimum" in text
     portfolio = "| Portfolio (terrain-agnostic baseline) | 6.50 ± 0.00 | 2.0 ± 0.0 | 5.50 ± 0.00 | 0.50 ± 0.00 |"
-    assert f"{portfolio} 1 / 0 | - | - | - | - | - |" in text  # a row the thesis does not have
+    assert f"{portfolio} 1 / 0 | - | - | - | - | - | - |" in text  # a row the thesis does not have, not trained
     assert "| Exhaustive optimum (oracle) | 7.00 ± 0.00 | 5.0 ± 0.0 | 6.00 ± 0.00 | 0.00 ± 0.00 |" in text
     assert "DQN builds" not in text  # no ceiling without the stage's metrics
     dqn = next(line for line in text.splitlines() if line.startswith("| DQN |"))
@@ -176,8 +178,9 @@ def test_the_pool_size_study_is_a_table_and_a_figure(tmp_path):
     _stage_metrics(reports)
     rows = _table()
     rows = rows[rows.method.isin(["crowding", "portfolio"])]
-    study = pd.concat([rows.assign(pool_terrains=n, seed=0, iterations_done=900, lookups=5000 * n,
-                                   train_max_distance=6.5) for n in (8, 16)])
+    study = pd.concat([rows.drop(columns="training_seed").assign(pool_terrains=n, seed=0, iterations_done=900,
+                                                                 lookups=5000 * n, train_max_distance=6.5)
+                       for n in (8, 16)])
     study.loc[(study.pool_terrains == 16) & (study.method == "crowding"), "max_distance"] += 1.0
     write_table(study, data / "modular" / "pool_size.parquet", "modular_pool_size")
     text = section(reports, data)
@@ -197,7 +200,8 @@ def test_the_verdict_tests_crowding_against_the_others_paired_by_terrain(tmp_pat
             rows.append({"method": method, "terrain_seed": seed, "query": 0, "candidates": 10, "valid": 10,
                          "best_design": "wwwwww", "max_distance": base + lift + (rng.normal(0, 0.3) if method == "ga"
                                                                                  else 0.0),
-                         "distinct": 2, "ec_distance": base, "ec_failures": 0, "optimum": 9.0, "regret": 1.0})
+                         "distinct": 2, "ec_distance": base, "ec_failures": 0, "optimum": 9.0, "regret": 1.0,
+                         "training_seed": 0})
     write_table(pd.DataFrame(rows), data / "modular" / "realtime.parquet", "modular_realtime")
     _stage_metrics(reports)
     text = section(reports, data)
@@ -261,3 +265,36 @@ def test_partial_test_tables_are_named_with_their_rollouts_and_the_optimum_as_a_
     assert "`balanced` (400 designs): 1010, 1011" in text and "15 candidate rollouts outside the partial" in text
     assert "a lower bound on its true optimum" in text and "within 0.001 m" in text
     assert "beat the set on 1 of the 2 partial terrains" in text
+
+
+def test_learned_rows_show_the_mean_and_sd_over_their_training_seeds(tmp_path):
+    """With the stage's record over training seeds, a learned row of Table 5.1 and of the best-of-k table is the mean
+    ± sd of its seeds' means, with its number of seeds; an unlearned row keeps the spread over terrains x queries."""
+    data, reports = tmp_path / "data", tmp_path / "reports"
+    table = _table()
+    seeded = table[table.method == "crowding"]
+    write_table(pd.concat([table, seeded.assign(training_seed=1), seeded.assign(training_seed=2)]),
+                data / "modular" / "realtime.parquet", "modular_realtime")
+
+    def over(mean: float, sd: float | None) -> dict:
+        return {"mean": mean, "sd": sd, "per_seed": {}}
+
+    seeds = {"seeds": [0, 1, 2], "n": 3, "max_distance": over(5.5, 0.25), "distinct": over(4.0, 0.5),
+             "ec_distance": over(4.5, 0.125), "regret": over(1.5, 0.25), "best_of_1": over(3.0, 0.5),
+             "best_of_10": over(5.5, 0.25)}
+    best_of = {"ks": [1, 10], "per_terrain": {},
+               "methods": {m: {str(k): {"mean": 2.0, "std": 1.0, "no_valid": 0, "lookups": float(k)} for k in (1, 10)}
+                           for m in set(table.method)}}
+    _stage_metrics(reports, {"crowding": {**method_info("crowding"), "training_seeds": seeds}, "best_of": best_of})
+    text = section(reports, data)
+    row = next(line for line in text.splitlines() if line.startswith("| EG-GAN-crowding |"))
+    assert row.startswith("| EG-GAN-crowding | 5.50 ± 0.25 | 4.0 ± 0.5 | 4.50 ± 0.12 | 1.50 ± 0.25 | 3 / 0 | 100 | 3 |")
+    assert "| Random sampling | 3.00 ± 0.00 | 1.0 ± 0.0 | 2.00 ± 0.00 | 4.00 ± 0.00 | 1 / 0 | - | - |" in text
+    assert "mean ± sd over their training seeds (3 seeds: 0, 1, 2; column `training seeds`)" in text
+    assert "n seeds = 1" not in text
+    assert "| EG-GAN-crowding | 3.00 ± 0.50 | 1 | 5.50 ± 0.25 | 10 |" in text  # best of k over the seeds
+    assert "| Random sampling | 2.00 ± 1.00 | 1 | 2.00 ± 1.00 | 10 |" in text
+    _stage_metrics(reports, {"crowding": {**method_info("crowding"), "training_seeds": {
+        **seeds, "seeds": [0], "n": 1, "max_distance": over(5.5, None)}}})
+    text = section(reports, data)
+    assert "| EG-GAN-crowding | 5.50 | 4.0 ± 0.5 |" in text and "n seeds = 1: one training seed per learner" in text

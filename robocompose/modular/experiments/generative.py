@@ -9,7 +9,9 @@ pool's validation terrains (`validation_scores`) goes into its log and metrics, 
 Table 5.1's methods (`realtime_methods`, `realtime_proposers`): the learned ones from their model files, the diverse
 query of EG-GAN-crowding's generator (`DIVERSE`: candidates pairwise at Hamming distance >= the protocol's
 `diverse_hamming`, `robocompose.modular.diverse`), random sampling and the rows from tables
-(`robocompose.modular.experiments.protocol`, which runs the test protocol).
+(`robocompose.modular.experiments.protocol`, which runs the test protocol). The learned rows (`learned_methods`)
+are answered again by each further training seed's models (`seeded_realtime_table`; the folders `train_seed` fills,
+checked by `robocompose.modular.experiments.training_seeds`).
 Every learned row is an entry of `robocompose.eggan.learners.LEARNERS["modular"]`, the only list of them: its title and
 whether it trained are written beside its results (`method_info`) for the report.
 """
@@ -20,6 +22,9 @@ import dataclasses
 import math
 import time
 from pathlib import Path
+from typing import Any
+
+import pandas as pd
 
 # The learners this module trains and loads through the registry, which names their modules without importing them:
 # imported here so that this module's import closure (its stages' code deps) holds their code. A test checks the list
@@ -35,10 +40,13 @@ from robocompose.modular.diverse import diverse_answer
 from robocompose.modular.eggan_params import EgganModularParams
 from robocompose.modular.experiments.protocol import (
     Proposer,
+    TableAnswers,
     random_proposer,
+    realtime_table,
     table_proposers,
     training_scores,
     validation_scores,
+    with_optimum,
 )
 from robocompose.modular.params import ModularParams
 from robocompose.modular.plugins.eggan_problem import ModularEgganProblem
@@ -69,8 +77,7 @@ def train_variant(variant: str, modular: ModularParams, params: EgganModularPara
     if variant not in known:
         raise ValueError(f"variant {variant!r}: expected one of {sorted(known)}")
     learner = known[variant]
-    config = dataclasses.replace(params.train, evolution=learner.evolution,
-                                 evolution_steps=params.evolution_steps[variant])
+    config = training_config(variant, params)
     # per iteration and task: X_gen, then one batch per crowding step / GA generation
     problem = make_problem(modular, params, cache, executor,
                            config.iterations * config.tasks * (1 + config.evolution_steps))
@@ -128,28 +135,56 @@ def method_info(method: str) -> dict:
     return {"title": method_title(method), "learned": method in LEARNERS["modular"], **generator}
 
 
-def realtime_proposers(problem: ModularEgganProblem, params: EgganModularParams, models: Path,
-                       portfolio: list[str], optima: dict[int, list[str]], greedy: list[str]) -> dict[str, Proposer]:
-    """Every row of Table 5.1: each learned method from its trained model under `models`, random sampling, and the
-    rows from tables (`table_proposers` of the `portfolio` designs, the `greedy` portfolio's and each test
-    terrain's fittest designs)."""
-    tables = table_proposers(portfolio, optima, greedy)
+def learned_methods() -> tuple[str, ...]:
+    """The rows of Table 5.1 a trained model answers, in the table's order: every learner's and each diverse query's
+    (whose learner's generator answers it). A further training seed answers these rows again."""
+    return tuple(m for m in realtime_methods() if DIVERSE.get(m, m) in LEARNERS["modular"])
+
+
+def learned_proposers(problem: ModularEgganProblem, params: EgganModularParams, models: Path) -> dict[str, Proposer]:
+    """The learned rows of Table 5.1 (`learned_methods`), each from its learner's model `models`/eggan_modular_NAME.pt
+    (a folder of the stage's own models, or one of a further training seed's)."""
     proposers: dict[str, Proposer] = {}
-    for method in realtime_methods():
+    for method in learned_methods():
         trained = DIVERSE.get(method, method)
         path = models / f"eggan_modular_{trained}.pt"
-        if method == "random":
-            proposers[method] = random_proposer
-        elif method in tables:
-            proposers[method] = tables[method]
-        elif path.exists():
-            learner = LEARNERS["modular"][trained]
-            model = learner.load(path, problem)[0]
-            proposers[method] = diverse_answer(model, params.protocol.samples, params.protocol.diverse_hamming) \
-                if method in DIVERSE else learner.answer(model, params.protocol.samples)
-        else:
+        if not path.exists():
             raise FileNotFoundError(f"{path}: no trained {method_title(trained)} model (run train_eggan_modular)")
+        learner = LEARNERS["modular"][trained]
+        model = learner.load(path, problem)[0]
+        proposers[method] = diverse_answer(model, params.protocol.samples, params.protocol.diverse_hamming) \
+            if method in DIVERSE else learner.answer(model, params.protocol.samples)
     return proposers
+
+
+def realtime_proposers(problem: ModularEgganProblem, params: EgganModularParams, models: Path,
+                       portfolio: list[str], optima: dict[int, list[str]], greedy: list[str]) -> dict[str, Proposer]:
+    """Every row of Table 5.1: each learned method from its trained model under `models` (`learned_proposers`),
+    random sampling, and the rows from tables (`table_proposers` of the `portfolio` designs, the `greedy`
+    portfolio's and each test terrain's fittest designs)."""
+    tables = {"random": random_proposer, **table_proposers(portfolio, optima, greedy)}
+    learned = learned_proposers(problem, params, models)
+    return {method: tables[method] if method in tables else learned[method] for method in realtime_methods()}
+
+
+def seeded_realtime_table(proposers: dict[str, Proposer], seeds: dict[int, Path], problem: ModularEgganProblem,
+                          modular: ModularParams, params: EgganModularParams, tables: TableAnswers,
+                          best_of: tuple[int, ...] = ()) -> tuple[pd.DataFrame, dict[str, float]]:
+    """Table 5.1 over training seeds: every row of `proposers` (the stage's own models and the unlearned rows) on the
+    test terrains (`realtime_table`), then the learned rows (`learned_methods`) again from each further training
+    seed's folder (`seeds`: seed -> folder, checked by `training_seeds.further_seeds`): the same terrains, queries,
+    candidates and look-ups (`tables`). Column `training_seed`: the seed of the model that answered a learned row
+    (the learner's configured one for the stage's own), 0 for a row no model answers (answered once). Optimum and
+    regret are set from every candidate answered (`with_optimum`). Returns the table and the median query wall
+    times of the stage's own rows (`proposers`)."""
+    table, query_ms = realtime_table(proposers, problem, modular, params, tables, best_of)
+    learned = learned_methods()
+    parts = [table.assign(training_seed=[configured_seed(m, params) if m in learned else 0 for m in table.method])]
+    for seed, folder in seeds.items():
+        seeded = realtime_table(learned_proposers(problem, params, folder), problem, modular, params, tables,
+                                best_of)[0]
+        parts.append(seeded.assign(training_seed=seed))
+    return with_optimum(pd.concat(parts, ignore_index=True), tables), query_ms
 
 
 def train_baseline(name: str, modular: ModularParams, params: EgganModularParams, cache: EvaluationCache | None,
@@ -158,7 +193,7 @@ def train_baseline(name: str, modular: ModularParams, params: EgganModularParams
     rollouts as EG-GAN; writes out/eggan_modular_NAME.{pt,json} and returns its metrics."""
     learner = LEARNERS["modular"][name]
     training = learner.training
-    config = build_config(training.settings, params.baselines[name], f"eggan_modular.baselines.{name}")
+    config = training_config(name, params)
     problem = make_problem(modular, params, cache, executor, config.iterations * config.tasks)
     model, rows = training.train(problem, params.network, config, progress)
     if problem.fitness.source == "table":
@@ -181,6 +216,24 @@ def train_method(method: str, modular: ModularParams, params: EgganModularParams
     trainer = train_variant if method in variants("modular") else train_baseline
     metrics = trainer(method, modular, params, cache, executor, out, progress)
     return {**metrics, "seconds": round(time.perf_counter() - started, 1)}
+
+
+def training_config(method: str, params: EgganModularParams) -> Any:
+    """The settings learner `method` trains with under `params` (the dataclass its model file records as "train"):
+    an EG-GAN variant `params.train` with its evolution and steps, a learned baseline its own settings' dataclass."""
+    if method in variants("modular"):
+        return dataclasses.replace(params.train, evolution=LEARNERS["modular"][method].evolution,
+                                   evolution_steps=params.evolution_steps[method])
+    if method not in baselines("modular"):
+        raise InputError(f"method: expected one of {list(training_order('modular'))}, found {method!r}")
+    return build_config(LEARNERS["modular"][method].training.settings, params.baselines[method],
+                        f"eggan_modular.baselines.{method}")
+
+
+def configured_seed(method: str, params: EgganModularParams) -> int:
+    """The training seed learner `method` (or, for a diverse query's row, the learner whose generator answers it)
+    trains at under `params`: the seed of the stage's own model; 0 for a learner whose settings have none."""
+    return int(getattr(training_config(DIVERSE.get(method, method), params), "seed", 0))
 
 
 def with_seed(params: EgganModularParams, method: str, seed: int) -> EgganModularParams:

@@ -12,7 +12,8 @@ terrain -> candidate designs) on every held-out test terrain and query (`realtim
 - regret = the terrain's optimum (exhaustive; on a partial table the best known, a lower bound) minus max distance;
 - best of k (`best_of`, asked by the stage for `best_of_ks`: 1, 3 and all the candidates): the best valid one of
   the query's first k candidates (NaN if none), and the distinct look-ups those k cost: the same queries and
-  candidates, no further look-up. `best_of_summary` gives each method's mean per k and per terrain for the report.
+  candidates, no further look-up. `best_of_summary` gives each method's mean per k and per terrain for the report
+  (a terrain's mean averaged over a learned row's training seeds; `seed_summary`: the mean and sd over its seeds).
 
 Beside the thesis's rows, three from tables (`table_proposers`): the terrain-agnostic portfolio (the designs best on
 average over the training pool, `robocompose.modular.experiments.table_designs.portfolio`), the greedy portfolio
@@ -208,9 +209,48 @@ def best_of_summary(table: pd.DataFrame, ks: tuple[int, ...]) -> dict:
                                     "std": number(group[f"best_of_{k}"].std(ddof=0)),
                                     "no_valid": int(group[f"best_of_{k}"].isna().sum()),
                                     "lookups": number(group[f"lookups_{k}"].mean())} for k in ks}
-        per_terrain[method] = {str(k): {str(seed): number(v) for seed, v in
-                                        group.groupby("terrain_seed")[f"best_of_{k}"].mean().items()} for k in ks}
+        per_terrain[method] = {str(k): {str(seed): number(v)
+                                        for seed, v in terrain_means(group, f"best_of_{k}").items()} for k in ks}
     return {"ks": list(ks), "methods": methods, "per_terrain": per_terrain}
+
+
+def terrain_means(rows: pd.DataFrame, column: str) -> pd.Series:
+    """Per test terrain, one method's mean of `column` over its queries, averaged over its training seeds when
+    `rows` has them (column `training_seed`): the pairs of the report's tests (one score per terrain)."""
+    if "training_seed" not in rows:
+        return rows.groupby("terrain_seed")[column].mean()
+    return rows.groupby(["training_seed", "terrain_seed"])[column].mean().groupby("terrain_seed").mean()
+
+
+SEED_COLUMNS = ("max_distance", "distinct", "ec_distance", "regret")  # Table 5.1's columns, summarised over seeds
+
+
+def seed_summary(table: pd.DataFrame, methods: Sequence[str], ks: tuple[int, ...] = ()) -> dict:
+    """Per method of `methods` in the table (its learned rows, column `training_seed`): over its training seeds, the
+    mean and the sd (sample, ddof 1; None for one seed) of each seed's mean over terrains x queries, of max distance,
+    distinct, EC distance, regret and each k's best_of_K (as "best_of_K"), with every seed's mean ("per_seed"), the
+    seeds and their number ("n"). Keys are strings (JSON); numbers rounded to 4 places."""
+    def number(value: float) -> float | None:
+        return None if value != value else round(float(value), 4)
+
+    columns = [*SEED_COLUMNS, *(f"best_of_{k}" for k in ks)]
+    out = {}
+    for method, group in table[table.method.isin(list(methods))].groupby("method", sort=False):
+        per_seed = group.groupby("training_seed")[columns].mean()
+        out[method] = {"seeds": [int(seed) for seed in per_seed.index], "n": len(per_seed),
+                       **{column: {"mean": number(per_seed[column].mean()),
+                                   "sd": number(per_seed[column].std(ddof=1)) if len(per_seed) > 1 else None,
+                                   "per_seed": {str(seed): number(v) for seed, v in per_seed[column].items()}}
+                          for column in columns}}
+    return out
+
+
+def with_optimum(table: pd.DataFrame, tables: TableAnswers) -> pd.DataFrame:
+    """`table` with each row's optimum and regret set from every candidate `tables` answered so far: on a partial
+    table a candidate of a later run (another training seed's) may beat the set, and every row of a terrain must
+    share one optimum."""
+    optimum = table.terrain_seed.map(tables.optimum)
+    return table.assign(optimum=optimum, regret=optimum - table.max_distance)
 
 
 def summarise(table: pd.DataFrame) -> pd.DataFrame:

@@ -2,6 +2,7 @@
 score the optimum; the portfolio gives the same designs on every terrain; a terrain without a table is an error;
 the best of the first k candidates is read from the same candidates."""
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -15,7 +16,9 @@ from robocompose.modular.experiments.protocol import (
     best_of_summary,
     random_proposer,
     realtime_table,
+    seed_summary,
     table_proposers,
+    terrain_means,
 )
 from robocompose.modular.experiments.table_designs import top_designs
 from robocompose.params import build_config
@@ -77,3 +80,40 @@ def test_the_best_of_the_first_k_candidates_comes_from_the_same_candidates(synth
     assert summary["per_terrain"]["portfolio"]["1"] == {"1007": 3.0, "1008": 1.5}
     assert set(table.columns) - set(realtime_table({"random": random_proposer}, problem, MODULAR, params,
                                                    answered(truth))[0].columns) == set(best_of_columns(ks))
+
+
+def _seeded_table() -> pd.DataFrame:
+    """A hand-made realtime table: crowding at training seeds 0, 1, 2 on terrains 1000 and 1001 x 2 queries (seed 2
+    has a query without a valid candidate), random answered once (training seed 0)."""
+    scores = {0: {1000: [1.0, 2.0], 1001: [3.0, 4.0]}, 1: {1000: [2.0, 2.0], 1001: [2.0, 2.0]},
+              2: {1000: [3.0, np.nan], 1001: [3.0, 3.0]}}
+    rows = [{"method": "crowding", "training_seed": seed, "terrain_seed": terrain, "query": query, "max_distance": x,
+             "distinct": seed + 1, "ec_distance": x, "regret": 5.0 - x, "best_of_1": x / 2, "lookups_1": 1}
+            for seed, by_terrain in scores.items() for terrain, xs in by_terrain.items()
+            for query, x in enumerate(xs)]
+    rows += [{"method": "random", "training_seed": 0, "terrain_seed": terrain, "query": query, "max_distance": 1.0,
+              "distinct": 1, "ec_distance": 1.0, "regret": 4.0, "best_of_1": 0.5, "lookups_1": 1}
+             for terrain in (1000, 1001) for query in (0, 1)]
+    return pd.DataFrame(rows)
+
+
+def test_the_summary_over_training_seeds_is_the_mean_and_sd_of_the_seeds_means():
+    table = _seeded_table()
+    summary = seed_summary(table, ["crowding", "random"], (1,))
+    crowding = summary["crowding"]
+    assert crowding["seeds"] == [0, 1, 2] and crowding["n"] == 3
+    # the seeds' means 2.5, 2.0, 3.0 (seed 2's invalid query left out): mean 2.5, sample sd 0.5; pooled over the
+    # 11 valid queries the mean would be 27 / 11
+    assert crowding["max_distance"] == {"mean": 2.5, "sd": 0.5, "per_seed": {"0": 2.5, "1": 2.0, "2": 3.0}}
+    assert crowding["regret"] == {"mean": 2.5, "sd": 0.5, "per_seed": {"0": 2.5, "1": 3.0, "2": 2.0}}
+    assert crowding["distinct"]["mean"] == 2.0 and crowding["distinct"]["sd"] == 1.0
+    assert crowding["best_of_1"]["mean"] == 1.25 and crowding["best_of_1"]["sd"] == 0.25
+    assert summary["random"]["n"] == 1 and summary["random"]["max_distance"] == {"mean": 1.0, "sd": None,
+                                                                                "per_seed": {"0": 1.0}}
+    assert set(seed_summary(table, ["crowding"])) == {"crowding"}  # only the methods asked for
+    # a terrain's score for the paired tests: its mean over queries, averaged over the seeds
+    means = terrain_means(table[table.method == "crowding"], "max_distance")
+    assert means.to_dict() == pytest.approx({1000: (1.5 + 2.0 + 3.0) / 3, 1001: (3.5 + 2.0 + 3.0) / 3})
+    summary = best_of_summary(table, (1,))
+    assert summary["per_terrain"]["crowding"]["1"] == {"1000": round((0.75 + 1.0 + 1.5) / 3, 4),
+                                                       "1001": round((1.75 + 1.0 + 1.5) / 3, 4)}
