@@ -115,6 +115,22 @@ def ridge_prediction(features: np.ndarray, table: np.ndarray, query: np.ndarray,
     return (test @ weights)[0] + centre
 
 
+PREDICTORS = ("knn", "ridge")  # the two predictors of a held-out terrain's row of the table
+
+
+def predict_row(features: np.ndarray, table: np.ndarray, query: np.ndarray, predictor: str,
+                config: GateConfig = GateConfig()) -> np.ndarray:
+    """A held-out terrain's row of `table` (training terrains x designs) predicted from its `query` features and
+    the training terrains' `features` by `predictor` (one of `PREDICTORS`: `knn_prediction` with
+    `config.neighbours`, `ridge_prediction` with `config.ridge`). Also Table 5.1's predict rows
+    (`robocompose.modular.experiments.table_designs.predict_proposers`)."""
+    if predictor == "knn":
+        return knn_prediction(features, table, query, config.neighbours)
+    if predictor == "ridge":
+        return ridge_prediction(features, table, query, config.ridge)
+    raise ValueError(f"predictor: expected one of {list(PREDICTORS)}, found {predictor!r}")
+
+
 def _top(prediction: np.ndarray, k: int) -> np.ndarray:
     return np.argsort(-prediction, kind="stable")[:k]
 
@@ -152,11 +168,10 @@ def gate(table: pd.DataFrame, features: pd.DataFrame, config: GateConfig = GateC
     rows = []
     for t in range(terrains):
         train = np.arange(terrains) != t
-        knn = knn_prediction(x[train], values[train], x[t], config.neighbours)
-        ridge = ridge_prediction(x[train], values[train], x[t], config.ridge)
+        predicted = {name: predict_row(x[train], values[train], x[t], name, config) for name in PREDICTORS}
         portfolio = greedy_portfolio(values[train], max(config.ks))
         for k in config.ks:
-            picks = {"portfolio": portfolio[:k], "knn": _top(knn, k), "ridge": _top(ridge, k)}
+            picks = {"portfolio": portfolio[:k], **{name: _top(row, k) for name, row in predicted.items()}}
             rows += [{"terrain": table.index[t], "k": k, "method": name, "score": float(values[t, list(p)].max())}
                      for name, p in picks.items()]
             rows.append({"terrain": table.index[t], "k": k, "method": "optimum", "score": float(optimum[t])})

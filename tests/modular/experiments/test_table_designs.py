@@ -1,18 +1,25 @@
 """Designs chosen from exhaustive tables: the portfolio is best on average (not the per-terrain optima), the greedy
-portfolio's best-of-k is best on average (it covers the terrains the top-k loses), the optimum rows are a
+portfolio's best-of-k is best on average (it covers the terrains the top-k loses), the predict rows read the
+terrain's height map and answer its own best designs where the portfolio cannot, the optimum rows are a
 terrain's fittest designs, the symmetric ceiling equals a brute force over DQN's space."""
 
 import numpy as np
 import pandas as pd
 import pytest
+import torch
 
 from robocompose.io.errors import InputError
 from robocompose.modular.experiments.table_designs import (
+    PREDICT_ROWS,
     greedy_portfolio,
+    pool_rows,
     portfolio,
+    predict_proposers,
+    predicted_designs,
     symmetric_ceiling,
     top_designs,
 )
+from robocompose.modular.gate import GateConfig, height_map_features
 from robocompose.modular.plugins.eggan_problem import ModularEgganProblem
 from robocompose.modular.robot import all_designs
 from tests.modular.test_truth import _table
@@ -68,3 +75,51 @@ def test_the_symmetric_ceiling_equals_a_brute_force_over_the_dqn_design_space():
     assert ceiling["ceiling"] == pytest.approx(np.mean(per_terrain)) and ceiling["designs"] == 64
     assert ceiling["best_design"] == best and ceiling["best_design_mean"] == pytest.approx(means[best])
     assert ceiling["ceiling"] < table.groupby("terrain_seed").fitness.max().mean()  # the space is a subset
+
+
+def _height_map(wall: float) -> np.ndarray:
+    """A (50, 20) height map: flat, or a wall `wall` m tall across the course 2 m in."""
+    h = np.zeros((50, 20))
+    h[10:12, :] = wall
+    return h
+
+
+class _Terrains:
+    """A problem's task encoding alone: each seed's hand-made height map (odd seeds: a wall, even: flat)."""
+
+    def encode_task(self, seed: int) -> torch.Tensor:
+        return torch.from_numpy(_height_map(0.10 + 0.01 * seed if seed % 2 else 0.0))
+
+
+def _walls_pool(seeds) -> pd.DataFrame:
+    """Legs win over a wall, wheels on the flat; bbbbbb (and its twin bbbbbw) is the best on average."""
+    return _table({seed: {"llllll": 3.0 if seed % 2 else 0.0, "wwwwww": 0.0 if seed % 2 else 3.0,
+                          "bbbbbb": 2.0, "bbbbbw": 2.0} for seed in seeds})
+
+
+def test_the_predict_rows_answer_the_held_out_terrains_own_best_design_from_its_height_map():
+    pool = _walls_pool(range(1, 7))
+    assert portfolio(pool, 1) == ["bbbbbb"]  # the terrain-agnostic answer: never a terrain's best
+    proposers = predict_proposers(_Terrains(), pool)
+    assert list(proposers) == list(PREDICT_ROWS) == ["predict_knn", "predict_ridge"]
+    for name, propose in proposers.items():
+        # held-out terrains 7 (a wall) and 8 (flat): each one's own best first, then the average best (ties: the
+        # first port string), the other terrain's best last; the query seed changes nothing
+        assert propose(_Terrains(), 7, 0, 4) == ["llllll", "bbbbbb", "bbbbbw", "wwwwww"], name
+        assert propose(_Terrains(), 8, 5, 1) == propose(_Terrains(), 8, 6, 1) == ["wwwwww"], name
+    with pytest.raises(InputError, match=r"protocol.candidates: expected between 1 and the 4 designs .* found 5"):
+        proposers["predict_knn"](_Terrains(), 7, 0, 5)
+
+
+def test_predicted_designs_reads_hand_made_features_and_only_designs_on_every_terrain():
+    pool = _walls_pool([1, 2, 3, 4])
+    pool.loc[(pool.terrain_seed == 4) & (pool.design == "wwwwww"), "fitness"] = np.nan  # not measured there
+    rows = pool_rows(pool.dropna())
+    assert list(rows.columns) == ["bbbbbb", "bbbbbw", "llllll"] and list(rows.index) == [1, 2, 3, 4]
+    features = pd.DataFrame([height_map_features(_height_map(0.15 if s % 2 else 0.0)) for s in rows.index],
+                            index=rows.index)
+    query = pd.Series(height_map_features(_height_map(0.2)))
+    assert predicted_designs(rows, features, query, 1, "knn", GateConfig(neighbours=2)) == ["llllll"]
+    assert predicted_designs(rows, features, query, 2, "ridge") == ["llllll", "bbbbbb"]
+    flat = pd.Series(height_map_features(_height_map(0.0)))
+    assert predicted_designs(rows, features, flat, 1, "knn", GateConfig(neighbours=2)) == ["bbbbbb"]
