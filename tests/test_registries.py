@@ -31,7 +31,7 @@ from robocompose.modular.experiments.generative import (
     train_baseline,
 )
 from robocompose.modular.experiments.protocol import TableAnswers
-from robocompose.modular.experiments.table_designs import portfolio, top_designs
+from robocompose.modular.experiments.table_designs import portfolio, predict_proposers, top_designs
 from robocompose.modular.params import ExperimentsConfig, ModularParams
 from robocompose.params import build_config
 from robocompose.report import eggan as eggan_report
@@ -126,9 +126,11 @@ def test_a_registered_learner_trains_is_checked_by_its_profile_and_reaches_table
     truth = pd.read_parquet(fake_pool(tmp_path / "truth", [1001]))
     train = pd.read_parquet(pool)
     problem = make_problem(modular, params, None, None)
-    proposers = realtime_proposers(problem, params, tmp_path, portfolio(train[train.terrain_seed < 20_002], 1),
-                                   {1001: top_designs(truth, 1)}, ["bbbbbb"])
-    assert list(proposers) == ["fixed", "random", "portfolio", "portfolio_greedy", "optimum"]
+    pool_train = train[train.terrain_seed < 20_002]
+    proposers = realtime_proposers(problem, params, tmp_path, portfolio(pool_train, 1), {1001: top_designs(truth, 1)},
+                                   ["bbbbbb"], predict_proposers(problem, pool_train))
+    assert list(proposers) == ["fixed", "random", "portfolio", "portfolio_greedy", "predict_knn", "predict_ridge",
+                               "optimum"]
     table, _ = seeded_realtime_table(proposers, {}, problem, modular, params,
                                      TableAnswers(truth, modular.eval, modular.fitness))
     data, reports = tmp_path / "data", tmp_path / "reports"

@@ -9,7 +9,9 @@ pool's validation terrains (`validation_scores`) goes into its log and metrics, 
 Table 5.1's methods (`realtime_methods`, `realtime_proposers`): the learned ones from their model files, the diverse
 query of EG-GAN-crowding's generator (`DIVERSE`: candidates pairwise at Hamming distance >= the protocol's
 `diverse_hamming`, `robocompose.modular.diverse`), random sampling and the rows from tables
-(`robocompose.modular.experiments.protocol`, which runs the test protocol). The learned rows (`learned_methods`)
+(`robocompose.modular.experiments.protocol`, which runs the test protocol; the predict rows, which read the
+terrain but learn nothing beyond the pool's tables: `robocompose.modular.experiments.table_designs`, imported by
+the stage alone so that the learners' code deps stay as they were). The learned rows (`learned_methods`)
 are answered again by each further training seed's models (`seeded_realtime_table`; the folders `train_seed` fills,
 checked by `robocompose.modular.experiments.training_seeds`).
 Every learned row is an entry of `robocompose.eggan.learners.LEARNERS["modular"]`, the only list of them: its title and
@@ -102,14 +104,21 @@ def train_variant(variant: str, modular: ModularParams, params: EgganModularPara
     return metrics
 
 
+# the rows that predict the test terrain's row of the table from its height map and the pool's tables (no training:
+# `table_designs.predict_proposers`, which the stage builds and `realtime_proposers` is given)
+PREDICT = ("predict_knn", "predict_ridge")
+
+
 def realtime_methods() -> tuple[str, ...]:
     """Table 5.1's rows, in its order: the learned baselines, random sampling, EG-GAN's variants; ours beside them,
-    read from tables: the terrain-agnostic portfolios, top-k and greedy (after random sampling), the diverse
-    query of a registered variant's generator (after the variants) and the oracle (last). Read from the registry at
-    each call, so that a learner registered at run time (a test's) is a row."""
+    read from tables: the terrain-agnostic portfolios, top-k and greedy (after random sampling), the terrain-reading
+    predictions of the table, k-NN and ridge (after the portfolios: the predictability ceiling given the pool), the
+    diverse query of a registered variant's generator (after the variants) and the oracle (last). Read from the
+    registry at each call, so that a learner registered at run time (a test's) is a row."""
     learned = variants("modular")
     diverse = [row for row, of in DIVERSE.items() if of in learned]
-    return (*baselines("modular"), "random", "portfolio", "portfolio_greedy", *learned, *diverse, "optimum")
+    return (*baselines("modular"), "random", "portfolio", "portfolio_greedy", *PREDICT, *learned, *diverse,
+            "optimum")
 
 
 # the diverse query's rows -> the EG-GAN variant whose trained generator answers them (the same model file)
@@ -118,6 +127,7 @@ DIVERSE = {"crowding_diverse": "crowding"}
 
 UNLEARNED = {"random": "Random sampling", "portfolio": "Portfolio (terrain-agnostic baseline)",
              "portfolio_greedy": "Portfolio, greedy (terrain-agnostic)",
+             "predict_knn": "Predict the table, k-NN", "predict_ridge": "Predict the table, ridge",
              "crowding_diverse": "EG-GAN-crowding, diverse query",
              "optimum": "Exhaustive optimum (oracle)"}  # the rows no learner answers -> their titles
 
@@ -158,11 +168,15 @@ def learned_proposers(problem: ModularEgganProblem, params: EgganModularParams, 
 
 
 def realtime_proposers(problem: ModularEgganProblem, params: EgganModularParams, models: Path,
-                       portfolio: list[str], optima: dict[int, list[str]], greedy: list[str]) -> dict[str, Proposer]:
+                       portfolio: list[str], optima: dict[int, list[str]], greedy: list[str],
+                       predict: dict[str, Proposer]) -> dict[str, Proposer]:
     """Every row of Table 5.1: each learned method from its trained model under `models` (`learned_proposers`),
     random sampling, and the rows from tables (`table_proposers` of the `portfolio` designs, the `greedy`
-    portfolio's and each test terrain's fittest designs)."""
-    tables = {"random": random_proposer, **table_proposers(portfolio, optima, greedy)}
+    portfolio's and each test terrain's fittest designs; `predict`, the rows of `PREDICT`:
+    `table_designs.predict_proposers`)."""
+    if set(predict) != set(PREDICT):
+        raise ValueError(f"predict: expected the rows {list(PREDICT)}, found {list(predict)}")
+    tables = {"random": random_proposer, **table_proposers(portfolio, optima, greedy), **predict}
     learned = learned_proposers(problem, params, models)
     return {method: tables[method] if method in tables else learned[method] for method in realtime_methods()}
 

@@ -19,7 +19,9 @@ Beside the thesis's rows, three from tables (`table_proposers`): the terrain-agn
 average over the training pool, `robocompose.modular.experiments.table_designs.portfolio`), the greedy portfolio
 (the designs whose best-of-k is best on average over the pool, `table_designs.greedy_portfolio`, answered in pick
 order) and the exhaustive optimum (each test terrain's fittest designs, `table_designs.top_designs`: an oracle
-upper bound, not a method).
+upper bound, not a method); and two that read the terrain without training (`table_designs.predict_proposers`):
+the designs best in the test terrain's row of the table as predicted from its height map's features and the pool's
+tables, by k-NN or ridge (the gate's predictability ceiling, `robocompose.modular.gate`).
 """
 
 from __future__ import annotations

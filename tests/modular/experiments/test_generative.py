@@ -19,6 +19,7 @@ from robocompose.fanout.executor import Executor
 from robocompose.modular.eggan_params import EgganModularParams
 from robocompose.modular.evaluate import EvalSettings, FitnessRule
 from robocompose.modular.experiments.generative import (
+    PREDICT,
     make_problem,
     method_info,
     method_title,
@@ -29,6 +30,7 @@ from robocompose.modular.experiments.generative import (
     training_scores,
     validation_scores,
 )
+from robocompose.modular.experiments.table_designs import PREDICT_ROWS
 from robocompose.modular.params import ExperimentsConfig, ModularParams
 from robocompose.modular.plugins import eggan_problem
 from robocompose.modular.plugins.eggan_problem import ModularEgganProblem
@@ -55,22 +57,28 @@ def test_molgan_baseline_trains_on_the_shared_budget_and_answers_queries(tmp_pat
     assert 20 < metrics["real_evaluations"] <= 40 and metrics["method"] == "MolGAN" and metrics["lam"] == 0.5
     saved = json.loads((tmp_path / "eggan_modular_molgan.json").read_text())
     assert saved["train"]["n_critic"] == 2 and "train_seconds" not in saved["metrics"]  # the file's bytes: params only
-    assert realtime_methods() == ("fit2form", "dqn", "molgan", "random", "portfolio", "portfolio_greedy", "ga",
-                                  "crowding", "crowding_diverse", "optimum")
+    assert realtime_methods() == ("fit2form", "dqn", "molgan", "random", "portfolio", "portfolio_greedy",
+                                  "predict_knn", "predict_ridge", "ga", "crowding", "crowding_diverse", "optimum")
     assert [method_title(m) for m in realtime_methods()] == [
         "Fit2form", "DQN", "MolGAN", "Random sampling", "Portfolio (terrain-agnostic baseline)",
-        "Portfolio, greedy (terrain-agnostic)", "EG-GAN", "EG-GAN-crowding", "EG-GAN-crowding, diverse query",
-        "Exhaustive optimum (oracle)"]  # Table 5.1's rows
+        "Portfolio, greedy (terrain-agnostic)", "Predict the table, k-NN", "Predict the table, ridge", "EG-GAN",
+        "EG-GAN-crowding", "EG-GAN-crowding, diverse query", "Exhaustive optimum (oracle)"]  # Table 5.1's rows
     assert method_info("crowding_diverse") == {"title": "EG-GAN-crowding, diverse query", "learned": False,
                                                "generator": "crowding"}  # the report prints its training spend
+    assert method_info("predict_ridge") == {"title": "Predict the table, ridge", "learned": False}
+    assert PREDICT == tuple(PREDICT_ROWS)  # the rows the stage's table_designs.predict_proposers answers
     for method in ("fit2form", "ga", "crowding"):  # the other generators' files, stood in by MolGAN's
         (tmp_path / f"eggan_modular_{method}.pt").write_bytes((tmp_path / "eggan_modular_molgan.pt").read_bytes())
     train_baseline("dqn", MODULAR, params, None, None, tmp_path)  # the protocol wants every method's model
     problem = eggan_problem.ModularEgganProblem(MODULAR, params.fitness)
+    predict = {row: (lambda problem, terrain, query_seed, k: ["lwwwwl"]) for row in PREDICT}  # stand-ins
+    with pytest.raises(ValueError, match=r"predict: expected the rows \['predict_knn', 'predict_ridge'\]"):
+        realtime_proposers(problem, params, tmp_path, ["lwlwlw"] * 10, {1000: ["wwwwww"] * 10}, ["bbbwww"] * 10, {})
     proposers = realtime_proposers(problem, params, tmp_path, ["lwlwlw"] * 10, {1000: ["wwwwww"] * 10},
-                                   ["bbbwww"] * 10)
+                                   ["bbbwww"] * 10, predict)
     assert list(proposers) == list(realtime_methods())
     assert proposers["portfolio_greedy"](problem, 1000, 7, 3) == ["bbbwww"] * 3
+    assert proposers["predict_ridge"](problem, 1000, 7, 3) == ["lwwwwl"]
     diverse = proposers["crowding_diverse"](problem, 1000, 7, 10)  # the crowding file's generator (MolGAN's here)
     assert all(sum(x != y for x, y in zip(a, b, strict=True)) >= params.protocol.diverse_hamming == 2
                for i, a in enumerate(diverse) for b in diverse[:i])
