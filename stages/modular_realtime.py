@@ -3,14 +3,15 @@
 params (modular, eggan_modular) + the generators of `train_eggan_modular` + the test terrains' tables: the
 exhaustive one (data/modular/exhaustive.parquet) where a terrain has it, else its committed partial table
 (measured/modular/test_partial/, `held_out`) + the training pool's tables (data/modular/pool.parquet, stage
-modular_pool; its training terrains give the portfolios, top-k and greedy) -> data/modular/realtime.parquet,
+modular_pool; its training terrains give the portfolios, top-k and greedy, and the rows from which the predict rows
+predict a test terrain's row of the table from its height map) -> data/modular/realtime.parquet,
 reports/metrics/modular_realtime.json (per method, with its title and whether it is learned: the report reads
-them there; the best of the first 1, 3 and 10 candidates per method and terrain; the portfolios' designs; DQN's
-symmetric-space ceiling on the test terrains with a full table; each test terrain's table, and the candidates
-simulated outside the partial ones), and Fig. 5.1's designs on the first two test terrains
-(data/modular/fig5_1.json). Every candidate is answered from the test terrain's table: no rollout on a full one;
-outside a partial one, a rollout through the shared cache (params compute). A test terrain without a table stops
-the stage before any work with one line naming it and the command that measures it.
+them there; the best of the first 1, 3 and 10 candidates per method and terrain; the portfolios' designs; the
+predict rows' settings; DQN's symmetric-space ceiling on the test terrains with a full table; each test terrain's
+table, and the candidates simulated outside the partial ones), and Fig. 5.1's designs on the first two test
+terrains (data/modular/fig5_1.json). Every candidate is answered from the test terrain's table: no rollout on a
+full one; outside a partial one, a rollout through the shared cache (params compute). A test terrain without a
+table stops the stage before any work with one line naming it and the command that measures it.
 
 Further training seeds: every folder measured/modular/seeds/seed-S (`robocompose modular train-seed`) answers the
 learned rows again, on the same terrains, queries and candidates (column `training_seed`; the stage's own models
@@ -47,11 +48,15 @@ from robocompose.modular.experiments.protocol import (
 )
 from robocompose.modular.experiments.table_designs import (
     greedy_portfolio,
+    pool_rows,
     portfolio,
+    predict_proposers,
     symmetric_ceiling,
+    terrain_features,
     top_designs,
 )
 from robocompose.modular.experiments.training_seeds import further_seeds
+from robocompose.modular.gate import GateConfig
 from robocompose.modular.params import ModularParams
 from robocompose.params import load_section
 from robocompose.stage import run_stage
@@ -59,6 +64,7 @@ from robocompose.stage import run_stage
 EXHAUSTIVE = Path("data/modular/exhaustive.parquet")
 FIG_5_1_GENERATOR = Path("models/eggan_modular_crowding.pt")
 SEEDS = Path("measured/modular/seeds")  # further training seeds: seed-S/eggan_modular_NAME.pt per learner
+PREDICT = GateConfig()  # the predict rows' k-NN neighbours and ridge penalty: the gate's
 
 
 def main() -> None:
@@ -77,7 +83,8 @@ def main() -> None:
     with timed("modular_realtime") as timing, \
             (compute.executor("modular_realtime") if partial else nullcontext()) as executor:
         problem = make_problem(modular, params, None, None)  # task encodings only: nothing is simulated
-        proposers = realtime_proposers(problem, params, Path("models"), designs, optima, greedy)
+        predict = predict_proposers(problem, training, PREDICT)
+        proposers = realtime_proposers(problem, params, Path("models"), designs, optima, greedy, predict)
         ks = best_of_ks(protocol.candidates)
         answers = TableAnswers(test, modular.eval, modular.fitness, compute.open_cache() if partial else None,
                                executor)
@@ -100,6 +107,9 @@ def main() -> None:
         "best_of": best_of_summary(table, ks),
         "diverse_query": {"min_hamming": protocol.diverse_hamming},
         "portfolio_designs": {"pool_terrains": len(fitness.train_seeds), "designs": designs, "greedy": greedy},
+        "predict_table": {"pool_terrains": pool_rows(training).shape[0], "designs": pool_rows(training).shape[1],
+                          "neighbours": PREDICT.neighbours, "ridge": PREDICT.ridge,
+                          "features": list(terrain_features(problem, fitness.train_seeds[0]).index)},
         "dqn_symmetric_ceiling": {k: round(v, 4) if isinstance(v, float) else v for k, v in ceiling.items()},
         "test_tables": held_out_metrics(test, sources, answers)})
 

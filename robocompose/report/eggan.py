@@ -7,7 +7,8 @@ Built from `train_eggan_modular` (reports/metrics/eggan_modular.json, reports/pl
 DQN's symmetric-space ceiling and each learned row's mean and sd over its training seeds, `training_seeds`, which
 Table 5.1 shows for those rows; data/modular/fig5_1.json, Fig. 5.1's generated designs); every distance is a pybullet
 rollout, read from the test terrain's exhaustive table. Beside the thesis's rows: a terrain-agnostic portfolio
-(the designs best on average over the training pool) and each terrain's exhaustive optimum (an oracle bound).
+(the designs best on average over the training pool), the terrain-reading predictions of the table (the
+predictability ceiling given the pool) and each terrain's exhaustive optimum (an oracle bound).
 
 The rows, their order and their titles are the stages' (modular_realtime.json names each method's title and
 whether it is learned; eggan_modular.json each learner's): this module imports no registry (and no torch), and
@@ -206,6 +207,19 @@ def _table_rows_lines(protocol: dict, methods: set[str]) -> list[str]:
                      "of the best of those picked (its best-of-k, not each design's own mean, is what it "
                      "maximises), answered in pick order: "
                      + ", ".join(f"`{d}`" for d in chosen["greedy"]) + ".")
+    predict = protocol.get("predict_table")
+    named = [protocol[m]["title"] for m in ("predict_knn", "predict_ridge") if m in methods]
+    if predict and named:
+        lines.append(f"{' and '.join(named)}: for each test terrain, its row of the fitness table predicted from "
+                     f"its height map ({len(predict['features'])} summaries: "
+                     + ", ".join(f"`{f}`" for f in predict["features"])
+                     + f") and the {predict['pool_terrains']} training terrains of the pool (their height maps' "
+                     f"summaries and their rows of the table, {predict['designs']} designs): k-NN, the mean row of "
+                     f"the {predict['neighbours']} nearest terrains in standardised feature space; ridge, a "
+                     f"per-design ridge regression (penalty {predict['ridge']:g}); the designs predicted best, "
+                     "best first. Nothing is trained beyond the pool's tables: the measured predictability "
+                     "ceiling of a terrain-reading answer given the pool (the gate's, `robocompose modular gate`), "
+                     "to compare the learners with.")
     diverse = protocol.get("diverse_query")
     for method in sorted(m for m in methods if isinstance(protocol.get(m), dict) and protocol[m].get("generator")):
         lines.append(f"{protocol[method]['title']}: the same trained generator and look-up budget, its candidates "
@@ -359,7 +373,8 @@ def _best_of_lines(best_of: dict | None, titles: dict[str, str], protocol: dict)
     return ["### Best of the first k candidates", "", *markdown_table(header, rows), "",
             "The same queries and candidates as Table 5.1 (no further look-up): the best valid one of each query's "
             "first k candidates, in the method's own order (the generators' most probable first, the greedy "
-            "portfolio's pick order, the top-k portfolio's by mean fitness, random sampling's draw order), mean ± sd "
+            "portfolio's pick order, the top-k portfolio's by mean fitness, the predict rows' by predicted "
+            "fitness, random sampling's draw order), mean ± sd "
             "over terrains x queries (a learned row: over its training seeds, as in Table 5.1); look-ups: the "
             "distinct designs those k candidates cost a query. A method that "
             "reads the terrain should lead at k = 1 and 3, where a fixed portfolio cannot cover every terrain.", ""]

@@ -110,7 +110,13 @@ def test_realtime_answers_the_learned_rows_at_every_committed_training_seed(tmp_
 
     from robocompose.eggan.learners import training_order
     from robocompose.modular.eggan_params import EgganModularParams
-    from robocompose.modular.experiments.generative import learned_methods, train_all, train_seed, with_seed
+    from robocompose.modular.experiments.generative import (
+        learned_methods,
+        realtime_methods,
+        train_all,
+        train_seed,
+        with_seed,
+    )
     from robocompose.report.eggan import section
     from tests.modular.experiments.test_training_seeds import params_of, tiny_section
     from tests.modular.plugins.test_eggan_problem import fake_pool
@@ -141,7 +147,8 @@ def test_realtime_answers_the_learned_rows_at_every_committed_training_seed(tmp_
         answered = {seed: set(zip(group.terrain_seed, group["query"], strict=True))
                     for seed, group in rows.groupby("training_seed")}
         assert answered == ({0: queries, 1: queries, 2: queries} if method in learned else {0: queries}), method
-    assert len(table) == (3 * len(learned) + 4) * len(queries)  # random, both portfolios, the oracle: once
+    assert len(table) == (3 * len(learned) + 6) * len(queries)  # random, the portfolios, predict rows, oracle: once
+    assert list(dict.fromkeys(table.method)) == list(realtime_methods())  # Table 5.1's rows, in its order
     assert table.optimum.nunique() == 1  # one optimum for every row of the terrain, whichever seed answered
     pd.testing.assert_series_equal(table.regret, table.optimum - table.max_distance, check_names=False)
     # the seeds' models answer for themselves: not three copies of seed 0's answers
@@ -149,6 +156,9 @@ def test_realtime_answers_the_learned_rows_at_every_committed_training_seed(tmp_
     assert crowding.groupby("training_seed").best_design.apply(tuple).nunique() > 1
     summary = json.loads(Path("reports/metrics/modular_realtime.json").read_text())
     assert summary["further_training_seeds"] == [1, 2] and "training_seeds" not in summary["random"]
+    assert not summary["predict_knn"]["learned"] and summary["predict_ridge"]["title"] == "Predict the table, ridge"
+    assert {k: summary["predict_table"][k] for k in ("pool_terrains", "neighbours", "ridge")} == \
+        {"pool_terrains": 2, "neighbours": 3, "ridge": 1.0}
     for method in learned:
         over = summary[method]["training_seeds"]
         means = table[table.method == method].groupby("training_seed").max_distance.mean()
@@ -158,6 +168,7 @@ def test_realtime_answers_the_learned_rows_at_every_committed_training_seed(tmp_
     text = section(Path("reports"), Path("data"))
     row = next(line for line in text.splitlines() if line.startswith("| EG-GAN-crowding |"))
     assert f"| {metrics['crowding']['real_evaluations']} | 3 |" in row and "mean ± sd over their training seeds" in text
+    assert "| Predict the table, k-NN |" in text and "measured predictability ceiling" in text
 
     # a further seed trained under other settings (EG-GAN's learning rate): refused before any work
     Path("data/modular/realtime.parquet").unlink()
@@ -176,7 +187,7 @@ def test_realtime_answers_the_learned_rows_at_every_committed_training_seed(tmp_
         shutil.rmtree(seeds / folder)
     runpy.run_path(str(STAGES / "modular_realtime.py"), run_name="__main__")
     table = read_table("data/modular/realtime.parquet", "modular_realtime")
-    assert (table.training_seed == 0).all() and len(table) == (len(learned) + 4) * len(queries)
+    assert (table.training_seed == 0).all() and len(table) == (len(learned) + 6) * len(queries)
     summary = json.loads(Path("reports/metrics/modular_realtime.json").read_text())
     assert summary["further_training_seeds"] == [] and summary["crowding"]["training_seeds"]["n"] == 1
     assert summary["crowding"]["training_seeds"]["max_distance"]["sd"] is None
