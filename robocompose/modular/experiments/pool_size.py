@@ -5,7 +5,8 @@ For each size n of `eggan_modular.pool_size.sizes` (capped at the pool's trainin
 training terrains: EG-GAN-crowding trained on exact fitness (the default profile's settings, `iterations`
 iterations, the same look-up budget) with `seeds` training seeds, and the terrain-agnostic portfolio of those n
 terrains (the 10 designs best on average: the baseline that needs no learning). Both answer the test protocol
-(`realtime_table`: the test terrains x `queries` queries, from their exhaustive tables); the study's table holds
+(`realtime_table`: the test terrains that have an exhaustive table x `queries` queries: a study of many
+trainings reads no partial table, so it simulates nothing); the study's table holds
 every query's row with its pool size, training seed and the method's score on its own n training terrains
 (`train_max_distance`): the gap between that and the test score is what the method fits but does not carry
 to terrains it never saw. The (size, seed) runs are independent: they run side by side on an executor.
@@ -21,6 +22,7 @@ import pandas as pd
 from robocompose.eggan.learners import generator_answer
 from robocompose.eggan.train import train
 from robocompose.fanout.executor import Executor
+from robocompose.io.errors import InputError
 from robocompose.modular.eggan_params import EgganModularParams, PoolSizeConfig
 from robocompose.modular.experiments.protocol import TableAnswers, realtime_table, table_proposers, training_scores
 from robocompose.modular.experiments.table_designs import portfolio
@@ -37,6 +39,10 @@ def pool_size_study(modular: ModularParams, params: EgganModularParams, config: 
                     truth: pd.DataFrame, checkpoints: Path, executor: Executor | None = None) -> pd.DataFrame:
     """Every test query of EG-GAN-crowding and the portfolio per pool size and training seed (see the module
     docstring); `pool`: the pool's tables, `truth`: the test terrains' tables. A run resumes from its checkpoint."""
+    if not set(params.protocol.test_terrains) & set(truth.terrain_seed):
+        raise InputError(f"eggan_modular.protocol.test_terrains: expected at least one with an exhaustive table "
+                         f"(modular.experiments.truth_terrains) for the pool-size study, found none of "
+                         f"{list(params.protocol.test_terrains)}")
     jobs = [(modular, params, config, pool, truth, checkpoints, n, seed)
             for n in study_sizes(config, params.fitness.train_terrains) for seed in range(config.seeds)]
     frames = executor.map(_study_run, jobs) if executor is not None else [_study_run(job) for job in jobs]
@@ -47,7 +53,9 @@ def _study_run(job: tuple) -> pd.DataFrame:
     """One (size n, training seed) run: EG-GAN-crowding trained on the first n terrains, and (seed 0 only, it has
     no randomness) the portfolio of those terrains, on the test protocol."""
     modular, params, config, pool, truth, checkpoints, n, seed = job
-    protocol = dataclasses.replace(params.protocol, queries=config.queries)
+    full = set(truth.terrain_seed)
+    protocol = dataclasses.replace(params.protocol, queries=config.queries,
+                                   test_terrains=[t for t in params.protocol.test_terrains if t in full])
     sized = dataclasses.replace(params, protocol=protocol,
                                 fitness=dataclasses.replace(params.fitness, train_terrains=n))
     train_config = dataclasses.replace(sized.train, iterations=config.iterations, evolution="crowding",

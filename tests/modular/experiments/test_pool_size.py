@@ -6,8 +6,10 @@ from __future__ import annotations
 import dataclasses
 
 import pandas as pd
+import pytest
 
 from robocompose.fanout.executor import Executor
+from robocompose.io.errors import InputError
 from robocompose.modular.eggan_params import EgganModularParams, PoolSizeConfig
 from robocompose.modular.evaluate import EvalSettings, FitnessRule
 from robocompose.modular.experiments.pool_size import pool_size_study, study_sizes
@@ -29,12 +31,13 @@ def test_the_study_trains_per_size_and_answers_from_the_tables(tmp_path):
         "fitness": {"train_terrains": 2, "validation_seed_base": 20_003, "validation_terrains": 1, "pool": str(path)},
         "network": {"latent": 8, "hidden": 16, "filters": 4},
         "train": {"batch": 16, "tasks": 2, "samples": 4, "log_every": 2, "checkpoint_every": 2, "validate_every": 0},
-        "protocol": {"test_terrains": [20_002], "samples": 8}}, "test")
+        "protocol": {"test_terrains": [20_002, 1_010], "samples": 8}}, "test")  # 1010: a partial table's
     pool = pd.read_parquet(path)
     truth = pool[pool.terrain_seed == 20_002]  # stands in for a test terrain's table
     config = PoolSizeConfig(sizes=[1], iterations=4, queries=2, seeds=2)
     study = pool_size_study(MODULAR, params, config, pool, truth, tmp_path / "checkpoints")
     assert sorted(study.pool_terrains.unique()) == [1, 2] and set(study.method) == {"crowding", "portfolio"}
+    assert set(study.terrain_seed) == {20_002}  # the study reads full tables only: nothing is simulated
     assert len(study) == 2 * (2 + 1) * 2  # sizes x (crowding's seeds + the portfolio, which has none) x queries
     assert sorted(study[study.method == "crowding"].seed.unique()) == [0, 1]
     portfolio = study[study.method == "portfolio"]
@@ -51,3 +54,14 @@ def test_the_study_trains_per_size_and_answers_from_the_tables(tmp_path):
         again = pool_size_study(MODULAR, params, config, pool, truth, tmp_path / "checkpoints", executor)
     pd.testing.assert_frame_equal(again, study)
     assert dataclasses.asdict(params.fitness)["train_terrains"] == 2  # the study does not change the params
+
+
+def test_the_study_refuses_test_terrains_without_a_full_table(tmp_path):
+    path = fake_pool(tmp_path, [20_000, 20_001, 20_002])
+    params = build_config(EgganModularParams, {
+        "fitness": {"train_terrains": 2, "validation_seed_base": 20_002, "validation_terrains": 1, "pool": str(path)},
+        "protocol": {"test_terrains": [1_010]}}, "test")
+    pool = pd.read_parquet(path)
+    with pytest.raises(InputError, match="test_terrains: expected at least one with an exhaustive table"):
+        pool_size_study(MODULAR, params, PoolSizeConfig(sizes=[1]), pool, pool[pool.terrain_seed == 20_002],
+                        tmp_path / "checkpoints")
