@@ -10,7 +10,9 @@ them there; the best of the first 1, 3 and 10 candidates per method and terrain;
 predict rows' settings; DQN's symmetric-space ceiling on the test terrains with a full table; each test terrain's
 table, and the candidates simulated outside the partial ones), and Fig. 5.1's designs on the first two test
 terrains (data/modular/fig5_1.json). Every candidate is answered from the test terrain's table: no rollout on a
-full one; outside a partial one, a rollout through the shared cache (params compute). A test terrain without a
+full one; outside a partial one, a rollout through the shared cache (params compute), unless it is committed in
+measured/modular/test_partial/outside.parquet; every one the run needed goes to data/modular/outside_rollouts.parquet
+(copy it there and commit it, and a fresh clone's run simulates none). A test terrain without a
 table stops the stage before any work with one line naming it and the command that measures it.
 
 Further training seeds: every folder measured/modular/seeds/seed-S (`robocompose modular train-seed`) answers the
@@ -25,6 +27,7 @@ from contextlib import nullcontext
 from pathlib import Path
 
 from robocompose.eggan.query import load_generator
+from robocompose.fanout.cache import EvaluationCache, committed_cache
 from robocompose.fanout.compute import ComputeConfig
 from robocompose.io import atomic_write_json, read_table, write_table
 from robocompose.io.timings import timed
@@ -37,7 +40,14 @@ from robocompose.modular.experiments.generative import (
     realtime_proposers,
     seeded_realtime_table,
 )
-from robocompose.modular.experiments.held_out import FULL, held_out_metrics, held_out_tables
+from robocompose.modular.experiments.held_out import (
+    FULL,
+    OUTSIDE,
+    OUTSIDE_OUT,
+    held_out_metrics,
+    held_out_tables,
+    outside_rollouts,
+)
 from robocompose.modular.experiments.protocol import (
     TableAnswers,
     best_of_columns,
@@ -86,8 +96,9 @@ def main() -> None:
         predict = predict_proposers(problem, training, PREDICT)
         proposers = realtime_proposers(problem, params, Path("models"), designs, optima, greedy, predict)
         ks = best_of_ks(protocol.candidates)
-        answers = TableAnswers(test, modular.eval, modular.fitness, compute.open_cache() if partial else None,
-                               executor)
+        cache = compute.open_cache() if partial else EvaluationCache()
+        cache.merge(committed_cache(OUTSIDE))  # the committed rollouts outside the partial tables: not simulated
+        answers = TableAnswers(test, modular.eval, modular.fitness, cache, executor)
         table, timing["query_ms_median"] = seeded_realtime_table(proposers, seeds, problem, modular, params,
                                                                  answers, ks)
         timing["queries"] = len(table)
@@ -95,6 +106,7 @@ def main() -> None:
                              sorted(protocol.test_terrains)[:2])
     atomic_write_json("data/modular/fig5_1.json", fig_5_1)
     write_table(table.drop(columns=best_of_columns(ks)), "data/modular/realtime.parquet", "modular_realtime")
+    write_table(outside_rollouts(answers, cache), OUTSIDE_OUT, "eval_cache")
     full = test[test.terrain_seed.map(sources) == FULL]  # a partial table holds too few symmetric designs
     ceiling = symmetric_ceiling(full) if not full.empty else {}
     over_seeds = seed_summary(table, learned_methods(), ks)

@@ -22,12 +22,12 @@ import pandas as pd
 
 from robocompose.evaluation.evaluate import OK, EvalJob, EvaluationConfig, evaluate, evaluate_designs, objective
 from robocompose.evaluation.rollout_log import RolloutRecorder
-from robocompose.fanout.cache import EVAL_KEY_COLUMNS, EvaluationCache
+from robocompose.fanout.cache import EVAL_KEY_COLUMNS, EvaluationCache, committed_cache
 from robocompose.fanout.executor import Executor
 from robocompose.grammar.derivation import derive, parse_rules
 from robocompose.grammar.references import REFERENCE_DESIGNS
 from robocompose.grammar.tree import DesignTree
-from robocompose.io import read_table, write_table
+from robocompose.io import write_table
 from robocompose.io.errors import InputError
 from robocompose.sim.physics import PhysicsSettings
 from robocompose.tasks.terrains import TASK_NAMES, get_task
@@ -84,11 +84,7 @@ MEASURED = Path("measured/references/eval_cache.parquet")
 
 def committed_evaluations(path: Path = MEASURED) -> EvaluationCache:
     """The committed evaluations at `path` (none if it is absent) as a memory-only cache."""
-    cache = EvaluationCache()
-    if Path(path).is_file():
-        for row in read_table(path, "eval_cache").to_dict("records"):
-            cache.put(tuple(row.pop(name) for name in EVAL_KEY_COLUMNS), **row)
-    return cache
+    return committed_cache(path)
 
 
 def table_keys(table: pd.DataFrame) -> list[tuple]:

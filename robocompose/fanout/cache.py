@@ -120,6 +120,16 @@ class EvaluationCache:
             write_table(self.frame(), self.path, self.table)
 
 
+def committed_cache(path: str | Path) -> EvaluationCache:
+    """The evaluations committed at `path` (an eval_cache table; none if there is no file) as a memory-only cache:
+    served like the shared cache's entries, never written back."""
+    cache = EvaluationCache()
+    if Path(path).is_file():
+        for row in read_table(path, "eval_cache").to_dict("records"):
+            cache.put(tuple(row.pop(name) for name in EVAL_KEY_COLUMNS), **row)
+    return cache
+
+
 def _plain(value: Any) -> Any:
     """numpy scalars -> Python scalars, NaN -> None (a missing reward is null, not a number)."""
     if hasattr(value, "item"):

@@ -20,13 +20,18 @@ from pathlib import Path
 
 import pandas as pd
 
+from robocompose.fanout.cache import EvaluationCache
 from robocompose.io.errors import InputError
-from robocompose.modular.evaluate import EvalSettings, FitnessRule
+from robocompose.modular.evaluate import SEED, EvalSettings, FitnessRule, task_id
 from robocompose.modular.experiments.protocol import TableAnswers
 from robocompose.modular.truth import committed_path, read_committed, read_record
 
 PARTIAL_DIR = Path("measured/modular/test_partial")
 FULL = "full"  # a terrain's source when it has its exhaustive table
+# committed rollouts of candidates outside the partial tables (eval_cache rows): a cache, so that a fresh clone's run
+# does not simulate them again; what the stage simulates anew it writes to OUTSIDE_OUT, to be copied here
+OUTSIDE = PARTIAL_DIR / "outside.parquet"
+OUTSIDE_OUT = Path("data/modular/outside_rollouts.parquet")
 
 
 def design_set_record(name: str, designs: Sequence[str]) -> dict:
@@ -67,6 +72,18 @@ def held_out_tables(seeds: Sequence[int], full: pd.DataFrame, settings: EvalSett
             sources[int(seed)] = FULL
         frames.append(table)
     return pd.concat(frames, ignore_index=True), sources
+
+
+def outside_rollouts(answers: TableAnswers, cache: EvaluationCache) -> pd.DataFrame:
+    """The eval_cache rows (from `cache`, which answered them) of every candidate `answers` simulated outside the
+    partial tables, sorted by key: what OUTSIDE holds once committed."""
+    settings_hash = answers.settings.settings_hash()
+    kept = EvaluationCache()
+    for seed, designs in answers.simulated.items():
+        for design in designs:
+            key = (design, task_id(seed), settings_hash, SEED)
+            kept.put(key, **cache.get(key))
+    return kept.frame()
 
 
 def held_out_metrics(truth: pd.DataFrame, sources: dict[int, str], answers: TableAnswers) -> dict:

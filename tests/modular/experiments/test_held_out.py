@@ -113,3 +113,34 @@ def test_exhaustive_measures_a_design_set_as_a_partial_table_and_keeps_it(tmp_pa
     cli_error(["modular", "exhaustive", "--terrain-seed", "1010", "--design-set", "balanced", "--out-dir",
                "measured/modular/exhaustive", "--params", str(params)],
               "--out-dir measured/modular/exhaustive", "a directory for partial tables")
+
+
+def test_the_rollouts_outside_the_tables_round_trip_through_their_committed_file_and_are_not_simulated_again(
+        tmp_path, monkeypatch):
+    """What a run simulated outside a partial table is written as evaluation-cache rows; served from that file, the
+    next run asks the evaluator nothing and still counts the candidate as outside the table."""
+    from robocompose.fanout.cache import EvaluationCache, committed_cache
+    from robocompose.io import write_table
+    from robocompose.modular import evaluate
+    from robocompose.modular.experiments.held_out import outside_rollouts
+
+    settings_hash = MODULAR.eval.settings_hash()
+    cache = EvaluationCache()
+    cache.put(("lllwll", evaluate.task_id(1008), settings_hash, evaluate.SEED), reward=2.5, status="ok",
+              sim_steps=10, seconds=0.01)
+    cache.put(("wwwwww", evaluate.task_id(1008), settings_hash, evaluate.SEED), reward=9.0, status="ok",
+              sim_steps=10, seconds=0.01)  # in the cache, but no candidate of this run: not committed
+    answers = TableAnswers(pd.DataFrame(columns=["terrain_seed", "design", "fitness", "distance", "status"]),
+                           MODULAR.eval, MODULAR.fitness)
+    answers.simulated = {1008: ["lllwll"]}
+    rows = outside_rollouts(answers, cache)
+    assert list(rows.design_id) == ["lllwll"] and list(rows.reward) == [2.5]
+    write_table(rows, tmp_path / "outside.parquet", "eval_cache")
+
+    def no_rollout(*args, **kwargs):
+        raise AssertionError("simulated a committed candidate")
+
+    monkeypatch.setattr(evaluate, "simulate", no_rollout)
+    served = evaluate.evaluate_designs(["lllwll"], 1008, MODULAR.eval, MODULAR.fitness,
+                                       committed_cache(tmp_path / "outside.parquet"))
+    assert served[0].distance == 2.5 and served[0].status == "ok"
