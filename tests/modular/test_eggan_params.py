@@ -5,6 +5,7 @@ import yaml
 
 from robocompose.io.errors import InputError
 from robocompose.modular.eggan_params import EgganModularParams
+from robocompose.modular.experiments.held_out import PARTIAL_DIR
 from robocompose.modular.params import ModularParams
 from robocompose.params import build_config, load_section
 
@@ -16,9 +17,12 @@ def test_default_profile_parses():
     # issue 46's measured training: a small encoder, an elite archive, the best-validated generator kept
     assert params.network.encoder == "pooled" and params.train.archive > 0
     assert params.train.best_by == "val_max_distance" and params.train.validate_every > 0
-    assert params.protocol.test_terrains == list(range(1000, 1010)) and params.protocol.queries == 20  # thesis
+    # issue 46: >= 30 test terrains; the thesis's 10 with exhaustive tables, the others with committed partial ones
+    assert params.protocol.test_terrains == list(range(1000, 1030)) and params.protocol.queries == 20
     truth = load_section(ModularParams, "modular", "profiles/default.yaml").experiments.truth_terrains
-    assert set(params.protocol.test_terrains) <= set(truth)  # every test terrain has its exhaustive table
+    assert set(truth) == set(range(1000, 1010)) <= set(params.protocol.test_terrains)
+    assert all((PARTIAL_DIR / f"blocks-{seed}.parquet").is_file()
+               for seed in set(params.protocol.test_terrains) - set(truth))
     seeds = params.fitness.train_seeds + params.fitness.validation_seeds
     assert not set(params.protocol.test_terrains) & set(seeds)  # test terrains are never trained on
 
