@@ -37,12 +37,10 @@ def build_report(params: ReportParams, reports_dir: Path = Path("reports"), data
         modular,
         serve,
         teams,
+        verdicts,
     )
 
-    sections = [
-        "# robocompose report",
-        "Thesis numbers stand beside ours with the settings used; every figure of ours is measured with the "
-        "evaluator named in its section.",
+    body = [
         dataset.section(reports_dir, data_dir, params.gallery),
         evaluation.section(reports_dir, data_dir, params.mppi, params.eval_cache),
         fidelity.section(reports_dir, params.mppi),
@@ -56,7 +54,11 @@ def build_report(params: ReportParams, reports_dir: Path = Path("reports"), data
         serve.section(reports_dir),
         metadata.section(reports_dir),
     ]
-    text = "\n\n".join(s.strip() for s in sections) + "\n"
+    sections = "\n\n".join(s.strip() for s in body)
+    lead = ["# robocompose report",
+            "Thesis numbers stand beside ours with the settings used; every figure of ours is measured with the "
+            "evaluator named in its section.", verdicts.summary(sections)]
+    text = "\n\n".join(s.strip() for s in lead) + "\n\n" + sections + "\n"
     atomic_write_text(reports_dir / "report.md", text)
     atomic_write_text(reports_dir / "report.html", to_html(text, "robocompose report"))
     return reports_dir / "report.md"

@@ -1,10 +1,11 @@
 """Report section: does the terrain decide the design? The gate of issue 46 (item 3) on the block world and on each
 probed terrain family (reports/metrics/modular_gate.json, stage `modular_gate`; `robocompose.modular.gate`).
 
-Leads with the verdict (which worlds pass, or that none does), then one table: per world and best-of-k the greedy
-portfolio's mean best distance on held-out terrains, the two "predict the table, take the top k" answers (k-NN,
-ridge), the ceiling's gain over the portfolio in metres and as a share of the mean optimum, and its one-sided
-paired Wilcoxon p. Every distance is a pybullet rollout read from committed tables (leave one terrain out).
+Leads with the verdict (which worlds pass, or that none does; `verdicts.verdict`), then one table: per world and
+best-of-k the greedy portfolio's mean best distance on held-out terrains, the two "predict the table, take the top
+k" answers (k-NN, ridge), the ceiling's gain over the portfolio in metres and as a share of the mean optimum, and
+its one-sided paired Wilcoxon p. Every distance is a pybullet rollout read from committed tables
+(leave one terrain out).
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from pathlib import Path
 
 from robocompose.io.atomic import read_json
 from robocompose.report.tables import markdown_table
+from robocompose.report.verdicts import held, verdict
 
 TITLE = "### Does the terrain decide the design? The gate (beyond the thesis)"
 
@@ -25,10 +27,13 @@ def section(reports_dir: Path) -> str:
     passing = [name for name, s in worlds.items() if s["passes"]]
     config = next(iter(worlds.values()))["config"] if worlds else {}
     gated = " and ".join(f"best-of-{k}" for k in config.get("pass_ks", []))
-    verdict = (f"**Passes the gate:** {', '.join(passing)}." if passing else
-               f"**No world passes the gate** (of {len(worlds)}): in none does predicting the table from the "
-               "height map beat a fixed greedy portfolio by the margin a learned generator would need.")
-    lines = [TITLE, "", verdict, "",
+    tried = ", ".join(f"{name} ({s['terrains']} terrains)" for name, s in worlds.items())
+    stated = verdict("A world where the terrain decides the design (passes the gate; thesis: the block world)",
+                     held(bool(passing)),
+                     f"Passes: {', '.join(passing)}; of {tried}." if passing else
+                     f"Of {tried}: in none does predicting the table from the height map beat a fixed greedy "
+                     "portfolio by the margin a learned generator would need.")
+    lines = [TITLE, "", stated, "",
              f"A world passes if at {gated} the better of k-NN ({config.get('neighbours')} nearest terrains) and "
              f"ridge beats the greedy portfolio by >= {config.get('margin', 0):.0%} of the mean optimum with a "
              f"one-sided paired Wilcoxon p < {config.get('alpha')} over held-out terrains (leave one terrain out; "

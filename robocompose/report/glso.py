@@ -22,6 +22,7 @@ from robocompose.io import read_table
 from robocompose.io.atomic import read_json
 from robocompose.io.errors import ArtifactError
 from robocompose.report.tables import markdown_table
+from robocompose.report.verdicts import verdict
 
 
 def method_titles(record: dict, ran: set[str], where: Path) -> list[dict]:
@@ -88,14 +89,13 @@ def claims(final: pd.DataFrame, tasks: list[str], methods: list[dict]) -> list[s
         baselines = [x for x in others["baselines"] if x in m.index]
         if REFERENCE in m.index and baselines:
             held = max([REFERENCE, *baselines], key=lambda x: m[x]) == REFERENCE
-            out.append(f"- {task}: GLSO best of Fig. 8.1: **{'holds' if held else 'does not hold'}** "
+            out.append(f"- {task}: GLSO best of Fig. 8.1 in these means: {'yes' if held else 'no'} "
                        f"(GLSO {m[REFERENCE]:.3f}; best other {titles[max(baselines, key=m.get)]} "
                        f"{max(m[b] for b in baselines):.3f}).")
         ablations = [x for x in others["ablations"] if x in m.index]
         if REFERENCE in m.index and ablations:
             held = len(ablations) == len(others["ablations"]) and all(m[x] < m[REFERENCE] for x in ablations)
-            verdict = "holds" if held else "does not hold"
-            out.append(f"- {task}: all ablations worse than GLSO: **{verdict}** ("
+            out.append(f"- {task}: all ablations worse than GLSO in these means: {'yes' if held else 'no'} ("
                        + "; ".join(f"{titles[x]} {m[x]:.3f}" for x in ablations) + ").")
     return out
 
@@ -217,7 +217,8 @@ def campaign_verdicts(tests: pd.DataFrame, on: str, alpha: float, methods: list[
                   f"below {alpha}: this campaign cannot show it)") if not held and floor >= alpha else ""
         caveat += f" (no runs yet of {', '.join(missing)})" if missing else ""
         detail = "; ".join(f"{titles[r.method]} p = {r.p_holm:.3f}" for r in group.itertuples())
-        out.append(f"- {task}, {protocol}: {claim}: **{'holds' if held else 'not shown'}** ({detail}){caveat}.")
+        out.append("- " + verdict(f"{task}, {protocol}: {claim}", "holds" if held else "not shown",
+                                  f"({detail}){caveat}."))
     return out
 
 

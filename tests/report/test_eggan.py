@@ -13,6 +13,7 @@ from robocompose.io import write_table
 from robocompose.io.errors import ArtifactError
 from robocompose.modular.experiments.generative import method_info, realtime_methods
 from robocompose.report.eggan import section
+from robocompose.report.verdicts import find
 
 
 def _table() -> pd.DataFrame:
@@ -52,6 +53,8 @@ def test_section_has_table_5_1_with_thesis_numbers_and_a_verdict(tmp_path):
     assert "| Random sampling | 3.00" in text and "0.86 ± 0.81" in text  # the thesis's hand-crafted row
     assert "EG-GAN-crowding beats random sampling" in text and "has more distinct solutions than EG-GAN" in text
     assert "It does not beat the terrain-agnostic portfolio (6.50 m). It reaches 86% of the exhaustive optimum" in text
+    [stated] = [f for f in find(text) if f.claim.startswith("EG-GAN-crowding the farthest")]  # the summary lists it
+    assert stated.outcome == "does NOT hold" and "the farthest other Portfolio" in stated.detail
     portfolio = "| Portfolio (terrain-agnostic baseline) | 6.50 ± 0.00 | 2.0 ± 0.0 | 5.50 ± 0.00 | 0.50 ± 0.00 |"
     assert f"{portfolio} 1 / 0 | - | - | - | - | - | - |" in text  # a row the thesis does not have, not trained
     assert "| Exhaustive optimum (oracle) | 7.00 ± 0.00 | 5.0 ± 0.0 | 6.00 ± 0.00 | 0.00 ± 0.00 |" in text

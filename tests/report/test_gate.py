@@ -3,6 +3,7 @@ from pathlib import Path
 
 from robocompose.modular.gate import gate
 from robocompose.report.gate import section
+from robocompose.report.verdicts import find
 from tests.modular.test_gate import _world
 
 
@@ -15,7 +16,9 @@ def test_the_gate_section_names_the_passing_world_and_orders_best_of_k(tmp_path:
     deciding, flat = _world(30, 60, decides=True), _world(30, 60, decides=False)
     _write(tmp_path, {"steps": gate(*deciding).summary, "block world": gate(*flat).summary})
     text = section(tmp_path)
-    assert "**Passes the gate:** steps." in text
+    [stated] = find(text)  # the verdict the report's summary lists
+    assert stated.outcome == "holds"
+    assert stated.detail == "Passes: steps; of block world (30 terrains), steps (30 terrains)."
     rows = [line for line in text.splitlines() if line.startswith("| block world")]
     assert [row.split(" | ")[3] for row in rows] == ["1", "3", "10"]  # by k, not JSON's string order
     assert all(row.endswith("| no |") for row in rows)
@@ -24,4 +27,5 @@ def test_the_gate_section_names_the_passing_world_and_orders_best_of_k(tmp_path:
 def test_the_gate_section_says_when_no_world_passes_and_when_the_stage_has_not_run(tmp_path: Path) -> None:
     assert "Not run yet" in section(tmp_path) and "modular_gate" in section(tmp_path)
     _write(tmp_path, {"block world": gate(*_world(30, 60, decides=False)).summary})
-    assert "**No world passes the gate** (of 1)" in section(tmp_path)
+    [stated] = find(section(tmp_path))
+    assert stated.outcome == "does NOT hold" and stated.detail.startswith("Of block world (30 terrains): in none")

@@ -2,6 +2,7 @@ import runpy
 from pathlib import Path
 
 from robocompose.report.teams import section
+from robocompose.report.verdicts import find
 
 STAGES = Path(__file__).resolve().parents[2] / "stages"
 def test_section_says_not_run_yet_without_stage_outputs(tmp_path):
@@ -24,7 +25,7 @@ def test_section_has_both_tables_beside_the_thesis_and_its_figures(tmp_path, mon
     assert "| NSGA-II:20, genome share x split, stopped at EG-GAN's spend | - | - |" in text
     assert "| random allocations, front of 512 draws | - | - |" in text
     table_5_4 = text[text.index("### Table 5.4"):]
-    assert table_5_4.split("\n")[2].startswith("**Goal (EG-GAN >= 95% of the best NSGA-II:50 row")  # leads
+    assert table_5_4.split("\n")[2].startswith("Goal (EG-GAN >= 95% of the best NSGA-II:50 row")  # leads
     assert "Holm-corrected over the 7 comparisons" in text and "| method | EG-GAN minus method |" in text
     # Table 5.5: held-out costs, a front's pick labelled, then the thesis's protocol
     assert "| No decomposition | 0.365 | 0.153 | 0.056 |" in text
@@ -32,7 +33,10 @@ def test_section_has_both_tables_beside_the_thesis_and_its_figures(tmp_path, mon
     assert "| Dec + uniform random robots (ours: each robot to a uniform region, regions may stay empty) | - |" in text
     assert "none of which any method searched or selected on" in text and "seed-to-seed noise" in text
     table_5_5 = text[text.index("### Table 5.5"):]
-    assert table_5_5.split("\n")[2].startswith("**Dec + EG-GAN lowest at every budget, at held-out seeds")
+    assert table_5_5.split("\n")[2].startswith("Dec + EG-GAN lowest at every budget, at held-out seeds (thesis: it is): **")
+    # every claim the section tests is a verdict the report's summary lists: the goal, both protocols of Table 5.5
+    claims = [f.claim for f in find(text)]
+    assert claims[0].startswith("Goal (EG-GAN") and len(claims) == 4, claims
     assert "EG-GAN against each row at each budget" in table_5_5 and "| method | budget | EG-GAN minus method" in text
     assert "As the thesis measured it" in text and "| Dec + EG-GAN (best front point" in text
     assert "synthetic label chips" in text
