@@ -23,16 +23,20 @@ def section(reports_dir: Path) -> str:
     path = Path(reports_dir) / "metrics" / "modular_gate.json"
     if not path.exists():
         return f"{TITLE}\n\nNot run yet: missing {path} (stage `modular_gate`).\n"
-    worlds = read_json(path)
+    metrics = read_json(path)
+    worlds, in_progress = metrics["worlds"], metrics["in_progress"]
     passing = [name for name, s in worlds.items() if s["passes"]]
     config = next(iter(worlds.values()))["config"] if worlds else {}
     gated = " and ".join(f"best-of-{k}" for k in config.get("pass_ks", []))
     tried = ", ".join(f"{name} ({s['terrains']} terrains)" for name, s in worlds.items())
+    pending = ("; probes in progress, not gated: " + ", ".join(f"{name} ({p['terrains']} of {p['planned']} "
+                                                                "terrains)" for name, p in in_progress.items())
+               if in_progress else "")
     stated = verdict("A world where the terrain decides the design (passes the gate; thesis: the block world)",
                      held(bool(passing)),
-                     f"Passes: {', '.join(passing)}; of {tried}." if passing else
+                     f"Passes: {', '.join(passing)}; of {tried}{pending}." if passing else
                      f"Of {tried}: in none does predicting the table from the height map beat a fixed greedy "
-                     "portfolio by the margin a learned generator would need.")
+                     f"portfolio by the margin a learned generator would need{pending}.")
     lines = [TITLE, "", stated, "",
              f"A world passes if at {gated} the better of k-NN ({config.get('neighbours')} nearest terrains) and "
              f"ridge beats the greedy portfolio by >= {config.get('margin', 0):.0%} of the mean optimum with a "
