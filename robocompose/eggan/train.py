@@ -44,7 +44,8 @@ Every random choice of iteration t comes from generators seeded with (seed, t), 
 networks, both optimisers, the log and the problem's own state (`problem.state_dict()`: a surrogate, its
 data, the evaluation counters), so a killed run resumes to the same bytes. The checkpoint key covers the
 training settings (not the bookkeeping: iterations, log and checkpoint cadence), the network sizes, the
-problem's key (its settings, data and code) and the code digest of this package.
+problem's key (its settings, data and code) and the code digest of this package, storage and fan-out excluded
+(`provenance.INFRASTRUCTURE`: they keep results without shaping them, so changing them re-keys no run).
 """
 
 from __future__ import annotations
@@ -67,7 +68,7 @@ from robocompose.eggan.problem import BudgetSpent, EgganProblem, check_problem
 from robocompose.io import McapWriter, atomic_write_text
 from robocompose.io.checkpoint import load_checkpoint, save_checkpoint
 from robocompose.io.errors import InputError
-from robocompose.io.provenance import code_digest
+from robocompose.io.provenance import INFRASTRUCTURE, code_digest
 
 
 @dataclass(frozen=True)
@@ -138,7 +139,8 @@ class Trained:
 def run_key(problem: EgganProblem, network: NetworkConfig, config: TrainConfig) -> str:
     """What a checkpoint must match to be resumed (see the module docstring)."""
     settings = {k: v for k, v in dataclasses.asdict(config).items() if k not in BOOKKEEPING}
-    text = json.dumps([settings, dataclasses.asdict(network), problem.key(), code_digest(__name__)], sort_keys=True)
+    text = json.dumps([settings, dataclasses.asdict(network), problem.key(),
+                       code_digest(__name__, exclude=INFRASTRUCTURE)], sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 

@@ -69,7 +69,7 @@ from robocompose.grammar.tree import DesignTree
 from robocompose.io import get_schema, read_table, write_table
 from robocompose.io.checkpoint import load_checkpoint, save_checkpoint
 from robocompose.io.errors import ArtifactError, InputError, check_field
-from robocompose.io.provenance import code_digest
+from robocompose.io.provenance import INFRASTRUCTURE, code_digest
 from robocompose.params import build_config
 from robocompose.tasks.terrains import TASKS, get_task
 
@@ -179,7 +179,7 @@ def run_key(spec: RunSpec, config: GLSOConfig, evaluation: EvaluationConfig, mod
     model = hashlib.sha256(model_path.read_bytes()).hexdigest()[:16] if model_path else None
     text = json.dumps([dataclasses.asdict(spec), config.budget, dataclasses.asdict(config.settings(spec.method)),
                        evaluation.settings_hash(spec.task), evaluation.seed, model,
-                       code_digest("robocompose.glso.runs")],
+                       code_digest("robocompose.glso.runs", exclude=INFRASTRUCTURE)],
                       sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 

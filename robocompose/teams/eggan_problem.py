@@ -50,7 +50,7 @@ import torch
 from robocompose.eggan.problem import Objective, Sampled
 from robocompose.eggan.surrogate import Surrogate, SurrogateConfig, spearman
 from robocompose.fanout.cache import EvaluationCache
-from robocompose.io.provenance import code_digest
+from robocompose.io.provenance import INFRASTRUCTURE, code_digest
 from robocompose.search.nsga2 import nsga2_generation, survivors
 from robocompose.teams.chips import Chip
 from robocompose.teams.decompose import Decomposition, terrain_features
@@ -191,7 +191,7 @@ class TeamsProblem:
                  for chip, decomposition in self.chips]
         text = json.dumps([asdict(self.coverage), asdict(self.evolution), self.seed, chips, asdict(self.fitness),
                            asdict(self.region_model),
-                           code_digest(__name__)])  # this module's import closure: the whole fitness
+                           code_digest(__name__, exclude=INFRASTRUCTURE)])  # the closure that shapes the fitness
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
     def state_dict(self) -> dict:

@@ -51,7 +51,7 @@ from robocompose.fanout.cache import EvaluationCache
 from robocompose.fanout.executor import Executor
 from robocompose.io import read_table
 from robocompose.io.errors import InputError, check_field
-from robocompose.io.provenance import code_digest
+from robocompose.io.provenance import INFRASTRUCTURE, code_digest
 from robocompose.modular.evaluate import evaluate_designs
 from robocompose.modular.params import ModularParams
 from robocompose.modular.plugins.search_problem import ModularProblem
@@ -224,7 +224,8 @@ class ModularEgganProblem:
         pool = self._pool_digest() if self.fitness.source == "table" else None
         text = json.dumps({"settings": self.modular.eval.settings_hash(), "rule": asdict(self.modular.fitness),
                            "fitness": asdict(self.fitness), "mutation": self.mutation_rate,
-                           "crossover": self.crossover_rate, "code": code_digest(__name__), "pool": pool},
+                           "crossover": self.crossover_rate, "code": code_digest(__name__, exclude=INFRASTRUCTURE),
+                           "pool": pool},
                           sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
