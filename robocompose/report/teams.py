@@ -352,7 +352,11 @@ def _table_5_4(fronts: pd.DataFrame, timings: dict, eggan: Eggan, training: dict
                  "running one of them would not have); EG-GAN's, per chip x seed, the query (noise, forward pass, "
                  f"rounding: {forward.mean():.2f} ms of it) plus the optimiser on every distinct allocation it "
                  "draws. One thread each. The NSGA-II row at EG-GAN's spend stops after the generation at which it "
-                 "has optimised as many teams as EG-GAN's query did on that chip and seed.")
+                 "has optimised as many teams as EG-GAN's query did on that chip and seed."
+                 + (f" The NSGA-II rows' times come from {source}, timed when that piece was measured, EG-GAN's from "
+                    "this run: the machine's load at the two moments may differ, so the speed ratio (and the goal's "
+                    "20x) carries that uncertainty."
+                    if (source := timings.get("teams_baselines", {}).get("source", "measured")) != "measured" else ""))
     return "\n".join(goal + lines + [""] + [" ".join(notes)])
 
 
