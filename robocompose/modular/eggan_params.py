@@ -3,10 +3,11 @@ learned baselines on modular robots (thesis 5.1)."""
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 from robocompose.eggan.learners import baselines, variants
-from robocompose.eggan.networks import NetworkConfig
+from robocompose.eggan.networks import ENCODERS, NetworkConfig
 from robocompose.eggan.train import TrainConfig
 from robocompose.io.errors import InputError, check_field
 from robocompose.modular.diverse import check_min_hamming
@@ -55,6 +56,9 @@ class PoolSizeConfig:
 class EgganModularParams:
     fitness: FitnessConfig = field(default_factory=FitnessConfig)
     network: NetworkConfig = field(default_factory=NetworkConfig)
+    # learner name -> its terrain encoder where it is not `network.encoder` (each learner at its best: chosen per
+    # learner on the validation terrains, docs/eggan.md); the other network settings are shared
+    encoders: dict = field(default_factory=dict)
     train: TrainConfig = field(default_factory=TrainConfig)  # the EG-GAN variants share it; `evolution` set per variant
     # per EG-GAN variant (learners.variants): crowding steps; ga: GA generations
     evolution_steps: dict = field(default_factory=lambda: dict.fromkeys(variants("modular"), 1))
@@ -64,6 +68,10 @@ class EgganModularParams:
     pool_size: PoolSizeConfig = field(default_factory=PoolSizeConfig)
 
     def __post_init__(self) -> None:
+        learners = [*variants("modular"), *baselines("modular")]
+        check_field(isinstance(self.encoders, dict) and set(self.encoders) <= set(learners)
+                    and all(encoder in ENCODERS for encoder in self.encoders.values()), "encoders",
+                    f"a mapping of learners among {learners} to an encoder among {list(ENCODERS)}", self.encoders)
         steps, known = self.evolution_steps, sorted(variants("modular"))
         check_field(set(steps) == set(known) and all(isinstance(v, int) and not isinstance(v, bool) and v >= 1
                                                      for v in steps.values()),
@@ -75,3 +83,11 @@ class EgganModularParams:
                     f"a settings mapping for each of {list(learned)}", sorted(self.baselines, key=str))
         for name, values in self.baselines.items():
             build_config(learned[name].training.settings, values, f"baselines.{name}")
+
+
+def network_of(method: str, params: EgganModularParams) -> NetworkConfig:
+    """The network settings learner `method` trains with: `params.network`, its encoder from `params.encoders` if
+    set there."""
+    encoder = params.encoders.get(method, params.network.encoder)
+    return params.network if encoder == params.network.encoder else dataclasses.replace(params.network,
+                                                                                        encoder=encoder)

@@ -4,7 +4,7 @@ import pytest
 import yaml
 
 from robocompose.io.errors import InputError
-from robocompose.modular.eggan_params import EgganModularParams
+from robocompose.modular.eggan_params import EgganModularParams, network_of
 from robocompose.modular.experiments.held_out import PARTIAL_DIR
 from robocompose.modular.params import ModularParams
 from robocompose.params import build_config, load_section
@@ -16,6 +16,10 @@ def test_default_profile_parses():
     assert params.fitness.source == "table" and params.train.iterations >= 2000 and params.network.norm != "batch"
     # issue 46's measured training: a small encoder, an elite archive, the best-validated generator kept
     assert params.network.encoder == "pooled" and params.train.archive > 0
+    # each learner's encoder as measured on the validation terrains (measured/modular/encoders/)
+    assert {m: network_of(m, params).encoder for m in ("crowding", "ga", "fit2form", "dqn", "molgan")} == {
+        "crowding": "conv", "ga": "conv", "fit2form": "pooled", "dqn": "pooled", "molgan": "features"}
+    assert network_of("dqn", params) is params.network and network_of("molgan", params).hidden == params.network.hidden
     assert params.train.best_by == "val_max_distance" and params.train.validate_every > 0
     # issue 46: >= 30 test terrains; the thesis's 10 with exhaustive tables, the others with committed partial ones
     assert params.protocol.test_terrains == list(range(1000, 1030)) and params.protocol.queries == 20
@@ -34,6 +38,9 @@ def test_default_profile_parses():
     ({"fitness": {"surrogate": {"steps": 0}}}, "surrogate.steps"),
     ({"colour": 1}, "colour"),
     ({"network": {"encoder": "mlp"}}, r"network\.encoder: expected one of \['conv', 'pooled', 'features'\]"),
+    ({"encoders": {"sgd": "conv"}}, r"encoders: expected a mapping of learners among \['ga', 'crowding', "),
+    ({"encoders": {"dqn": "mlp"}}, r"encoders: expected .* to an encoder among \['conv', 'pooled', 'features'\], "
+                                   r"found \{'dqn': 'mlp'\}"),
     ({"train": {"archive": 3}}, "archive: expected 0 or a positive even number"),
     ({"train": {"validate_every": 0, "best_by": "val_max_distance"}}, "best_by: expected"),
 ])

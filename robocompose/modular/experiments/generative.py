@@ -39,7 +39,7 @@ from robocompose.fanout.cache import EvaluationCache
 from robocompose.fanout.executor import Executor
 from robocompose.io.errors import InputError
 from robocompose.modular.diverse import diverse_answer
-from robocompose.modular.eggan_params import EgganModularParams
+from robocompose.modular.eggan_params import EgganModularParams, network_of
 from robocompose.modular.experiments.protocol import (
     Proposer,
     TableAnswers,
@@ -89,7 +89,7 @@ def train_variant(variant: str, modular: ModularParams, params: EgganModularPara
         def validate(generator):
             return validation_scores(problem, generator_answer(generator, params.protocol.samples),
                                      params.protocol.candidates)
-    trained = train(problem, params.network, config, out / "checkpoints" / f"{name}.pt",
+    trained = train(problem, network_of(variant, params), config, out / "checkpoints" / f"{name}.pt",
                     plots / f"{name}.csv", out / f"{name}.mcap", progress=progress, validate=validate)
     best = {} if trained.best_iteration is None else {
         "best_iteration": trained.best_iteration,
@@ -209,7 +209,7 @@ def train_baseline(name: str, modular: ModularParams, params: EgganModularParams
     training = learner.training
     config = training_config(name, params)
     problem = make_problem(modular, params, cache, executor, config.iterations * config.tasks)
-    model, rows = training.train(problem, params.network, config, progress)
+    model, rows = training.train(problem, network_of(name, params), config, progress)
     if problem.fitness.source == "table":
         rows[-1] = {**rows[-1], **validation_scores(problem, learner.answer(model, params.protocol.samples),
                                                     params.protocol.candidates)}

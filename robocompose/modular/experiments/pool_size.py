@@ -23,7 +23,7 @@ from robocompose.eggan.learners import generator_answer
 from robocompose.eggan.train import train
 from robocompose.fanout.executor import Executor
 from robocompose.io.errors import InputError
-from robocompose.modular.eggan_params import EgganModularParams, PoolSizeConfig
+from robocompose.modular.eggan_params import EgganModularParams, PoolSizeConfig, network_of
 from robocompose.modular.experiments.protocol import TableAnswers, realtime_table, table_proposers, training_scores
 from robocompose.modular.experiments.table_designs import portfolio
 from robocompose.modular.params import ModularParams
@@ -63,7 +63,7 @@ def _study_run(job: tuple) -> pd.DataFrame:
                                        best_by="", seed=sized.train.seed + seed)  # no validation: the last model
     problem = ModularEgganProblem(modular, sized.fitness, mutation_rate=modular.experiments.mutation_rate,
                                   crossover_rate=modular.experiments.crossover_rate)
-    trained = train(problem, sized.network, train_config, checkpoints / f"crowding_{n}_seed{seed}.pt")
+    trained = train(problem, network_of("crowding", sized), train_config, checkpoints / f"crowding_{n}_seed{seed}.pt")
     chosen = portfolio(pool[pool.terrain_seed.isin(sized.fitness.train_seeds)], protocol.candidates)
     proposers = {"crowding": generator_answer(trained.generator, protocol.samples)}
     if seed == 0:

@@ -23,7 +23,7 @@ from typing import Any
 from robocompose.eggan.learners import LEARNERS, baselines, variants
 from robocompose.eggan.storage import load_model
 from robocompose.io.errors import ArtifactError, shown
-from robocompose.modular.eggan_params import EgganModularParams
+from robocompose.modular.eggan_params import EgganModularParams, network_of
 from robocompose.modular.experiments.generative import configured_seed, training_config, with_seed
 from robocompose.modular.params import ModularParams
 
@@ -40,7 +40,7 @@ def expected_settings(method: str, seed: int, modular: ModularParams, params: Eg
     evaluator's settings hash, every training setting (`train.NAME`), every network setting (`network.NAME`) and
     the fitness source and budget its metrics record (`metrics.NAME`)."""
     train = _json(dataclasses.asdict(training_config(method, with_seed(params, method, seed))))
-    network = _json(dataclasses.asdict(params.network))
+    network = _json(dataclasses.asdict(network_of(method, params)))
     fitness = params.fitness
     budget = fitness.lookups if fitness.source == "table" else fitness.budget
     return {"settings_hash": modular.eval.settings_hash(),

@@ -66,6 +66,7 @@ def test_a_folder_trained_with_the_params_settings_is_taken(trained):
     ({"evolution_steps": {"crowding": 2, "ga": 1}}, "crowding", "train.evolution_steps", "2", "1"),
     ({"baselines": {"molgan": {**SECTION["baselines"]["molgan"], "lam": 1.0}}}, "molgan", "train.lam", "1.0", "0.5"),
     ({"network": {"hidden": 32}}, "ga", "network.hidden", "32", "16"),
+    ({"encoders": {"molgan": "features"}}, "molgan", "network.encoder", "'features'", "'conv'"),  # per learner
     ({"fitness": {"lookups": 300}}, "ga", "metrics.evaluation_budget", "300", "400"),
 ])
 def test_a_folder_trained_under_other_settings_is_refused_naming_file_field_and_values(trained, changes, file, field,
