@@ -120,7 +120,8 @@ def section(reports_dir: Path, data_dir: Path) -> str:
     lines += markdown_table(["method", "max distance (m)", "distinct", "EC distance (m)", "regret (m)",
                              "no valid candidate / EC failures", "evaluations in training", "training seeds",
                              "thesis distance", "thesis distinct", "thesis EC", "thesis hand-crafted"], rows)
-    lines += ["", *_seeds_lines(protocol, titles), *_table_rows_lines(protocol, set(table.method)),
+    lines += ["", *_seeds_lines(protocol, titles), *_selection_lines(metrics, titles),
+              *_table_rows_lines(protocol, set(table.method)),
               *_test_tables_lines(protocol.get("test_tables")), _verdict(table, titles), ""]
     lines += _best_of_lines(protocol.get("best_of"), titles, protocol)
     lines += _significance(table, protocol.get("best_of"), titles)
@@ -191,6 +192,21 @@ def _seeds_lines(protocol: dict, titles: dict[str, str]) -> list[str]:
                  "measured/modular/seeds/), so no spread over seeds is shown; `robocompose modular train-seed` "
                  "trains more.")
     return [text, ""]
+
+
+def _selection_lines(metrics: dict, titles: dict[str, str]) -> list[str]:
+    """Which trained rows keep their best validation checkpoint (early stopping) and which report their final
+    model (reports/metrics/eggan_modular.json): an asymmetry of model selection the reader must weigh."""
+    trained = [m for m in titles if isinstance(metrics.get(m), dict)]
+    kept = [m for m in trained if metrics[m].get("best_iteration") is not None]
+    final = [m for m in trained if m not in kept]
+    if not kept or not final:
+        return []
+    return [f"Model selection differs: {', '.join(titles[m] for m in kept)} keep the checkpoint best on the "
+            f"validation terrains (early stopping); {', '.join(titles[m] for m in final)} report their final "
+            "model. Selection on validation can only help a row on the test terrains, so comparisons of these two "
+            "groups lean towards the first. Each learner's terrain encoder was chosen on the validation terrains by "
+            "one rule (docs/eggan.md).", ""]
 
 
 def _table_rows_lines(protocol: dict, methods: set[str]) -> list[str]:

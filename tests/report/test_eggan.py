@@ -301,3 +301,14 @@ def test_learned_rows_show_the_mean_and_sd_over_their_training_seeds(tmp_path):
         **seeds, "seeds": [0], "n": 1, "max_distance": over(5.5, None)}}})
     text = section(reports, data)
     assert "| EG-GAN-crowding | 5.50 | 4.0 ± 0.5 |" in text and "n seeds = 1: one training seed per learner" in text
+
+
+def test_the_table_says_which_rows_kept_their_best_validation_checkpoint():
+    from robocompose.report.eggan import _selection_lines
+
+    titles = {"crowding": "EG-GAN-crowding", "dqn": "DQN", "portfolio": "Portfolio"}
+    metrics = {"crowding": {"best_iteration": 100}, "dqn": {}}
+    [text, _] = _selection_lines(metrics, titles)
+    assert text.startswith("Model selection differs: EG-GAN-crowding keep the checkpoint best on the validation")
+    assert "; DQN report their final model." in text and "Portfolio" not in text  # untrained rows are not named
+    assert _selection_lines({"crowding": {"best_iteration": 100}}, titles) == []  # no asymmetry, no paragraph
