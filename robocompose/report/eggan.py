@@ -204,9 +204,9 @@ def _selection_lines(metrics: dict, titles: dict[str, str]) -> list[str]:
         return []
     return [f"Model selection differs: {', '.join(titles[m] for m in kept)} keep the checkpoint best on the "
             f"validation terrains (early stopping); {', '.join(titles[m] for m in final)} report their final "
-            "model. Selection on validation can only help a row on the test terrains, so comparisons of these two "
-            "groups lean towards the first. Each learner's terrain encoder was chosen on the validation terrains by "
-            "one rule (docs/eggan.md).", ""]
+            "model. Selection on validation tends to carry over to the test terrains, so comparisons between the "
+            "two groups may lean towards the first. Each learner's terrain encoder was chosen on the validation "
+            "terrains by one rule (docs/eggan.md).", ""]
 
 
 def _table_rows_lines(protocol: dict, methods: set[str]) -> list[str]:
