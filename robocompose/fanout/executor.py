@@ -21,7 +21,10 @@ cache (each distinct key once), stores each result dict with `cache.put(key, **r
 
 A malformed address, or one where no scheduler answers within `CONNECT_TIMEOUT` seconds, is an InputError.
 Local workers come from a fork server (clean processes, no inherited torch threads) and live as long as the
-executor. Results do not depend on the backend or the number of workers: each item is evaluated on its own.
+executor, or until the process that made it is gone: a killed caller runs no shutdown, and its fork server outlives
+it, so each worker watches its owner (`_watch_owner`) and exits within `OWNER_POLL` seconds of its end instead of
+computing the queued items on and then waiting forever. Results do not depend on the backend or the number of
+workers: each item is evaluated on its own.
 """
 
 from __future__ import annotations
@@ -30,6 +33,8 @@ import concurrent.futures
 import multiprocessing
 import os
 import re
+import threading
+import time
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any
@@ -39,6 +44,7 @@ from robocompose.io.errors import InputError
 from robocompose.io.quiet import quiet_pybullet
 
 CONNECT_TIMEOUT = 5  # seconds to wait for a Dask scheduler to answer
+OWNER_POLL = 0.5  # seconds between a local worker's checks that the process owning its pool is still there
 ADDRESS_EXAMPLE = "tcp://host:8786"
 _ADDRESS = re.compile(r"(tcp|tls|ucx|ws|wss)://(\[[0-9a-fA-F:]+\]|[^\s:/\[\]]+):(\d{1,5})")
 
@@ -110,6 +116,32 @@ def _probe_scheduler(address: str) -> None:
                          f"scheduler; expected a running scheduler like {ADDRESS_EXAMPLE}")
 
 
+def _alive(pid: int) -> bool:
+    """Whether process `pid` is running and ours: not gone, not another user's (the number reused), not a zombie."""
+    try:
+        os.kill(pid, 0)
+    except (ProcessLookupError, PermissionError):
+        return False
+    try:
+        with open(f"/proc/{pid}/stat") as stat:
+            return stat.read().rpartition(")")[2].split()[0] != "Z"
+    except OSError:  # no /proc (not Linux): the signal said it is there
+        return True
+
+
+def _watch_owner(owner: int) -> None:
+    """Exit this worker at once (no cleanup: its owner, which would read the results, is gone) when `owner` ends."""
+    while _alive(owner):
+        time.sleep(OWNER_POLL)
+    os._exit(1)
+
+
+def _start_worker(owner: int) -> None:
+    """A local worker's start: pybullet without its banner, and a daemon thread watching the pool's owner."""
+    quiet_pybullet()
+    threading.Thread(target=_watch_owner, args=(owner,), name="owner-watch", daemon=True).start()
+
+
 class Executor:
     """Runs `fn(item)` for many items: in this process, on local processes, or on a Dask cluster."""
 
@@ -158,7 +190,7 @@ class Executor:
             return ((i, fn(item)) for i, item in enumerate(items))
         if self._pool is None:
             self._pool = ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("forkserver"),
-                                             initializer=quiet_pybullet)  # no banner from each worker
+                                             initializer=_start_worker, initargs=(os.getpid(),))
         pending = {self._pool.submit(fn, item): i for i, item in enumerate(items)}
         return ((pending[future], future.result()) for future in concurrent.futures.as_completed(pending))
 

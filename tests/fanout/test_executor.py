@@ -2,6 +2,7 @@ import math
 import os
 import socket
 import time
+from pathlib import Path
 
 import pandas as pd
 import pytest
@@ -260,3 +261,54 @@ def test_an_address_that_is_no_scheduler_fails_within_ten_seconds_with_one_line(
             silent.close()
     assert time.perf_counter() - started < 10
     assert repr(address) in str(error.value) and "within 5 s" in str(error.value) and "\n" not in str(error.value)
+
+
+OWNER = """
+import os, sys, time
+from robocompose.fanout.executor import Executor
+
+def busy(i):
+    open(os.path.join(sys.argv[1], f"worker-{os.getpid()}"), "w").close()
+    end = time.time() + 60
+    while time.time() < end:  # computing, as a rollout batch does
+        pass
+    return i
+
+if __name__ == "__main__":
+    with Executor(workers=2) as executor:
+        executor.map(busy, range(8))
+"""
+
+
+def _running(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as stat:
+            return stat.read().rpartition(")")[2].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc"), reason="reads process states from /proc")
+def test_local_workers_stop_when_their_owner_is_killed(tmp_path):
+    # SIGKILL runs no shutdown and the fork server outlives its owner: without the watch, both workers computed
+    # the queued items on (measured: minutes at full load) and then waited forever.
+    import subprocess
+    import sys
+
+    script = tmp_path / "owner.py"
+    script.write_text(OWNER)
+    owner = subprocess.Popen([sys.executable, str(script), str(tmp_path)], cwd=Path(__file__).parents[2])
+    deadline = time.time() + 60
+    while len(list(tmp_path.glob("worker-*"))) < 2 and time.time() < deadline:
+        time.sleep(0.1)
+    workers = [int(p.name.split("-")[1]) for p in tmp_path.glob("worker-*")]
+    assert len(workers) == 2 and all(_running(pid) for pid in workers)
+    owner.kill()
+    owner.wait()
+    deadline = time.time() + 10
+    while any(_running(pid) for pid in workers) and time.time() < deadline:
+        time.sleep(0.1)
+    left = [pid for pid in workers if _running(pid)]
+    for pid in left:  # a failing run must not leave them computing
+        os.kill(pid, 9)
+    assert left == []
