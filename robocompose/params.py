@@ -44,6 +44,7 @@ SECTIONS = {
     "train_vae.landscape": ("robocompose.latent.landscape", "LandscapeConfig"),
     "glso": ("robocompose.glso.runs", "GLSOConfig"),
     "glso_campaign": ("robocompose.glso.campaign", "CampaignConfig"),
+    "vae_thesis": ("robocompose.latent.thesis_scale", "ThesisScaleConfig"),
 }
 
 

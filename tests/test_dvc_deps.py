@@ -33,6 +33,9 @@ KNOWN_READS = {
     "modular_baselines": {"data/modular/exhaustive.parquet"},
     "train_eggan_modular": {"data/modular/pool.parquet"},  # eggan_modular.fitness.pool
     "modular_pool_size": {"data/modular/pool.parquet"},
+    "vae_landscape": {f"reports/training/vae_{name}/metrics.json": "thesis_scale.progress reads the dvclive summary "
+                      "in its own committed folder (measured/vae_thesis/log/metrics.json, a dep)"
+                      for name in ("full", "nopred", "nogram")},
     "modular_realtime": {"data/modular/pool.parquet"},
     "vae_designs": {"data/designs.parquet", "data/designs_nogram.parquet"},
     "train_vae": {"data/designs.parquet", "data/designs_nogram.parquet",  # train_vae.variants
@@ -59,6 +62,9 @@ NOT_READ = {
     | {"measured/references/eval_cache.parquet": "runs.py imports robocompose.evaluation.references for "
                                                  "record_rollout; the committed evaluations are evaluate_references'"},
     "glso_campaign": {"measured/references/eval_cache.parquet": "it imports robocompose.glso.runs (see glso)"},
+    "vae_landscape": {f"reports/training/vae_{name}/metrics.json": "thesis_scale.progress reads the dvclive summary "
+                      "in its own committed folder (measured/vae_thesis/log/metrics.json, a dep)"
+                      for name in ("full", "nopred", "nogram")},
     "modular_realtime": {"measured/modular/exhaustive": "it imports robocompose.modular.truth to read the partial "
                                                         "test tables (measured/modular/test_partial, a dep) as "
                                                         "committed tables; the exhaustive ones come through "

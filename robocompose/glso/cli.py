@@ -30,16 +30,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     glso.set_defaults(handler=_glso)
     campaign = subparsers.add_parser("glso-campaign", help="the seeded GLSO campaign: run what is missing (hours, "
                                      "resumable) or summarise the committed runs")
-    campaign.add_argument("action", choices=("run", "heldout", "verify", "summarise", "pilot"),
+    campaign.add_argument("action", choices=("run", "heldout", "verify", "summarise", "pilot", "vae"),
                           help="run: every missing run, then the re-scores and held-out pieces; pilot: the same for "
                                "the pilot of GLSO's variants (3 seeds each at rung s8_h8_e48, measured/glso_pilot/; "
                                "~2 core-hours), then its table; heldout: only the "
                                "held-out pieces of the committed runs (each run's top designs at fresh seeds, the "
                                "thesis re-scores of its held-out best); verify: re-simulate a design of each "
                                "method and, if today's code scores it bit for bit as committed, record its settings "
-                               "hash as the runs' evaluator; summarise: the statistics as JSON")
+                               "hash as the runs' evaluator; summarise: the statistics as JSON; vae: the VAE at "
+                               "the thesis's scale in committed pieces (vae_thesis: >= 100k designs, then >= 100k "
+                               "steps at hidden 450, ~8 core-hours, resumable; Ctrl-C keeps the last checkpoint)")
     campaign.add_argument("--params", default="params.yaml",
-                          help="params file (sections glso_campaign, glso, evaluation, compute)")
+                          help="params file (sections glso_campaign, glso, evaluation, compute; vae: vae_thesis, "
+                               "enumerate, compute)")
     campaign.add_argument("--rung", default=None, help="the fidelity rung of the runs (default: glso_campaign.rung, "
                                                        "else the one the evaluator fidelity rule chose; heldout "
                                                        "measures at the committed runs' rung, campaign.json's)")
@@ -68,6 +71,21 @@ def _fidelity_search(args: argparse.Namespace) -> int:
     return 0
 
 
+def _thesis_scale_vae(args: argparse.Namespace) -> int:
+    from robocompose.arguments import command_compute
+    from robocompose.dataset.enumerate import EnumerateConfig
+    from robocompose.latent import thesis_scale
+    from robocompose.params import load_section
+
+    config = load_section(thesis_scale.ThesisScaleConfig, "vae_thesis", args.params)
+    enumeration = load_section(EnumerateConfig, "enumerate", args.params)
+    with command_compute(args, args.params).executor() as executor:
+        thesis_scale.enumerate_pieces(config, enumeration, executor)
+    thesis_scale.train_thesis_scale(config)
+    print(json.dumps(thesis_scale.progress(config)))
+    return 0
+
+
 def _campaign(args: argparse.Namespace) -> int:
     import dataclasses
 
@@ -78,6 +96,8 @@ def _campaign(args: argparse.Namespace) -> int:
     from robocompose.io.errors import InputError
     from robocompose.params import load_section
 
+    if args.action == "vae":
+        return _thesis_scale_vae(args)
     config = load_section(campaign.CampaignConfig, "glso_campaign", args.params)
     if args.rung is not None:
         try:

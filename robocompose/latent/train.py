@@ -23,7 +23,7 @@ from robocompose.grammar.tree import DesignTree
 from robocompose.io import ArtifactError, McapWriter, read_table
 from robocompose.io.checkpoint import load_checkpoint, save_checkpoint
 from robocompose.io.errors import InputError, check_field, check_finite_fields, check_number
-from robocompose.io.provenance import code_digest, settings_digest
+from robocompose.io.provenance import INFRASTRUCTURE, code_digest, settings_digest
 from robocompose.io.torch_file import load_torch, save_torch
 from robocompose.latent.batch import collate
 from robocompose.latent.constraints import Replay, replay
@@ -31,6 +31,7 @@ from robocompose.latent.curves import CURVES, LOG_FIELDS
 from robocompose.latent.model import GraphVAE, VAEConfig
 
 if TYPE_CHECKING:
+    import pandas as pd
     from dvclive import Live
 
 
@@ -105,8 +106,13 @@ class Designs:
 
 
 def load_designs(path: str | Path, constraints: str, max_nodes: int) -> Designs:
-    """Read a `designs` table; every design must satisfy the decoder's constraints (else ValueError)."""
-    table = read_table(path, "designs")
+    """Read a `designs` table; every design must satisfy the decoder's constraints (else InputError)."""
+    return designs_from_table(read_table(path, "designs"), constraints, max_nodes, str(path))
+
+
+def designs_from_table(table: pd.DataFrame, constraints: str, max_nodes: int, source: str) -> Designs:
+    """A `designs` table (read from `source`) prepared for the VAE; every design must satisfy the decoder's
+    constraints (else InputError naming `source`)."""
     trees = [DesignTree(tuple(int(p) for p in row.parents), tuple(int(t) for t in row.tokens))
              for row in table.itertuples()]
     replays = []
@@ -114,7 +120,7 @@ def load_designs(path: str | Path, constraints: str, max_nodes: int) -> Designs:
         try:
             replays.append(replay(tree, constraints, max_nodes))
         except ValueError as err:
-            raise InputError(f"{path}: design {design_id} cannot be decoded under {constraints!r}: {err}") from None
+            raise InputError(f"{source}: design {design_id} cannot be decoded under {constraints!r}: {err}") from None
     contacts = np.array([np.asarray(c, dtype=np.float32) for c in table["contacts"]]).reshape(len(table), 16)
     return Designs(list(table["design_id"]), trees, replays, contacts)
 
@@ -169,7 +175,7 @@ def run_key(model_config: VAEConfig, config: TrainConfig, designs: Designs, trai
     unused = ("pred_weight",) if not model_config.predictor else ()
     settings = {k: v for k, v in dataclasses.asdict(config).items() if k not in BOOKKEEPING + unused}
     return settings_digest([dataclasses.asdict(model_config), settings, designs.digest(), train_set.digest(),
-                            code_digest("robocompose.latent.train")])
+                            code_digest("robocompose.latent.train", exclude=INFRASTRUCTURE)])
 
 
 def save_model(model: GraphVAE, path: str | Path) -> Path:
@@ -247,11 +253,12 @@ def write_logs(rows: list[dict], live: Live, mcap_path: Path) -> None:
 
 
 def train(model_config: VAEConfig, config: TrainConfig, designs: Designs, checkpoint: Path, live: Live,
-          mcap_path: Path, extra: Designs | None = None,
-          progress: str | None = None) -> tuple[GraphVAE, Designs, Designs]:
+          mcap_path: Path, extra: Designs | None = None, progress: str | None = None,
+          named: bool = False) -> tuple[GraphVAE, Designs, Designs]:
     """Train (resuming from `checkpoint` when it holds a run of the same settings), logging to `live` (a fresh
     `training_log`); returns the model and the (train, held-out) designs. `extra` designs join the training
-    split (any that are held out are dropped). `progress`: a label, then a tqdm bar of the steps (on stderr)."""
+    split (any that are held out are dropped). `progress`: a label, then a tqdm bar of the steps (on stderr). `named`:
+    `checkpoint` holds a committed measurement, so a file of another run there is an InputError, never overwritten."""
     torch.set_num_threads(config.threads)
     train_idx, test_idx = split(len(designs.ids), config.holdout, config.seed)
     train_set, test_set = designs.subset(train_idx), designs.subset(test_idx)
@@ -265,7 +272,7 @@ def train(model_config: VAEConfig, config: TrainConfig, designs: Designs, checkp
     optimizer = torch.optim.Adam(model.parameters(), lr=config.lr, fused=True)  # one kernel, not one loop per tensor
     key = run_key(model_config, config, designs, train_set)
     start, rows = 0, []
-    saved = load_checkpoint(checkpoint, key)  # None unless it holds this run (a damaged one is moved aside)
+    saved = load_checkpoint(checkpoint, key, named=named)  # None unless it holds this run (damaged: moved aside)
     if saved is not None and saved["step"] > config.steps:
         print(f"{checkpoint} is at step {saved['step']}, past this run's {config.steps} steps: starting afresh",
               flush=True)

@@ -15,6 +15,7 @@ import numpy as np
 from robocompose.io import read_table
 from robocompose.io.atomic import read_json
 from robocompose.io.errors import ArtifactError
+from robocompose.report.verdicts import held, verdict
 
 COLUMNS = [("reconstruction_accuracy", "reconstruction (held out)"), ("prior_validity", "prior valid (builds)"),
            ("prior_grammar_valid", "prior grammar-derivable"), ("prior_rest_valid", "prior passes rest check"),
@@ -195,7 +196,10 @@ def _landscape(path: Path, knn_path: Path, figures: Path, plt, titles: dict[str,
              "(5th-95th percentile; ~4 is standing still). The thesis colours a few hundred designs scored with its "
              "controller."]
     if len(dataset) and knn_path.exists():
-        knn = read_json(knn_path)["knn_predictability"]
+        metrics = read_json(knn_path)
+        knn = metrics["knn_predictability"]
+        if thesis := metrics.get("thesis_scale"):  # the thesis-scale VAE's rows, once it is gated
+            titles = titles | {thesis["variant"]: thesis["title"]}
         if knn:
             lines += ["", "Does the latent space order scores? Each scored search design's reward predicted by the "
                       "mean of its 5 nearest neighbours in the full latent space (leave one out), Spearman against "
@@ -212,7 +216,7 @@ def _landscape(path: Path, knn_path: Path, figures: Path, plt, titles: dict[str,
             lines += ["", "Above the shuffled 95th percentile: "
                       + "; ".join(f"{titles[name]} in {len(above[name])} of {groups[name]} groups"
                                   for name in ("full", "nopred")) + "."]
-            lines += _gate(read_json(knn_path), knn_path, titles)
+            lines += _gate(metrics, knn_path, titles)
     return lines
 
 
@@ -240,4 +244,25 @@ def _gate(metrics: dict, path: Path, titles: dict[str, str]) -> list[str]:
         lines.append(f"| {titles[name]} | {task} | {rung} | {row['designs']} | {row['latent_spearman']:.3f} | "
                      f"{row['node_count_spearman']:.3f} | {row['margin']:+.3f} | {row['window_distinct']:g} | "
                      f"{'yes' if row['passes'] else 'no'} |")
-    return lines
+    return lines + _thesis_scale(metrics.get("thesis_scale"), gate)
+
+
+def _thesis_scale(progress: dict | None, gate: dict) -> list[str]:
+    """The thesis-scale VAE's gate verdict on the campaign's groups (the largest group of scored designs decides:
+    the campaign's rung), or how far its committed measurement is."""
+    if progress is None:
+        return []
+    scale = (f"hidden {progress['hidden']}, predictor weight {progress['pred_weight']:g}, "
+             f"{progress['designs']:,} designs, {progress['steps']:,} steps")
+    if not progress["issue_scale"]:
+        scale += " (below the issue's 100k designs x 100k steps: a trial)"
+    rows = {key: row for key, row in gate.items() if key.startswith(f"{progress['variant']}/")}
+    if not progress["finished"] or not rows:
+        return ["", f"{progress['title']} ({scale}, `robocompose glso-campaign vae`): in progress, "
+                f"{progress['designs']:,} of {progress['designs_asked']:,} designs enumerated, step "
+                f"{progress['step']:,} of {progress['steps']:,} trained (committed in {progress['directory']})."]
+    key, row = max(rows.items(), key=lambda item: item[1]["designs"])
+    return ["", verdict(f"{progress['title']} passes the gate ({scale})", held(row["passes"]),
+                        f"On {key.split('/', 1)[1]} ({row['designs']} designs): margin {row['margin']:+.3f} "
+                        f"(needs >= {row['gate_margin']:g}), window {row['window_distinct']:g} distinct designs "
+                        f"(needs >= {row['gate_distinct']}).")]

@@ -105,3 +105,23 @@ def test_section_shows_metrics_curves_and_landscape(tmp_path):
     assert "by >= 0.1, and a box 0.5 wide" in text and ">= 10 distinct designs of 200 uniform draws" in text
     assert "| GLSO | flat | s8_h8_e48 | 120 | 0.400 | 0.250 | +0.150 | 12 | yes |" in text
     assert "| GLSO_nopred | flat | s8_h8_e48 | 120 | 0.100 | 0.250 | -0.150 | 2 | no |" in text
+
+    # the thesis-scale VAE: its progress until finished, then a verdict from its gate on the largest group
+    progress = {"directory": "measured/vae_thesis", "pieces": 4, "designs": 40_000, "designs_asked": 100_000,
+                "step": 0, "steps": 100_000, "finished": False, "hidden": 450, "pred_weight": 20.0,
+                "issue_scale": True, "variant": "thesis", "title": "GLSO's VAE at thesis scale"}
+    metrics = {"knn_predictability": knns, "gate": gate, "thesis_scale": progress}
+    (tmp_path / "metrics" / "vae_landscape.json").write_text(json.dumps(metrics))
+    text = section(tmp_path, tmp_path, TRAIN_VAE)
+    assert "GLSO's VAE at thesis scale (hidden 450, predictor weight 20, 40,000 designs, 100,000 steps, " \
+        "`robocompose glso-campaign vae`): in progress, 40,000 of 100,000 designs enumerated, step 0 of 100,000" in text
+    failed = {**gate["full/flat/s8_h8_e48"], "designs": 3002, "margin": 0.05, "window_distinct": 30.0, "passes": False}
+    metrics = {"knn_predictability": knns | {"thesis/flat/s16_h16_e48": knn},
+               "gate": gate | {"thesis/flat/s8_h8_e48": {**failed, "designs": 120, "passes": True},
+                               "thesis/flat/s16_h16_e48": failed},
+               "thesis_scale": {**progress, "designs": 100_500, "step": 100_000, "finished": True}}
+    (tmp_path / "metrics" / "vae_landscape.json").write_text(json.dumps(metrics))
+    text = section(tmp_path, tmp_path, TRAIN_VAE)
+    assert "| GLSO's VAE at thesis scale | flat | s16_h16_e48 | 3002 | 0.400 | 0.250 | +0.050 | 30 | no |" in text
+    assert "GLSO's VAE at thesis scale passes the gate (hidden 450, predictor weight 20, 100,500 designs, 100,000 " \
+        "steps): **does NOT hold** On flat/s16_h16_e48 (3002 designs): margin +0.050 (needs >= 0.1)" in text

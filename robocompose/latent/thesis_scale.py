@@ -1,0 +1,149 @@
+"""The VAE at the thesis's scale, measured here in committed pieces (issue 42, item 6).
+
+The default profile's VAE (hidden 128, 6,000 steps, ~13k designs, predictor weight 5) fails the gate a VAE must
+pass before a GLSO campaign searches it (`landscape.vae_gate`). This is the VAE a reviewer asks for before
+blaming GLSO: hidden 450 and predictor weight 20 (the thesis's), trained on >= 100k enumerated designs for
+>= 100k steps (thesis: 5e5 designs, 400k steps). That is ~6-8 core-hours of training here, more than a session,
+so it runs in resumable pieces committed under `directory` (`robocompose glso-campaign vae`):
+
+    designs-KKK.parquet   `piece` designs each (the last as many as are missing), the dataset's own
+                          enumeration (`enumerate:` filters) with seed `seed` + K; enumerated until the pieces
+                          hold `designs` distinct designs (a design in two pieces counts once: the first keeps it)
+    checkpoint.pt         the training run in progress (model, Adam state, step, log), every `checkpoint_every`
+                          steps; committed at the end of a session, resumed bit for bit by the next
+    log/                  the training curves (dvclive) and vae_thesis.mcap, rewritten at every checkpoint
+    vae_full.pt           the trained model, once `train.steps` are done (the checkpoint is then removed)
+
+The schedule is the thesis's compressed from 400k to `train.steps` steps (learning-rate decay, KL warm-up and
+KL increments every quarter as many steps), so the final KL weight is the thesis's ~0.36. The run's key covers the
+settings, the designs' content and the training code; a committed checkpoint of another key is refused (one
+line), never silently restarted: deleting it is the user's call. Stage `vae_landscape` gates the finished model
+on the campaign's scored designs beside the default VAEs (`thesis` rows) and reports progress until then.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+from robocompose.io import read_table, write_table
+from robocompose.io.errors import InputError, check_field
+from robocompose.latent.model import VAEConfig
+from robocompose.latent.train import Designs, TrainConfig, designs_from_table
+
+PIECE_GLOB = "designs-*.parquet"
+CHECKPOINT = "checkpoint.pt"
+MODEL = "vae_full.pt"
+LOG = "log"
+MIN_DESIGNS = 100_000  # issue 42: a thesis-scale VAE sees at least this many designs ...
+MIN_STEPS = 100_000  # ... for at least this many optimiser steps (fewer: a trial, labelled so by `progress`)
+VARIANT = "thesis"  # its key in vae_landscape's gate and k-NN figures
+TITLE = "GLSO's VAE at thesis scale"
+
+
+def thesis_schedule(steps: int) -> TrainConfig:
+    """The thesis's optimisation (`TrainConfig`'s defaults: 400k steps) with its step counts scaled to `steps`."""
+    thesis = TrainConfig()
+    scale = steps / thesis.steps
+    return replace(thesis, steps=steps, lr_decay_every=round(thesis.lr_decay_every * scale),
+                   beta_start=round(thesis.beta_start * scale), beta_every=round(thesis.beta_every * scale),
+                   log_every=500, eval_every=10_000, eval_designs=300, checkpoint_every=1_000, threads=1)
+
+
+@dataclass(frozen=True)
+class ThesisScaleConfig:
+    """The `vae_thesis:` section of params.yaml."""
+
+    directory: str = "measured/vae_thesis"  # the committed pieces (module docstring)
+    designs: int = MIN_DESIGNS  # distinct designs to train on
+    piece: int = 10_000  # designs per committed piece
+    seed: int = 2000  # enumeration seed of piece K: seed + K (the dataset uses 0, train_vae.extra 1000)
+    model: VAEConfig = field(default_factory=VAEConfig)  # the thesis's sizes (hidden 450, latent 28)
+    train: TrainConfig = field(default_factory=lambda: thesis_schedule(MIN_STEPS))
+
+    def __post_init__(self) -> None:
+        check_field(self.designs >= 1, "designs", "an integer >= 1", self.designs)
+        check_field(1 <= self.piece <= self.designs, "piece", f"an integer in [1, designs ({self.designs})]",
+                    self.piece)
+        check_field(self.seed >= 0, "seed", "an integer >= 0", self.seed)
+        check_field(self.model.predictor and self.model.constraints == "grammar", "model",
+                    "GLSO's VAE: predictor true, constraints grammar", self.model)
+
+
+def pieces(config: ThesisScaleConfig) -> list[Path]:
+    return sorted(Path(config.directory).glob(PIECE_GLOB))
+
+
+def distinct_designs(config: ThesisScaleConfig) -> int:
+    ids: set[str] = set()
+    for path in pieces(config):
+        ids.update(read_table(path, "designs")["design_id"])
+    return len(ids)
+
+
+def enumerate_pieces(config: ThesisScaleConfig, enumeration, executor=None) -> list[Path]:
+    """Enumerate and write pieces until they hold `config.designs` distinct designs; each piece is written once
+    complete (a killed enumeration redoes only the piece it was in). `enumeration`: the `enumerate:` section
+    (its filters; n and seed are the piece's)."""
+    from robocompose.dataset.enumerate import enumerate_designs
+
+    Path(config.directory).mkdir(parents=True, exist_ok=True)
+    while (have := distinct_designs(config)) < config.designs:
+        k = len(pieces(config))
+        n = min(config.piece, config.designs - have)  # the last piece only as large as the target needs
+        table, _ = enumerate_designs(replace(enumeration, n=n, seed=config.seed + k), executor,
+                                     f"vae_thesis piece {k} ({have:,} of {config.designs:,} designs)")
+        write_table(table, Path(config.directory) / f"designs-{k:03d}.parquet", "designs")
+    return pieces(config)
+
+
+def load_pieces(config: ThesisScaleConfig) -> Designs:
+    """Every piece's designs in piece order, a design that an earlier piece holds dropped; an InputError while
+    fewer than `config.designs` are there."""
+    import pandas as pd
+
+    tables = [read_table(path, "designs") for path in pieces(config)]
+    if not tables:
+        raise InputError(f"{config.directory}: no {PIECE_GLOB} pieces; run `robocompose glso-campaign vae`")
+    table = pd.concat(tables, ignore_index=True).drop_duplicates("design_id", keep="first")
+    if len(table) < config.designs:
+        raise InputError(f"{config.directory}: {len(table):,} distinct designs in its pieces, expected >= "
+                         f"{config.designs:,} (vae_thesis.designs); run `robocompose glso-campaign vae`")
+    return designs_from_table(table.reset_index(drop=True), config.model.constraints, config.model.max_nodes,
+                              f"{config.directory}/{PIECE_GLOB}")
+
+
+def train_thesis_scale(config: ThesisScaleConfig) -> Path:
+    """Train (or resume) the thesis-scale VAE on the committed pieces; its model file once done."""
+    from robocompose.latent.train import save_model, train, training_log
+
+    directory = Path(config.directory)
+    if (directory / MODEL).exists():
+        return directory / MODEL
+    designs = load_pieces(config)
+    with training_log(directory / LOG) as live:
+        model, _, _ = train(config.model, config.train, designs, directory / CHECKPOINT, live,
+                            directory / LOG / "vae_thesis.mcap", progress="vae_thesis", named=True)
+    save_model(model, directory / MODEL)
+    (directory / CHECKPOINT).unlink(missing_ok=True)
+    return directory / MODEL
+
+
+def progress(config: ThesisScaleConfig) -> dict:
+    """Where the measurement stands, without loading a model: pieces, distinct designs, steps done (from the
+    training log's summary) of those asked, and whether the model is finished."""
+    directory = Path(config.directory)
+    summary = directory / LOG / "metrics.json"
+    step = json.loads(summary.read_text())["step"] if summary.exists() else 0
+    return {"directory": config.directory, "pieces": len(pieces(config)), "designs": distinct_designs(config),
+            "designs_asked": config.designs, "step": step, "steps": config.train.steps,
+            "finished": (directory / MODEL).exists(), "hidden": config.model.hidden,
+            "pred_weight": config.train.pred_weight,
+            "issue_scale": config.designs >= MIN_DESIGNS and config.train.steps >= MIN_STEPS,
+            "variant": VARIANT, "title": TITLE}
+
+
+def finished_model(config: ThesisScaleConfig) -> Path | None:
+    path = Path(config.directory) / MODEL
+    return path if path.exists() else None

@@ -1,0 +1,82 @@
+"""The thesis-scale VAE in committed pieces: the compressed schedule, design pieces, a refused foreign checkpoint."""
+
+import dataclasses
+import json
+
+import pandas as pd
+import pytest
+
+from robocompose.dataset.enumerate import EnumerateConfig
+from robocompose.io import read_table, write_table
+from robocompose.io.checkpoint import save_checkpoint
+from robocompose.io.errors import InputError
+from robocompose.latent import thesis_scale
+from robocompose.latent.thesis_scale import ThesisScaleConfig
+from robocompose.latent.train import TrainConfig, beta_at, load_model, lr_at
+from tests.latent.conftest import TINY
+
+
+def tiny(directory, designs: int = 20, piece: int = 8, steps: int = 4) -> ThesisScaleConfig:
+    train = TrainConfig(steps=steps, batch_size=4, holdout=0.25, log_every=2, eval_every=4, eval_designs=4,
+                        checkpoint_every=2, threads=1)
+    return ThesisScaleConfig(directory=str(directory), designs=designs, piece=piece, model=TINY, train=train)
+
+
+def test_the_compressed_schedule_ends_where_the_thesis_400k_steps_end():
+    thesis, ours = TrainConfig(), thesis_scale.thesis_schedule(100_000)
+    assert (ours.lr_decay_every, ours.beta_start, ours.beta_every) == (10_000, 10_000, 500)
+    assert beta_at(ours.steps - 1, ours) == pytest.approx(beta_at(thesis.steps - 1, thesis)) == pytest.approx(0.36)
+    assert lr_at(ours.steps - 1, ours) == pytest.approx(lr_at(thesis.steps - 1, thesis))
+    assert ours.pred_weight == 20.0 and ThesisScaleConfig().model.hidden == 450
+
+
+def test_pieces_are_enumerated_until_the_distinct_designs_are_there_and_not_again(tmp_path):
+    config = tiny(tmp_path / "vae", designs=20, piece=8)
+    enumeration = EnumerateConfig(n=1, min_links=11, chunk=16)
+    paths = thesis_scale.enumerate_pieces(config, enumeration)
+    sizes = [len(read_table(p, "designs")) for p in paths]
+    assert sizes == [8, 8, 4] and thesis_scale.distinct_designs(config) == 20  # the last piece: what is missing
+    first = paths[0].read_bytes()
+    assert thesis_scale.enumerate_pieces(config, enumeration) == paths and paths[0].read_bytes() == first
+
+
+def test_a_design_in_two_pieces_counts_once(tmp_path, write_designs):
+    config = tiny(tmp_path / "vae", designs=12, piece=8)
+    one = read_table(write_designs(tmp_path / "a.parquet", 8, seed=1), "designs")
+    two = read_table(write_designs(tmp_path / "b.parquet", 8, seed=2), "designs")
+    (tmp_path / "vae").mkdir()
+    write_table(one, tmp_path / "vae" / "designs-000.parquet", "designs")
+    write_table(pd.concat([one.iloc[:4], two.iloc[:4]], ignore_index=True), tmp_path / "vae" / "designs-001.parquet",
+                "designs")
+    assert thesis_scale.distinct_designs(config) == 12
+    assert thesis_scale.load_pieces(config).ids == list(one["design_id"]) + list(two["design_id"][:4])
+    with pytest.raises(InputError, match=r"12 distinct designs in its pieces, expected >= 13"):
+        thesis_scale.load_pieces(dataclasses.replace(config, designs=13))
+
+
+def test_training_finishes_into_a_model_and_reports_its_progress(tmp_path, write_designs):
+    config = tiny(tmp_path / "vae", designs=12)
+    write_designs(tmp_path / "vae" / "designs-000.parquet", 12)
+    assert thesis_scale.progress(config) | {"step": 0, "finished": False} == thesis_scale.progress(config)
+    model = thesis_scale.train_thesis_scale(config)
+    assert load_model(model).config == TINY and not (tmp_path / "vae" / thesis_scale.CHECKPOINT).exists()
+    done = thesis_scale.progress(config)
+    assert (done["step"], done["steps"], done["finished"], done["issue_scale"]) == (4, 4, True, False)
+    assert json.loads((tmp_path / "vae" / "log" / "metrics.json").read_text())["step"] == 4
+
+
+def test_a_committed_checkpoint_of_another_run_is_refused_not_overwritten(tmp_path, write_designs):
+    config = tiny(tmp_path / "vae", designs=12)
+    write_designs(tmp_path / "vae" / "designs-000.parquet", 12)
+    foreign = save_checkpoint(tmp_path / "vae" / thesis_scale.CHECKPOINT, "0" * 16, {"step": 2})
+    before = foreign.read_bytes()
+    with pytest.raises(InputError, match="checkpoint.pt"):
+        thesis_scale.train_thesis_scale(config)
+    assert foreign.read_bytes() == before and thesis_scale.finished_model(config) is None
+
+
+def test_the_config_refuses_a_vae_glso_cannot_search():
+    with pytest.raises(InputError, match="model"):
+        ThesisScaleConfig(model=dataclasses.replace(TINY, predictor=False))
+    with pytest.raises(InputError, match="piece"):
+        ThesisScaleConfig(designs=10, piece=11)
