@@ -4,7 +4,8 @@ held-out chips (Tables 5.4, 5.5 and Figs. 5.3, 5.4).
 Writes models/teams_eggan.pt (the generator file), data/teams/eggan_{queries,fronts}.parquet,
 data/teams/coverage_examples.parquet, reports/metrics/teams_eggan.json, reports/plots/teams_eggan.csv;
 the checkpoint models/checkpoints/teams_eggan.pt lets a killed run resume; the generator's query wall
-times go to reports/timings.json (not tracked by DVC). Generators of further training seeds are committed pieces
+times go to reports/timings.json (not tracked by DVC), with NSGA-II's rows run alone on the first test chip in the
+same run (Table 5.4's speed ratio). Generators of further training seeds are committed pieces
 (robocompose.teams.generators), made by the same function.
 """
 
@@ -17,7 +18,7 @@ from robocompose.io import atomic_write_json, read_table, write_table
 from robocompose.io.timings import timed
 from robocompose.params import load_section
 from robocompose.stage import run_stage
-from robocompose.teams.experiments import decomposed_chips
+from robocompose.teams.experiments import decomposed_chips, nsga2_alone
 from robocompose.teams.generative import coverage_examples, rounded, save_teams_generator, training_summary
 from robocompose.teams.generators import queried_chips, train_and_query
 from robocompose.teams.params import TeamsParams
@@ -36,6 +37,7 @@ def main() -> None:
                                     Path("models/checkpoints/teams_eggan.pt"), Path("reports/plots/teams_eggan.csv"))
         timing["training_seconds"] = round(generated.training_seconds, 1)
         timing["queries"] = generated.timings
+        timing["nsga2_alone"] = nsga2_alone(*test_chips[0], params.coverage, experiments)
         queries, fronts, trained, problem = generated.queries, generated.fronts, generated.trained, generated.problem
         write_table(queries, "data/teams/eggan_queries.parquet", "teams_eggan_queries")
         write_table(fronts, "data/teams/eggan_fronts.parquet", "teams_eggan_fronts")

@@ -33,9 +33,6 @@ KNOWN_READS = {
     "modular_baselines": {"data/modular/exhaustive.parquet"},
     "train_eggan_modular": {"data/modular/pool.parquet"},  # eggan_modular.fitness.pool
     "modular_pool_size": {"data/modular/pool.parquet"},
-    "vae_landscape": {f"reports/training/vae_{name}/metrics.json": "thesis_scale.progress reads the dvclive summary "
-                      "in its own committed folder (measured/vae_thesis/log/metrics.json, a dep)"
-                      for name in ("full", "nopred", "nogram")},
     "modular_realtime": {"data/modular/pool.parquet"},
     "vae_designs": {"data/designs.parquet", "data/designs_nogram.parquet"},
     "train_vae": {"data/designs.parquet", "data/designs_nogram.parquet",  # train_vae.variants

@@ -14,6 +14,7 @@ from robocompose.teams.experiments import (
     decomposed_chips,
     example_allocation,
     example_trajectories,
+    nsga2_alone,
     nsga2_runs,
     random_fronts,
 )
@@ -50,6 +51,10 @@ def test_nsga2_runs_record_every_population_and_a_front_per_run(test_chips):
     assert [(run["population"], run["seed"]) for run in seconds["nsga2_alone"]] == [(4, 0), (6, 0)]
     assert all(run["seconds"] > 0 for group in seconds.values() for run in group)
     assert (runs.distinct_teams < runs.team_lookups).all()  # the memo saved optimisations in every run
+    # teams_eggan times the same runs alone again, beside EG-GAN's queries
+    alone = nsga2_alone(*test_chips[0], TINY, EXPERIMENTS)
+    assert [{k: v for k, v in run.items() if k != "seconds"} for run in alone] == \
+        [{k: v for k, v in run.items() if k != "seconds"} for run in seconds["nsga2_alone"]]
     # the runs of a chip and seed share their memo: a team two of them met was optimised once
     optimised = cache.frame().groupby("seed").size()
     assert (optimised <= runs.groupby("seed").distinct_teams.sum()).all()
