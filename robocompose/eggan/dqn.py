@@ -56,6 +56,7 @@ from robocompose.eggan.problem import (
     check_problem,
     decision_groups_of,
 )
+from robocompose.eggan.selection import ModelSelection
 from robocompose.eggan.storage import load_model, save_model
 from robocompose.eggan.train import iteration_streams
 from robocompose.io.errors import InputError
@@ -83,8 +84,12 @@ class DQNConfig:
     grad_clamp: float = 1.0  # every gradient component clamped to [-grad_clamp, grad_clamp]
     seed: int = 0
     threads: int = 1  # torch threads (results are bit-identical at a fixed thread count)
+    validate_every: int = 0  # iterations between validations that select the model kept (selection.py; 0: the last)
 
     def __post_init__(self):
+        if not isinstance(self.validate_every, int) or self.validate_every < 0 or self.validate_every % 10:
+            raise InputError(f"validate_every: expected 0 or a multiple of 10 (the log rows), found "
+                             f"{self.validate_every!r}")
         for name in ("iterations", "tasks", "episodes", "updates", "batch", "replay", "start", "target_every",
                      "hidden", "layers", "threads"):
             value = getattr(self, name)
@@ -197,9 +202,10 @@ def boltzmann_episodes(net: QNetwork, tasks: torch.Tensor, temperature: float,
     return choices
 
 
-def train_dqn(problem: SequentialProblem, network: NetworkConfig, config: DQNConfig,
-              progress: bool = False) -> tuple[QNetwork, list[dict]]:
-    """Train the Q-network; returns it (eval mode) and one log row per 10 iterations."""
+def train_dqn(problem: SequentialProblem, network: NetworkConfig, config: DQNConfig, progress: bool = False,
+              select: ModelSelection | None = None) -> tuple[QNetwork, list[dict]]:
+    """Train the Q-network; returns it (eval mode; with `select`, the best validated one) and one log row per 10
+    iterations."""
     from tqdm import tqdm
 
     check_problem(problem)
@@ -237,6 +243,8 @@ def train_dqn(problem: SequentialProblem, network: NetworkConfig, config: DQNCon
         except BudgetSpent:
             if fitness_seen:
                 rows.append(log_row(iteration, temperature))
+                if select is not None:
+                    select.after(rows[-1], online, final=True)
             break
         memory.add(task_tensor, choices, torch.as_tensor(sign * fitness, dtype=torch.float32))
         played += k * e
@@ -255,6 +263,10 @@ def train_dqn(problem: SequentialProblem, network: NetworkConfig, config: DQNCon
         if (iteration + 1) % 10 == 0 or iteration + 1 == config.iterations:
             rows.append(log_row(iteration + 1, temperature))
             fitness_seen, losses = [], []
+            if select is not None:
+                select.after(rows[-1], online, iteration + 1 == config.iterations)
+    if select is not None:
+        select.restore(online)
     return online.eval(), rows
 
 

@@ -18,6 +18,7 @@ import torch
 
 from robocompose.eggan.networks import Generator, NetworkConfig
 from robocompose.eggan.problem import BudgetSpent, EgganProblem, check_problem
+from robocompose.eggan.selection import ModelSelection
 from robocompose.eggan.train import iteration_streams
 
 
@@ -29,19 +30,22 @@ class Fit2formConfig:
     lr: float = 1e-3  # Adam (Fit2form: 1e-4 over 500 epochs of 512 designs; raised for the short default)
     seed: int = 0
     threads: int = 1  # torch threads (results are bit-identical at a fixed thread count)
+    validate_every: int = 0  # iterations between validations that select the model kept (selection.py; 0: the last)
 
     def __post_init__(self):
         for name in ("iterations", "tasks", "samples", "threads"):
             if not isinstance(getattr(self, name), int) or getattr(self, name) < 1:
                 raise ValueError(f"fit2form.{name}: expected a positive integer, found {getattr(self, name)!r}")
+        if not isinstance(self.validate_every, int) or self.validate_every < 0 or self.validate_every % 10:
+            raise ValueError(f"fit2form.validate_every: expected 0 or a multiple of 10, found {self.validate_every!r}")
         if self.samples < 2:
             raise ValueError("fit2form.samples: expected >= 2 (the advantage is standardised within a task)")
 
 
-def train_fit2form(problem: EgganProblem, network: NetworkConfig, config: Fit2formConfig,
-                   progress: bool = False) -> tuple[Generator, list[dict]]:
+def train_fit2form(problem: EgganProblem, network: NetworkConfig, config: Fit2formConfig, progress: bool = False,
+                   select: ModelSelection | None = None) -> tuple[Generator, list[dict]]:
     """Train the policy-gradient generator until `iterations` or the problem's budget is spent; returns it (eval
-    mode) and one log row per 10 iterations."""
+    mode; with `select`, the best validated one) and one log row per 10 iterations."""
     from tqdm import tqdm
 
     check_problem(problem)
@@ -79,6 +83,10 @@ def train_fit2form(problem: EgganProblem, network: NetworkConfig, config: Fit2fo
             rows.append({"iteration": done, "fitness_mean": float(np.mean(pending)),
                          "real_evaluations": problem.real_evaluations})
             pending = []
+            if select is not None:
+                select.after(rows[-1], generator, done == config.iterations or stopped)
         if stopped:
             break
+    if select is not None:
+        select.restore(generator)
     return generator.eval(), rows

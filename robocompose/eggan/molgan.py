@@ -48,6 +48,7 @@ from torch import nn
 
 from robocompose.eggan.networks import Generator, NetworkConfig, TaskEncoder
 from robocompose.eggan.problem import BudgetSpent, EgganProblem, check_problem
+from robocompose.eggan.selection import ModelSelection
 from robocompose.eggan.train import iteration_streams
 from robocompose.io.errors import InputError
 
@@ -65,8 +66,12 @@ class MolganConfig:
     lr: float = 1e-3  # Adam, all three networks (MolGAN: 1e-3)
     seed: int = 0
     threads: int = 1  # torch threads (results are bit-identical at a fixed thread count)
+    validate_every: int = 0  # iterations between validations that select the model kept (selection.py; 0: the last)
 
     def __post_init__(self):
+        if not isinstance(self.validate_every, int) or self.validate_every < 0 or self.validate_every % 10:
+            raise InputError(f"validate_every: expected 0 or a multiple of 10 (the log rows), found "
+                             f"{self.validate_every!r}")
         for name in ("iterations", "tasks", "samples", "n_critic", "reward_steps", "threads"):
             value = getattr(self, name)
             if not isinstance(value, int) or isinstance(value, bool) or value < 1:
@@ -123,9 +128,10 @@ def straight_through(sampled_one_hot: torch.Tensor, output: torch.Tensor) -> tor
     return sampled_one_hot + output - output.detach()
 
 
-def train_molgan(problem: EgganProblem, network: NetworkConfig, config: MolganConfig,
-                 progress: bool = False) -> tuple[Generator, list[dict]]:
-    """Train the conditional MolGAN generator; returns it (eval mode) and one log row per 10 iterations."""
+def train_molgan(problem: EgganProblem, network: NetworkConfig, config: MolganConfig, progress: bool = False,
+                 select: ModelSelection | None = None) -> tuple[Generator, list[dict]]:
+    """Train the conditional MolGAN generator; returns it (eval mode; with `select`, the best validated one) and one
+    log row per 10 iterations."""
     from tqdm import tqdm
 
     check_problem(problem)
@@ -186,6 +192,8 @@ def train_molgan(problem: EgganProblem, network: NetworkConfig, config: MolganCo
         except BudgetSpent:  # the critic stepped this iteration; the generator keeps its last completed step
             if pending:
                 rows.append(log_row(iteration))
+                if select is not None:
+                    select.after(rows[-1], generator, final=True)
             break
         relaxed = straight_through(sampled.tensor, output)  # (B, R, C)
         loss_wgan = -critic(relaxed, critic.encode(task_tensor).repeat_interleave(s, dim=0)).mean()
@@ -218,4 +226,8 @@ def train_molgan(problem: EgganProblem, network: NetworkConfig, config: MolganCo
         if (iteration + 1) % 10 == 0 or iteration + 1 == config.iterations:
             rows.append(log_row(iteration + 1))
             pending = []
+            if select is not None:
+                select.after(rows[-1], generator, iteration + 1 == config.iterations)
+    if select is not None:
+        select.restore(generator)
     return generator.eval(), rows

@@ -34,6 +34,7 @@ import pandas as pd
 from robocompose.eggan import dqn, fit2form, molgan  # noqa: F401
 from robocompose.eggan.learners import LEARNERS, Answer, baselines, generator_answer, training_order, variants
 from robocompose.eggan.query import save_generator
+from robocompose.eggan.selection import ModelSelection
 from robocompose.eggan.train import train
 from robocompose.fanout.cache import EvaluationCache
 from robocompose.fanout.executor import Executor
@@ -204,16 +205,26 @@ def seeded_realtime_table(proposers: dict[str, Proposer], seeds: dict[int, Path]
 def train_baseline(name: str, modular: ModularParams, params: EgganModularParams, cache: EvaluationCache | None,
                    executor: Executor | None, out: Path, progress: bool = False) -> dict:
     """One learned baseline (`robocompose.eggan.learners.baselines("modular")`) on the same problem and budget of real
-    rollouts as EG-GAN; writes out/eggan_modular_NAME.{pt,json} and returns its metrics."""
+    rollouts as EG-GAN; writes out/eggan_modular_NAME.{pt,json} and returns its metrics. With its `validate_every`
+    and EG-GAN's `train.best_by` it keeps its best validated model, as EG-GAN does (`ModelSelection`)."""
     learner = LEARNERS["modular"][name]
     training = learner.training
     config = training_config(name, params)
     problem = make_problem(modular, params, cache, executor, config.iterations * config.tasks)
-    model, rows = training.train(problem, network_of(name, params), config, progress)
-    if problem.fitness.source == "table":
-        rows[-1] = {**rows[-1], **validation_scores(problem, learner.answer(model, params.protocol.samples),
-                                                    params.protocol.candidates)}
-    metrics = {"method": learner.title, **_common_metrics(problem, config.iterations, rows),
+
+    def validate(model) -> dict[str, float]:
+        return validation_scores(problem, learner.answer(model, params.protocol.samples), params.protocol.candidates)
+
+    table = problem.fitness.source == "table"
+    select = ModelSelection(validate, config.validate_every, params.train.best_by) \
+        if table and config.validate_every and params.train.best_by else None
+    model, rows = training.train(problem, network_of(name, params), config, progress, select)
+    if table and select is None:
+        rows[-1] = {**rows[-1], **validate(model)}
+    best = {} if select is None or select.best is None else {
+        "best_iteration": select.best["iteration"],
+        "best": next(row for row in rows if row["iteration"] == select.best["iteration"])}
+    metrics = {"method": learner.title, **_common_metrics(problem, config.iterations, rows), **best,
                **_training_fit(problem, learner.answer(model, params.protocol.samples), params),
                **training.metrics(config, rows)}
     training.save(model, problem, out / f"eggan_modular_{name}.pt",
