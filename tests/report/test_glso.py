@@ -149,6 +149,12 @@ def test_the_campaign_section_leads_with_distinct_designs_and_gives_verdicts_onl
     assert "GLSO best of Fig. 8.1: **not shown**" in verdicts_calls
     assert "all ablations worse than GLSO (Fig. 8.2): **holds**" in verdicts_calls
     assert "cannot show it" not in text  # 5 vs 5 and 5 vs 3 seeds can reach significance
+    # Random's row is the dataset's filtered enumeration: its null, with the share of too-small discards
+    assert "Random: the dataset's own enumeration, its filters included (>= 11 links, valid rest contacts)" in text
+    (tmp_path / "metrics" / "enumerate.json").write_text(json.dumps({"grammar": {"rejected": {
+        "too_few_links": 75, "self_collision": 20, "depth_limit": 5}}}))
+    assert "rest contacts; 75% of the enumeration's discarded candidates have fewer than 11 links)" in \
+        campaign_section(tmp_path)
     # Beside the pairwise tests, whether the five methods of Fig. 8.1 are distinguishable at all
     assert "Kruskal-Wallis over GLSO, Random, GA, MCTS, GHS (best so far at K distinct designs, flat; runs " \
            "5/5/5/5/5): H = " in verdicts_k
