@@ -1,4 +1,4 @@
-"""Model selection on validation for the learned baselines: the best validated weights come back, training is untouched."""
+"""Model selection on validation for the learned baselines: the best validated weights return, training unchanged."""
 
 import pytest
 import torch
