@@ -91,7 +91,8 @@ class Training(_Resolved):
 
     LAZY = ("settings", "train", "save")
     settings: type | Ref
-    train: Callable | Ref  # (problem, network, settings, progress, selection or None) -> (model, log rows)
+    train: Callable | Ref  # (problem, network, settings, progress[, select=]) -> (model, log rows); `select`
+    #                        (selection.py) only if settings have validate_every
     save: Callable | Ref  # (model, problem, path, meta) -> path
     metrics: Callable[[Any, list[dict]], dict]  # (settings, log rows) -> metrics beside the common ones
 

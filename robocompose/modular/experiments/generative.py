@@ -216,9 +216,12 @@ def train_baseline(name: str, modular: ModularParams, params: EgganModularParams
         return validation_scores(problem, learner.answer(model, params.protocol.samples), params.protocol.candidates)
 
     table = problem.fitness.source == "table"
-    select = ModelSelection(validate, config.validate_every, params.train.best_by) \
-        if table and config.validate_every and params.train.best_by else None
-    model, rows = training.train(problem, network_of(name, params), config, progress, select)
+    every = getattr(config, "validate_every", 0)  # a learner whose settings have it takes a `select` keyword
+    select = ModelSelection(validate, every, params.train.best_by) if table and every and params.train.best_by \
+        else None
+    network = network_of(name, params)
+    model, rows = training.train(problem, network, config, progress) if select is None else \
+        training.train(problem, network, config, progress, select=select)
     if table and select is None:
         rows[-1] = {**rows[-1], **validate(model)}
     best = {} if select is None or select.best is None else {
