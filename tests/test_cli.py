@@ -16,11 +16,20 @@ from robocompose.grammar.references import REFERENCE_DESIGNS
 ROOT = Path(__file__).resolve().parents[1]
 
 
+def _terminal_sigint() -> None:
+    """SIGINT as a terminal's Ctrl-C finds it: the default action. A child inherits an ignored SIGINT (and Python
+    then installs no KeyboardInterrupt): a suite started as a background job of a script (`make test-slow &`)
+    ignores it, so the command never saw the test's Ctrl-C and the test waited out its timeout."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _robocompose(*argv: str, cwd: Path, **options) -> subprocess.Popen:
-    """`python -m robocompose.cli ARGV` in its own session (a Ctrl-C reaches its whole process group)."""
+    """`python -m robocompose.cli ARGV` in its own session (a Ctrl-C reaches its whole process group), with SIGINT
+    as in a terminal."""
     environment = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
     return subprocess.Popen([sys.executable, "-m", "robocompose.cli", *argv], cwd=cwd, env=environment, text=True,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True, **options)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True,
+                            preexec_fn=_terminal_sigint, **options)
 
 
 def _group(pgid: int) -> list[int]:
@@ -121,6 +130,9 @@ def test_ctrl_c_is_one_line_exit_130_and_leaves_the_output_as_it_was(tmp_path):
         time.sleep(0.2)
     time.sleep(2)
     assert process.poll() is None, process.communicate()
+    ignored = int(next(line for line in Path(f"/proc/{process.pid}/status").read_text().splitlines()
+                       if line.startswith("SigIgn:")).split()[1], 16)
+    assert not ignored & 1 << (signal.SIGINT - 1)  # the Ctrl-C below reaches a process that takes it
     os.killpg(process.pid, signal.SIGINT)
     out, err = process.communicate(timeout=120)
     lines = [line for line in err.splitlines() if line.strip() and not line.startswith("enumerate: ")]
