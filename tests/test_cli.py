@@ -32,6 +32,13 @@ def _robocompose(*argv: str, cwd: Path, **options) -> subprocess.Popen:
                             preexec_fn=_terminal_sigint, **options)
 
 
+def _kill_group(pgid: int) -> None:
+    try:
+        os.killpg(pgid, signal.SIGKILL)
+    except ProcessLookupError:  # every member has ended
+        pass
+
+
 def _group(pgid: int) -> list[int]:
     """The processes of process group `pgid` (from /proc)."""
     members = []
@@ -122,19 +129,22 @@ def test_ctrl_c_is_one_line_exit_130_and_leaves_the_output_as_it_was(tmp_path):
     the output file that was there untouched."""
     (tmp_path / "X.parquet").write_bytes(b"an earlier table")
     process = _robocompose("enumerate", "--n", "100000", "--out", "X.parquet", "--workers", "2", cwd=tmp_path)
-    # The Ctrl-C comes once the two workers are up (the command, the forkserver and the workers share its process
-    # group), not after a fixed wait: on a busy machine that can land in their start-up, not what this is about.
-    deadline = time.monotonic() + 60
-    while len(_group(process.pid)) < 4 and time.monotonic() < deadline:
+    try:
+        # The Ctrl-C comes once the two workers are up (the command, the forkserver and the workers share its process
+        # group), not after a fixed wait: on a busy machine that can land in their start-up, not what this is about.
+        deadline = time.monotonic() + 60
+        while len(_group(process.pid)) < 4 and time.monotonic() < deadline:
+            assert process.poll() is None, process.communicate()
+            time.sleep(0.2)
+        time.sleep(2)
         assert process.poll() is None, process.communicate()
-        time.sleep(0.2)
-    time.sleep(2)
-    assert process.poll() is None, process.communicate()
-    ignored = int(next(line for line in Path(f"/proc/{process.pid}/status").read_text().splitlines()
-                       if line.startswith("SigIgn:")).split()[1], 16)
-    assert not ignored & 1 << (signal.SIGINT - 1)  # the Ctrl-C below reaches a process that takes it
-    os.killpg(process.pid, signal.SIGINT)
-    out, err = process.communicate(timeout=120)
+        ignored = int(next(line for line in Path(f"/proc/{process.pid}/status").read_text().splitlines()
+                           if line.startswith("SigIgn:")).split()[1], 16)
+        assert not ignored & 1 << (signal.SIGINT - 1)  # the Ctrl-C below reaches a process that takes it
+        os.killpg(process.pid, signal.SIGINT)
+        out, err = process.communicate(timeout=120)
+    finally:  # a failed check or a timeout leaves no enumeration computing in the background
+        _kill_group(process.pid)
     lines = [line for line in err.splitlines() if line.strip() and not line.startswith("enumerate: ")]
     assert process.returncode == 130 and out == "", err
     assert lines == ["robocompose: interrupted"] and err.rstrip().endswith("robocompose: interrupted"), err
