@@ -75,11 +75,12 @@ def pieces(config: ThesisScaleConfig) -> list[Path]:
     return sorted(Path(config.directory).glob(PIECE_GLOB))
 
 
+def design_ids(config: ThesisScaleConfig) -> set[str]:
+    return {i for path in pieces(config) for i in read_table(path, "designs")["design_id"]}
+
+
 def distinct_designs(config: ThesisScaleConfig) -> int:
-    ids: set[str] = set()
-    for path in pieces(config):
-        ids.update(read_table(path, "designs")["design_id"])
-    return len(ids)
+    return len(design_ids(config))
 
 
 def enumerate_pieces(config: ThesisScaleConfig, enumeration, executor=None) -> list[Path]:
@@ -89,12 +90,13 @@ def enumerate_pieces(config: ThesisScaleConfig, enumeration, executor=None) -> l
     from robocompose.dataset.enumerate import enumerate_designs
 
     Path(config.directory).mkdir(parents=True, exist_ok=True)
-    while (have := distinct_designs(config)) < config.designs:
-        k = len(pieces(config))
-        n = min(config.piece, config.designs - have)  # the last piece only as large as the target needs
+    ids, k = design_ids(config), len(pieces(config))  # the committed pieces, read once
+    while len(ids) < config.designs:
+        n = min(config.piece, config.designs - len(ids))  # the last piece only as large as the target needs
         table, _ = enumerate_designs(replace(enumeration, n=n, seed=config.seed + k), executor,
-                                     f"vae_thesis piece {k} ({have:,} of {config.designs:,} designs)")
+                                     f"vae_thesis piece {k} ({len(ids):,} of {config.designs:,} designs)")
         write_table(table, Path(config.directory) / f"designs-{k:03d}.parquet", "designs")
+        ids, k = ids | set(table["design_id"]), k + 1
     return pieces(config)
 
 
