@@ -5,7 +5,7 @@ data/vae_landscape.parquet (thesis Fig. 7.1); the k-NN predictability of those s
 latent k-NN Spearman beats a node-type-count baseline's by >= 0.1, and a 0.5-wide window around the best designs
 decodes to >= 10 distinct designs; from the scores already there, no simulation) -> reports/metrics/vae_landscape.json.
 The VAE at the thesis's scale (vae_thesis, committed pieces) is gated beside them once finished (variant `thesis`);
-until then the JSON says how far its measurement is (`thesis_scale`).
+the JSON says how far its measurement is and which model file it gated (`thesis_scale`).
 """
 
 from robocompose.evaluation.evaluate import EvaluationConfig

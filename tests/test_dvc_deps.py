@@ -58,9 +58,14 @@ NOT_READ = {
              for path in ("measured/fidelity/designs.csv", "reports/fidelity/summary.csv")}
     | {"measured/references/eval_cache.parquet": "runs.py imports robocompose.evaluation.references for "
                                                  "record_rollout; the committed evaluations are evaluate_references'"},
-    "glso_campaign": {"measured/references/eval_cache.parquet": "it imports robocompose.glso.runs (see glso)"},
+    "glso_campaign": {"measured/references/eval_cache.parquet": "it imports robocompose.glso.runs (see glso)",
+                      "measured/vae_thesis": "campaign.check_thesis_gate reads the thesis-scale VAE's gate before "
+                                             "`glso-campaign run` searches it; the stage summarises committed runs",
+                      "reports/metrics/vae_landscape.json": "(the same gate)"}
+    | {f"reports/training/vae_{name}/metrics.json": "thesis_scale.progress's summary is its own folder's (see "
+                                                    "vae_landscape)" for name in ("full", "nopred", "nogram")},
     "vae_landscape": {f"reports/training/vae_{name}/metrics.json": "thesis_scale.progress reads the dvclive summary "
-                      "in its own committed folder (measured/vae_thesis/log/metrics.json, a dep)"
+                      "in its own committed folder (measured/vae_thesis/log/VARIANT/metrics.json, a dep)"
                       for name in ("full", "nopred", "nogram")},
     "modular_realtime": {"measured/modular/exhaustive": "it imports robocompose.modular.truth to read the partial "
                                                         "test tables (measured/modular/test_partial, a dep) as "

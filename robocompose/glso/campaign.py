@@ -41,8 +41,10 @@ measured designs. On each of the matched, final, re-scored and held-out bests: o
 GLSO > each other method, Holm-corrected within a family (the baselines of Fig. 8.1; the ablations of Fig.
 8.2); the median difference GLSO - method with a percentile bootstrap 95% interval; beside them the
 Kruskal-Wallis omnibus test over GLSO and the baselines (`omnibus`). GLSO's arms with runs
-(`challengers`: the thesis-protocol arm `glso_thesis`, the improved GLSO the pilot picks) are tested the same
-way against the baselines, each in a family of its own. With n seeds per side the
+(`challengers`: the thesis-protocol arm `glso_thesis`, the improved GLSO the pilot picks, that GLSO on the
+thesis-scale VAE) are tested the same way against the baselines, and an arm with ablations of its own (the
+thesis-scale GLSO_nopred) against those, each family apart. A thesis-scale VAE is searched only once it has passed
+its gate (`check_thesis_gate`). With n seeds per side the
 smallest one-sided p is 1 / C(n + m, n) (5 vs 5: 0.004; 3 vs 5: 0.018), so small campaigns cannot reach
 significance after correction; the summary says so.
 """
@@ -50,6 +52,7 @@ significance after correction; the summary says so.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -69,6 +72,7 @@ from robocompose.grammar.tree import DesignTree
 from robocompose.io import read_table, write_table
 from robocompose.io.atomic import read_json
 from robocompose.io.errors import InputError, check_field, check_number
+from robocompose.latent import thesis_scale
 from robocompose.search.significance import holm
 from robocompose.tasks.terrains import TASKS
 
@@ -139,6 +143,40 @@ class CampaignConfig:
         check_number(self.alpha, "alpha", 0.0, 1.0, "()")
         for rung in filter(None, (self.rung, self.rescore_rung)):
             rung_config(rung)
+
+
+GATE_FILE = "reports/metrics/vae_landscape.json"  # stage vae_landscape's gate of the thesis-scale VAE
+
+
+def check_thesis_gate(config: CampaignConfig, glso: GLSOConfig, rung: str, gate_file: str | Path = GATE_FILE) -> None:
+    """Refuse (one line, before any run) to search a thesis-scale VAE (issue 42, item 6) unless stage
+    vae_landscape gated this very file of GLSO's (full) thesis-scale VAE and it passed on every task of the
+    campaign at `rung`; nothing to check when no planned run searches one."""
+    methods = [m for m, seeds in config.seeds.items() if seeds and METHODS[m].thesis_vae]
+    if not methods:
+        return
+    for method in methods:
+        if not glso.model_path(method).exists():
+            raise InputError(f"{glso.model_path(method)}: the thesis-scale VAE of method {method} is missing "
+                             "(robocompose glso-campaign vae, with its variant in vae_thesis.variants)")
+    path, gated = Path(gate_file), Path(glso.thesis_models.format(variant="full"))
+    if not path.exists():
+        raise InputError(f"{path}: not found; the thesis-scale VAE is gated by stage vae_landscape before a "
+                         "campaign searches it (dvc repro vae_landscape)")
+    metrics = read_json(path)
+    sha = metrics.get("thesis_scale", {}).get("trained", {}).get("full", {}).get("sha256")
+    if sha != hashlib.sha256(gated.read_bytes()).hexdigest():
+        raise InputError(f"{path}: thesis_scale.trained.full.sha256: {sha!r} is not the SHA-256 of {gated}; "
+                         "expected the gate of this model (dvc repro vae_landscape)")
+    for task in config.tasks:
+        key = f"{thesis_scale.VARIANT}/{task}/{rung}"
+        row = metrics["gate"].get(key)
+        if row is None or not row["passes"]:
+            found = "no gate" if row is None else (
+                f"margin {row['margin']:+.3f} (needs >= {row['gate_margin']:g}), "
+                f"window {row['window_distinct']:g} (needs >= {row['gate_distinct']})")
+            raise InputError(f"{path}: gate.{key}: {found}; expected a passed gate before a campaign searches the "
+                             f"thesis-scale VAE (methods {', '.join(methods)})")
 
 
 def campaign_rung(config: CampaignConfig, choice_file: str | Path = "reports/metrics/evaluator_fidelity.json") -> str:
@@ -395,7 +433,8 @@ def run_campaign(config: CampaignConfig, glso: GLSOConfig, evaluation: Evaluatio
     from robocompose.fanout.executor import Executor
 
     check_heldout_seeds(config, evaluation.seed)  # before hours of runs
-    for method in config.seeds:
+    check_thesis_gate(config, glso, rung)
+    for method in (m for m, seeds in config.seeds.items() if seeds):
         path = glso.model_path(method)
         if path is not None and not path.exists():
             raise InputError(f"{path}: the VAE of method {method} is missing (dvc repro train_vae)")
@@ -421,9 +460,10 @@ def pilot_config(config: CampaignConfig) -> CampaignConfig:
     at the campaign's fixed controller seed (`variant` "full": no domain reduction, the wider floor, re-asking),
     `PILOT_SEEDS` seeds each, run exactly as the campaign runs them (budget, init, accounting) but at
     `PILOT_RUNG`, held-out scored the same way, with no thesis re-scores; in its own folder beside the
-    campaign's (`glso_pilot`), committed the same way."""
+    campaign's (`glso_pilot`), committed the same way. (The thesis-protocol arm is no fix, and the thesis-scale
+    VAE another VAE: neither is piloted.)"""
     seeds = {name: PILOT_SEEDS for name, method in METHODS.items()
-             if method.variant == "full" and not method.fresh_seeds}  # the thesis protocol is an arm, not a fix
+             if method.variant == "full" and not method.fresh_seeds and not method.thesis_vae}
     return dataclasses.replace(config, directory=str(Path(config.directory).parent / "glso_pilot"),
                                checkpoints=str(Path(config.checkpoints).parent / "glso_pilot"), seeds=seeds,
                                rung=PILOT_RUNG, rescore_seeds=[])
@@ -606,17 +646,17 @@ def compare(final: pd.DataFrame, column: str, bootstrap: int, alpha: float, seed
             reference: str = REFERENCE) -> list[dict]:
     """`reference` (GLSO or one of its arms) against each other method of a figure group on `column`, per task:
     one-sided Mann-Whitney U (`reference` greater), Holm-adjusted within its family, the median difference
-    reference - method with a bootstrap 95% interval. GLSO meets both families; an arm, the baselines only (the
-    ablations are GLSO's)."""
+    reference - method with a bootstrap 95% interval. GLSO meets both families; an arm, the baselines and its own
+    ablations (`registry.family`)."""
     from scipy.stats import mannwhitneyu
 
     rng = np.random.default_rng(seed)
     rows = []
     for task, group in final.groupby("task", sort=False):
         ours = group.loc[group["method"] == reference, column].dropna().to_numpy()
-        for name in GROUPS if reference == REFERENCE else ("baselines",):
+        for name in GROUPS:
             raw, found = {}, {}
-            for method in family(name):
+            for method in family(name, reference):
                 other = group.loc[group["method"] == method, column].dropna().to_numpy()
                 if len(ours) and len(other):
                     raw[method] = float(mannwhitneyu(ours, other, alternative="greater").pvalue)

@@ -39,7 +39,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                "method and, if today's code scores it bit for bit as committed, record its settings "
                                "hash as the runs' evaluator; summarise: the statistics as JSON; vae: the VAE at "
                                "the thesis's scale in committed pieces (vae_thesis: >= 100k designs, then >= 100k "
-                               "steps at hidden 450, ~8 core-hours, resumable; Ctrl-C keeps the last checkpoint)")
+                               "steps at hidden 450, ~8 core-hours per VAE of vae_thesis.variants, resumable; "
+                               "Ctrl-C keeps the last checkpoint)")
     campaign.add_argument("--params", default="params.yaml",
                           help="params file (sections glso_campaign, glso, evaluation, compute; vae: vae_thesis, "
                                "enumerate, compute)")
@@ -81,7 +82,8 @@ def _thesis_scale_vae(args: argparse.Namespace) -> int:
     enumeration = load_section(EnumerateConfig, "enumerate", args.params)
     with command_compute(args, args.params).executor() as executor:
         thesis_scale.enumerate_pieces(config, enumeration, executor)
-    thesis_scale.train_thesis_scale(config)
+    for variant in config.variants:
+        thesis_scale.train_thesis_scale(config, variant)
     print(json.dumps(thesis_scale.progress(config)))
     return 0
 

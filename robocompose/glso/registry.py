@@ -28,8 +28,11 @@ class Method:
     """A registered search method: its class, its settings' dataclass and params section, its title (the
     thesis's legend name) and figure groups (keys of `robocompose.glso.GROUPS`), the VAE it searches (`variant`
     fills the {variant} of `glso.models`; None for a method without a VAE), the score it is told for a
-    design that cannot be simulated, by status (its original's), and whether each of its calls draws a
-    controller seed of its own (`runs.call_seeds`; else every call uses `evaluation.seed`)."""
+    design that cannot be simulated, by status (its original's), whether each of its calls draws a
+    controller seed of its own (`runs.call_seeds`; else every call uses `evaluation.seed`), whether its VAE is
+    the thesis-scale one (`glso.thesis_models`, latent/thesis_scale.py; a campaign searches it only once its gate
+    has passed) and, for an arm of GLSO, the methods that ablate it as GLSO_nopred and GLSO_nogram ablate GLSO
+    (the arm's own Fig. 8.2 family)."""
 
     cls: type[SearchMethod]
     settings: type
@@ -39,6 +42,8 @@ class Method:
     variant: str | None = None
     invalid_score: dict[str, float] = field(default_factory=lambda: dict(ROBOGRAMMAR_INVALID_SCORE))
     fresh_seeds: bool = False  # the original GLSO's protocol: every call simulated at a controller seed of its own
+    thesis_vae: bool = False  # searches the VAE at the thesis's scale, not the default profile's
+    ablations: tuple[str, ...] = ()  # registered methods that ablate this arm (its Fig. 8.2 family)
 
     def __post_init__(self) -> None:
         unknown = [group for group in self.groups if group not in GROUPS]
@@ -80,21 +85,33 @@ METHODS: dict[str, Method] = {
     # simulated again and its best so far is a maximum over noisy re-draws; held-out scoring measures the inflation
     "glso_thesis": Method(LatentBO, BOConfig, "bo", "GLSO, thesis protocol", (), variant="full",
                           invalid_score=INVALID_SCORE, fresh_seeds=True),
+    # The improved GLSO (the pilot's winner, TuRBO) on the thesis-scale VAE and its predictor ablation searched the
+    # same way (issue 42, item 6): what GLSO and GLSO_nopred do once the VAE is the thesis's size
+    "glso_turbo_thesis": Method(TrustRegionBO, TurboConfig, "bo_turbo", "GLSO, trust region (TuRBO), thesis-scale VAE",
+                                (), variant="full", invalid_score=INVALID_SCORE, thesis_vae=True,
+                                ablations=("glso_nopred_turbo_thesis",)),
+    "glso_nopred_turbo_thesis": Method(TrustRegionBO, TurboConfig, "bo_turbo",
+                                       "GLSO_nopred, trust region (TuRBO), thesis-scale VAE", (), variant="nopred",
+                                       invalid_score=INVALID_SCORE, thesis_vae=True),
 }
 
 
-def family(group: str) -> tuple[str, ...]:
-    """The methods GLSO is compared with in figure group `group` (its members but GLSO), in registry order."""
+def family(group: str, reference: str = REFERENCE) -> tuple[str, ...]:
+    """The methods `reference` (GLSO or one of its arms) is compared with in figure group `group`, in registry
+    order: the group's members but GLSO; an arm's ablations are its own (`Method.ablations`)."""
+    if group == "ablations" and reference != REFERENCE:
+        return METHODS[reference].ablations
     return tuple(name for name, method in METHODS.items() if group in method.groups and name != REFERENCE)
 
 
 def describe() -> list[dict]:
-    """Every registered method's name, title, figure groups, VAE variant (None without one) and protocol
-    (`fresh_seeds`), in registry order: what the stages write into their artifacts so that the report (no torch,
-    so no registry) can name and group the methods, title each VAE by the method that searches it and name the
-    protocol of each verdict."""
+    """Every registered method's name, title, figure groups, VAE variant (None without one) and scale, protocol
+    (`fresh_seeds`) and, for an arm, its ablations, in registry order: what the stages write into their artifacts
+    so that the report (no torch, so no registry) can name and group the methods, title each VAE by the method
+    that searches it and name the protocol and the family of each verdict."""
     return [{"name": name, "title": method.title, "groups": list(method.groups), "variant": method.variant,
-             "fresh_seeds": method.fresh_seeds} for name, method in METHODS.items()]
+             "fresh_seeds": method.fresh_seeds, "thesis_vae": method.thesis_vae, "ablations": list(method.ablations)}
+            for name, method in METHODS.items()]
 
 
 def settings_sections() -> dict[str, type]:

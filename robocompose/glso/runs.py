@@ -84,6 +84,7 @@ class RunSettings:
     seeds: list = field(default_factory=lambda: [0, 1, 2])  # run seeds (thesis: 3)
     budget: int = 550  # objective calls per run (GLSO: 50 random + 500 BO steps)
     models: str = "models/vae_{variant}.pt"  # where the VAE of each latent method is ({variant}: full, ...)
+    thesis_models: str = "measured/vae_thesis/vae_{variant}.pt"  # ... of a method on the thesis-scale VAE
     # The fidelity rung (`evaluation.fidelity.LADDER`) whose MPPI settings score the runs' designs and replay the
     # best ones (`evaluator`); "" = the evaluator's own `evaluation.mppi`. A cheap rung suits a smoke run that only
     # checks every method runs end to end.
@@ -100,6 +101,8 @@ class RunSettings:
         check_field(1 <= self.budget <= MAX_BUDGET, "budget", f"1 .. {MAX_BUDGET} objective calls", self.budget)
         check_field(bool(self.seeds), "seeds", "at least one run seed", self.seeds)
         check_field("{variant}" in self.models, "models", "a path with {variant} in it", self.models)
+        check_field("{variant}" in self.thesis_models, "thesis_models", "a path with {variant} in it",
+                    self.thesis_models)
         check_field(self.rung == "" or self.rung in LADDER, "rung",
                     f'"" (the evaluator\'s evaluation.mppi) or a fidelity rung of {list(LADDER)}', self.rung)
 
@@ -110,7 +113,7 @@ class RunSettings:
 
     def model_path(self, method: str) -> Path | None:
         """The VAE file a method searches (None for a method without one)."""
-        return METHODS[method].model_path(self.models)
+        return METHODS[method].model_path(self.thesis_models if METHODS[method].thesis_vae else self.models)
 
     def settings(self, method: str) -> Any:
         """A method's settings (its section's dataclass)."""

@@ -9,20 +9,28 @@ so it runs in resumable pieces committed under `directory` (`robocompose glso-ca
     designs-KKK.parquet   `piece` designs each (the last as many as are missing), the dataset's own
                           enumeration (`enumerate:` filters) with seed `seed` + K; enumerated until the pieces
                           hold `designs` distinct designs (a design in two pieces counts once: the first keeps it)
-    checkpoint.pt         the training run in progress (model, Adam state, step, log), every `checkpoint_every`
-                          steps; committed at the end of a session, resumed bit for bit by the next
-    log/                  the training curves (dvclive) and vae_thesis.mcap, rewritten at every checkpoint
-    vae_full.pt           the trained model, once `train.steps` are done (the checkpoint is then removed)
+    checkpoint-VARIANT.pt the training run in progress of each VAE of `variants` (model, Adam state, step, log),
+                          every `checkpoint_every` steps; committed at the end of a session, resumed bit for bit
+    log/VARIANT/          its training curves (dvclive) and vae_thesis_VARIANT.mcap, rewritten at every checkpoint
+    vae_VARIANT.pt        the trained model, once `train.steps` are done (its checkpoint is then removed)
+
+The variants are the two latent methods' VAEs, trained one after the other on the same designs: `full` (GLSO's:
+the property predictor, weight 20; the one the gate judges) and `nopred` (GLSO_nopred's: the same VAE without
+the predictor), which a campaign needs only once `full` passes its gate (issue 42: "if it passes, run GLSO and
+GLSO_nopred on it"), so `variants` starts as [full].
 
 The schedule is the thesis's compressed from 400k to `train.steps` steps (learning-rate decay, KL warm-up and
 KL increments every quarter as many steps), so the final KL weight is the thesis's ~0.36. The run's key covers the
 settings, the designs' content and the training code; a committed checkpoint of another key is refused (one
-line), never silently restarted: deleting it is the user's call. Stage `vae_landscape` gates the finished model
-on the campaign's scored designs beside the default VAEs (`thesis` rows) and reports progress until then.
+line), never silently restarted: deleting it is the user's call. Stage `vae_landscape` gates the finished `full`
+model on the campaign's scored designs beside the default VAEs (`thesis` rows) and reports progress until then; a
+campaign searches a thesis-scale VAE only once that gate has passed on this very model file
+(`glso.campaign.check_thesis_gate`).
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -33,12 +41,10 @@ from robocompose.latent.model import VAEConfig
 from robocompose.latent.train import Designs, TrainConfig, designs_from_table
 
 PIECE_GLOB = "designs-*.parquet"
-CHECKPOINT = "checkpoint.pt"
-MODEL = "vae_full.pt"
-LOG = "log"
+VARIANTS = ("full", "nopred")  # GLSO's VAE (gated) and GLSO_nopred's (no property predictor)
 MIN_DESIGNS = 100_000  # issue 42: a thesis-scale VAE sees at least this many designs ...
 MIN_STEPS = 100_000  # ... for at least this many optimiser steps (fewer: a trial, labelled so by `progress`)
-VARIANT = "thesis"  # its key in vae_landscape's gate and k-NN figures
+VARIANT = "thesis"  # the gated (full) VAE's key in vae_landscape's gate and k-NN figures
 TITLE = "GLSO's VAE at thesis scale"
 
 
@@ -61,6 +67,7 @@ class ThesisScaleConfig:
     seed: int = 2000  # enumeration seed of piece K: seed + K (the dataset uses 0, train_vae.extra 1000)
     model: VAEConfig = field(default_factory=VAEConfig)  # the thesis's sizes (hidden 450, latent 28)
     train: TrainConfig = field(default_factory=lambda: thesis_schedule(MIN_STEPS))
+    variants: list[str] = field(default_factory=lambda: ["full"])  # VAEs to train, in order (module docstring)
 
     def __post_init__(self) -> None:
         check_field(self.designs >= 1, "designs", "an integer >= 1", self.designs)
@@ -69,6 +76,25 @@ class ThesisScaleConfig:
         check_field(self.seed >= 0, "seed", "an integer >= 0", self.seed)
         check_field(self.model.predictor and self.model.constraints == "grammar", "model",
                     "GLSO's VAE: predictor true, constraints grammar", self.model)
+        check_field(bool(self.variants) and len(set(self.variants)) == len(self.variants)
+                    and set(self.variants) <= set(VARIANTS), "variants",
+                    f"distinct names of {list(VARIANTS)}", self.variants)
+
+    def variant_model(self, variant: str) -> VAEConfig:
+        """The VAE of `variant`: `model`, without the property predictor for nopred."""
+        return replace(self.model, predictor=variant == "full")
+
+
+def checkpoint_path(config: ThesisScaleConfig, variant: str) -> Path:
+    return Path(config.directory) / f"checkpoint-{variant}.pt"
+
+
+def log_dir(config: ThesisScaleConfig, variant: str) -> Path:
+    return Path(config.directory) / "log" / variant
+
+
+def model_path(config: ThesisScaleConfig, variant: str) -> Path:
+    return Path(config.directory) / f"vae_{variant}.pt"
 
 
 def pieces(config: ThesisScaleConfig) -> list[Path]:
@@ -116,36 +142,39 @@ def load_pieces(config: ThesisScaleConfig) -> Designs:
                               f"{config.directory}/{PIECE_GLOB}")
 
 
-def train_thesis_scale(config: ThesisScaleConfig) -> Path:
-    """Train (or resume) the thesis-scale VAE on the committed pieces; its model file once done."""
+def train_thesis_scale(config: ThesisScaleConfig, variant: str) -> Path:
+    """Train (or resume) the thesis-scale VAE `variant` on the committed pieces; its model file once done."""
     from robocompose.latent.train import save_model, train, training_log
 
-    directory = Path(config.directory)
-    if (directory / MODEL).exists():
-        return directory / MODEL
+    if model_path(config, variant).exists():
+        return model_path(config, variant)
     designs = load_pieces(config)
-    with training_log(directory / LOG) as live:
-        model, _, _ = train(config.model, config.train, designs, directory / CHECKPOINT, live,
-                            directory / LOG / "vae_thesis.mcap", progress="vae_thesis", named=True)
-    save_model(model, directory / MODEL)
-    (directory / CHECKPOINT).unlink(missing_ok=True)
-    return directory / MODEL
+    with training_log(log_dir(config, variant)) as live:
+        model, _, _ = train(config.variant_model(variant), config.train, designs, checkpoint_path(config, variant),
+                            live, log_dir(config, variant) / f"vae_thesis_{variant}.mcap",
+                            progress=f"vae_thesis {variant}", named=True)
+    save_model(model, model_path(config, variant))
+    checkpoint_path(config, variant).unlink(missing_ok=True)
+    return model_path(config, variant)
 
 
 def progress(config: ThesisScaleConfig) -> dict:
-    """Where the measurement stands, without loading a model: pieces, distinct designs, steps done (from the
-    training log's summary) of those asked, and whether the model is finished."""
-    directory = Path(config.directory)
-    summary = directory / LOG / "metrics.json"
-    step = json.loads(summary.read_text())["step"] if summary.exists() else 0
+    """Where the measurement stands, without loading a model: pieces, distinct designs, and per VAE of `variants`
+    the steps done (from its training log's summary) of those asked, whether it is finished and its model file's
+    SHA-256 (what a campaign checks the gate against)."""
+    trained = {}
+    for variant in config.variants:
+        summary, model = log_dir(config, variant) / "metrics.json", model_path(config, variant)
+        trained[variant] = {"step": json.loads(summary.read_text())["step"] if summary.exists() else 0,
+                            "finished": model.exists(),
+                            "sha256": hashlib.sha256(model.read_bytes()).hexdigest() if model.exists() else None}
     return {"directory": config.directory, "pieces": len(pieces(config)), "designs": distinct_designs(config),
-            "designs_asked": config.designs, "step": step, "steps": config.train.steps,
-            "finished": (directory / MODEL).exists(), "hidden": config.model.hidden,
-            "pred_weight": config.train.pred_weight,
+            "designs_asked": config.designs, "steps": config.train.steps, "trained": trained,
+            "hidden": config.model.hidden, "pred_weight": config.train.pred_weight,
             "issue_scale": config.designs >= MIN_DESIGNS and config.train.steps >= MIN_STEPS,
             "variant": VARIANT, "title": TITLE}
 
 
-def finished_model(config: ThesisScaleConfig) -> Path | None:
-    path = Path(config.directory) / MODEL
+def finished_model(config: ThesisScaleConfig, variant: str = "full") -> Path | None:
+    path = model_path(config, variant)
     return path if path.exists() else None

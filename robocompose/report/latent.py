@@ -249,20 +249,25 @@ def _gate(metrics: dict, path: Path, titles: dict[str, str]) -> list[str]:
 
 def _thesis_scale(progress: dict | None, gate: dict) -> list[str]:
     """The thesis-scale VAE's gate verdict on the campaign's groups (the largest group of scored designs decides:
-    the campaign's rung), or how far its committed measurement is."""
+    the campaign's rung), or how far its committed measurement is; then how far GLSO_nopred's twin is, if asked."""
     if progress is None:
         return []
     scale = (f"hidden {progress['hidden']}, predictor weight {progress['pred_weight']:g}, "
              f"{progress['designs']:,} designs, {progress['steps']:,} steps")
     if not progress["issue_scale"]:
         scale += " (below the issue's 100k designs x 100k steps: a trial)"
+    trained = progress["trained"]
+    twin = ([f" Its twin without the property predictor (GLSO_nopred's): step {trained['nopred']['step']:,} of "
+             f"{progress['steps']:,}{', finished' if trained['nopred']['finished'] else ''}."]
+            if "nopred" in trained else [])
     rows = {key: row for key, row in gate.items() if key.startswith(f"{progress['variant']}/")}
-    if not progress["finished"] or not rows:
+    if not trained["full"]["finished"] or not rows:
         return ["", f"{progress['title']} ({scale}, `robocompose glso-campaign vae`): in progress, "
                 f"{progress['designs']:,} of {progress['designs_asked']:,} designs enumerated, step "
-                f"{progress['step']:,} of {progress['steps']:,} trained (committed in {progress['directory']})."]
+                f"{trained['full']['step']:,} of {progress['steps']:,} trained (committed in "
+                f"{progress['directory']}).{''.join(twin)}"]
     key, row = max(rows.items(), key=lambda item: item[1]["designs"])
     return ["", verdict(f"{progress['title']} passes the gate ({scale})", held(row["passes"]),
                         f"On {key.split('/', 1)[1]} ({row['designs']} designs): margin {row['margin']:+.3f} "
                         f"(needs >= {row['gate_margin']:g}), window {row['window_distinct']:g} distinct designs "
-                        f"(needs >= {row['gate_distinct']}).")]
+                        f"(needs >= {row['gate_distinct']}).{''.join(twin)}")]

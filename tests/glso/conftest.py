@@ -61,7 +61,8 @@ def tiny_models(tmp_path_factory) -> str:
 
 @pytest.fixture
 def small_config(tiny_models) -> GLSOConfig:
-    values = {"tasks": ["flat"], "seeds": [0], "budget": 9, "models": tiny_models, "bo": {"init": 3},
+    values = {"tasks": ["flat"], "seeds": [0], "budget": 9, "models": tiny_models, "thesis_models": tiny_models,
+              "bo": {"init": 3},
               **{section: {"init": 3} for section in ("bo_nodr", "bo_floor", "bo_reask")},
               "bo_turbo": {"init": 3, "candidates": 256},
               "ga": {"population": 4}, "ghs": {"num_samples": 3, "opt_iter": 2, "eps_end": 0.5, "eps_sample_end": 0.5}}

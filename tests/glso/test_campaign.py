@@ -1,3 +1,4 @@
+import hashlib
 import json
 import math
 from pathlib import Path
@@ -160,6 +161,54 @@ def test_an_arm_of_glso_meets_the_baselines_alone_in_its_own_family_and_glso_kee
     glso = compare(finals, "search", bootstrap=50, alpha=0.05)
     assert {(r["family"], r["method"]): r["better"] for r in glso} == {("baselines", "random"): False,
                                                                        ("ablations", "glso_nopred"): False}
+
+
+def test_the_thesis_scale_arm_meets_the_baselines_and_its_own_nopred_not_glsos_ablations():
+    finals = _finals({"glso": [4.0, 4.1, 4.2], "glso_turbo_thesis": [5.0, 5.1, 5.2, 5.3, 5.4],
+                      "glso_nopred_turbo_thesis": [4.5, 4.6, 4.7, 4.8, 4.9], "random": [4.5, 4.6, 4.7, 4.8, 4.9],
+                      "glso_nopred": [3.0, 3.1, 3.2]})
+    assert campaign.challengers(finals) == ["glso", "glso_turbo_thesis"]  # its nopred twin is an ablation, no arm
+    rows = compare(finals, "search", bootstrap=50, alpha=0.05, reference="glso_turbo_thesis")
+    assert [(r["family"], r["method"]) for r in rows] == [("baselines", "random"),
+                                                          ("ablations", "glso_nopred_turbo_thesis")]
+    glso = compare(finals, "search", bootstrap=50, alpha=0.05)
+    assert "glso_nopred_turbo_thesis" not in {r["method"] for r in glso}  # another VAE: not GLSO's ablation
+
+
+def _thesis_gate(tmp_path: Path, passes: bool, model: bytes = b"vae") -> tuple[CampaignConfig, GLSOConfig, Path]:
+    (tmp_path / "vae").mkdir(exist_ok=True)
+    for variant in ("full", "nopred"):
+        (tmp_path / "vae" / f"vae_{variant}.pt").write_bytes(model if variant == "full" else b"twin")
+    gate = {"thesis/flat/s8_h8_e48": {"margin": 0.2 if passes else 0.05, "gate_margin": 0.1,
+                                      "window_distinct": 12.0, "gate_distinct": 10, "passes": passes}}
+    sha = hashlib.sha256(b"vae").hexdigest()
+    metrics = tmp_path / "vae_landscape.json"
+    metrics.write_text(json.dumps({"gate": gate, "thesis_scale": {"trained": {"full": {"sha256": sha}}}}))
+    config = CampaignConfig(directory=str(tmp_path / "runs"), tasks=["flat"],
+                            seeds={"glso_turbo_thesis": 1, "glso_nopred_turbo_thesis": 1})
+    return config, GLSOConfig(thesis_models=str(tmp_path / "vae" / "vae_{variant}.pt")), metrics
+
+
+def test_a_thesis_scale_vae_is_searched_only_once_this_very_model_passed_its_gate(tmp_path):
+    config, glso, metrics = _thesis_gate(tmp_path, passes=True)
+    assert glso.model_path("glso_nopred_turbo_thesis") == tmp_path / "vae" / "vae_nopred.pt"
+    campaign.check_thesis_gate(config, glso, "s8_h8_e48", metrics)  # passed: no error
+    with pytest.raises(InputError, match=r"gate.thesis/flat/s16_h16_e48: no gate; expected a passed gate"):
+        campaign.check_thesis_gate(config, glso, "s16_h16_e48", metrics)  # gated at another rung
+    config, glso, metrics = _thesis_gate(tmp_path, passes=False)
+    with pytest.raises(InputError, match=r"margin \+0.050 \(needs >= 0.1\), window 12 \(needs >= 10\); expected"):
+        campaign.check_thesis_gate(config, glso, "s8_h8_e48", metrics)
+    config, glso, metrics = _thesis_gate(tmp_path, passes=True, model=b"retrained")
+    with pytest.raises(InputError, match=r"thesis_scale.trained.full.sha256: .* is not the SHA-256 of"):
+        campaign.check_thesis_gate(config, glso, "s8_h8_e48", metrics)
+    with pytest.raises(InputError, match="not found; the thesis-scale VAE is gated by stage vae_landscape"):
+        campaign.check_thesis_gate(config, glso, "s8_h8_e48", tmp_path / "none.json")
+    (tmp_path / "vae" / "vae_nopred.pt").unlink()
+    with pytest.raises(InputError, match="vae_nopred.pt: the thesis-scale VAE of method glso_nopred_turbo_thesis"):
+        campaign.check_thesis_gate(config, glso, "s8_h8_e48", metrics)
+    # no planned run searches it: nothing to check, whatever the files say
+    campaign.check_thesis_gate(CampaignConfig(seeds={"glso_turbo_thesis": 0, "glso": 1}), glso, "s8_h8_e48",
+                               tmp_path / "none.json")
 
 
 def test_the_omnibus_test_covers_glso_and_the_baselines_only_and_tells_separated_from_level_groups():

@@ -18,10 +18,16 @@ from tests.glso.conftest import fake_objective
 
 def test_the_registry_holds_the_thesis_methods_and_the_latent_ones_name_their_vae():
     assert list(METHODS) == ["glso", "glso_nopred", "glso_nogram", "random", "ga", "mcts", "ghs", "glso_nodr",
-                             "glso_floor", "glso_reask", "glso_turbo", "glso_thesis"]
+                             "glso_floor", "glso_reask", "glso_turbo", "glso_thesis", "glso_turbo_thesis",
+                             "glso_nopred_turbo_thesis"]
     assert {name: m.variant for name, m in METHODS.items() if m.variant} == {
         "glso": "full", "glso_nopred": "nopred", "glso_nogram": "nogram", "glso_nodr": "full", "glso_floor": "full",
-        "glso_reask": "full", "glso_turbo": "full", "glso_thesis": "full"}
+        "glso_reask": "full", "glso_turbo": "full", "glso_thesis": "full", "glso_turbo_thesis": "full",
+        "glso_nopred_turbo_thesis": "nopred"}
+    # an arm's ablations are registered methods searched the way it searches, on a VAE of the same scale
+    for name, method in METHODS.items():
+        for ablation in method.ablations:
+            assert (METHODS[ablation].cls, METHODS[ablation].thesis_vae) == (method.cls, method.thesis_vae), name
     for name, method in METHODS.items():  # SearchMethod's constructor, propose and tell
         assert callable(method.cls.propose) and callable(method.cls.tell), name
         assert list(inspect.signature(method.cls).parameters) == ["config", "seed", "budget", "env"], name
@@ -30,9 +36,14 @@ def test_the_registry_holds_the_thesis_methods_and_the_latent_ones_name_their_va
         ("GLSO", ["baselines", "ablations"]), ("GLSO_nopred", ["ablations"]), ("GLSO_nogram", ["ablations"]),
         ("Random", ["baselines"]), ("GA", ["baselines"]), ("MCTS", ["baselines"]), ("GHS", ["baselines"]),
         ("GLSO, no domain reduction", []), ("GLSO, window floor 2", []), ("GLSO, repeats re-asked", []),
-        ("GLSO, trust region (TuRBO)", []), ("GLSO, thesis protocol", [])]
+        ("GLSO, trust region (TuRBO)", []), ("GLSO, thesis protocol", []),
+        ("GLSO, trust region (TuRBO), thesis-scale VAE", []),
+        ("GLSO_nopred, trust region (TuRBO), thesis-scale VAE", [])]
     assert family("baselines") == ("random", "ga", "mcts", "ghs") and family("ablations") == (
         "glso_nopred", "glso_nogram")  # the methods GLSO is compared with in Figs. 8.1 and 8.2
+    assert family("baselines", "glso_turbo_thesis") == family("baselines")
+    assert family("ablations", "glso_turbo_thesis") == ("glso_nopred_turbo_thesis",)
+    assert family("ablations", "glso_thesis") == ()  # an arm without ablations of its own meets the baselines only
     with pytest.raises(TypeError, match=r"figure groups \['baseline'\] are not of \['baselines', 'ablations'\]"):
         Method(RandomSearch, RandomConfig, "random", "Typo", ("baseline",))
 
@@ -47,6 +58,7 @@ def test_the_config_has_one_section_per_registered_settings_and_names_a_bad_fiel
     assert (config.settings("glso_nodr").domain_reduction, config.settings("glso_floor").minimum_window,
             config.settings("glso_reask").reask) == (False, 2.0, 3)
     assert config.model_path("glso_nopred").name == "vae_nopred.pt" and config.model_path("mcts") is None
+    assert str(config.model_path("glso_nopred_turbo_thesis")) == "measured/vae_thesis/vae_nopred.pt"
     with pytest.raises(InputError, match=r"glso\.bo\.nit: unknown field"):
         build_config(GLSOConfig, {"bo": {"nit": 4}}, "glso")
     with pytest.raises(InputError, match="methods: expected some of"):

@@ -64,7 +64,8 @@ def global_rngs_seeded(seed: int):
 # population 4, GHS's and MCTS's growing networks and trees.
 CASES = [("glso", 4), ("glso", 7), ("glso_nopred", 5), ("glso_nogram", 5), ("random", 3), ("ga", 5), ("ga", 7),
          ("mcts", 3), ("ghs", 2), ("ghs", 6), ("glso_nodr", 5), ("glso_floor", 5), ("glso_reask", 5),
-         ("glso_reask", 7), ("glso_thesis", 5), ("glso_turbo", 4), ("glso_turbo", 7)]
+         ("glso_reask", 7), ("glso_thesis", 5), ("glso_turbo", 4), ("glso_turbo", 7), ("glso_turbo_thesis", 4),
+         ("glso_nopred_turbo_thesis", 5)]
 
 
 def test_every_registered_method_has_a_resume_case():

@@ -1,6 +1,7 @@
 """The thesis-scale VAE in committed pieces: the compressed schedule, design pieces, a refused foreign checkpoint."""
 
 import dataclasses
+import hashlib
 import json
 
 import pandas as pd
@@ -57,21 +58,34 @@ def test_a_design_in_two_pieces_counts_once(tmp_path, write_designs):
 def test_training_finishes_into_a_model_and_reports_its_progress(tmp_path, write_designs):
     config = tiny(tmp_path / "vae", designs=12)
     write_designs(tmp_path / "vae" / "designs-000.parquet", 12)
-    assert thesis_scale.progress(config) | {"step": 0, "finished": False} == thesis_scale.progress(config)
-    model = thesis_scale.train_thesis_scale(config)
-    assert load_model(model).config == TINY and not (tmp_path / "vae" / thesis_scale.CHECKPOINT).exists()
+    untrained = {"full": {"step": 0, "finished": False, "sha256": None}}
+    assert thesis_scale.progress(config)["trained"] == untrained
+    model = thesis_scale.train_thesis_scale(config, "full")
+    assert load_model(model).config == TINY and not thesis_scale.checkpoint_path(config, "full").exists()
     done = thesis_scale.progress(config)
-    assert (done["step"], done["steps"], done["finished"], done["issue_scale"]) == (4, 4, True, False)
-    assert json.loads((tmp_path / "vae" / "log" / "metrics.json").read_text())["step"] == 4
+    assert (done["trained"]["full"]["step"], done["steps"], done["trained"]["full"]["finished"],
+            done["issue_scale"]) == (4, 4, True, False)
+    assert done["trained"]["full"]["sha256"] == hashlib.sha256(model.read_bytes()).hexdigest()
+    assert json.loads((tmp_path / "vae" / "log" / "full" / "metrics.json").read_text())["step"] == 4
+
+
+def test_the_nopred_twin_trains_on_the_same_designs_without_the_predictor(tmp_path, write_designs):
+    config = dataclasses.replace(tiny(tmp_path / "vae", designs=12), variants=["full", "nopred"])
+    write_designs(tmp_path / "vae" / "designs-000.parquet", 12)
+    twin = thesis_scale.train_thesis_scale(config, "nopred")
+    assert load_model(twin).config == dataclasses.replace(TINY, predictor=False) and twin.name == "vae_nopred.pt"
+    trained = thesis_scale.progress(config)["trained"]
+    assert (trained["nopred"]["finished"], trained["full"]["finished"]) == (True, False)
+    assert thesis_scale.finished_model(config) is None and thesis_scale.finished_model(config, "nopred") == twin
 
 
 def test_a_committed_checkpoint_of_another_run_is_refused_not_overwritten(tmp_path, write_designs):
     config = tiny(tmp_path / "vae", designs=12)
     write_designs(tmp_path / "vae" / "designs-000.parquet", 12)
-    foreign = save_checkpoint(tmp_path / "vae" / thesis_scale.CHECKPOINT, "0" * 16, {"step": 2})
+    foreign = save_checkpoint(thesis_scale.checkpoint_path(config, "full"), "0" * 16, {"step": 2})
     before = foreign.read_bytes()
-    with pytest.raises(InputError, match="checkpoint.pt"):
-        thesis_scale.train_thesis_scale(config)
+    with pytest.raises(InputError, match="checkpoint-full.pt"):
+        thesis_scale.train_thesis_scale(config, "full")
     assert foreign.read_bytes() == before and thesis_scale.finished_model(config) is None
 
 
@@ -80,3 +94,5 @@ def test_the_config_refuses_a_vae_glso_cannot_search():
         ThesisScaleConfig(model=dataclasses.replace(TINY, predictor=False))
     with pytest.raises(InputError, match="piece"):
         ThesisScaleConfig(designs=10, piece=11)
+    with pytest.raises(InputError, match=r"variants: expected distinct names of \['full', 'nopred'\]"):
+        ThesisScaleConfig(variants=["full", "full"])

@@ -108,8 +108,9 @@ def test_section_shows_metrics_curves_and_landscape(tmp_path):
 
     # the thesis-scale VAE: its progress until finished, then a verdict from its gate on the largest group
     progress = {"directory": "measured/vae_thesis", "pieces": 4, "designs": 40_000, "designs_asked": 100_000,
-                "step": 0, "steps": 100_000, "finished": False, "hidden": 450, "pred_weight": 20.0,
-                "issue_scale": True, "variant": "thesis", "title": "GLSO's VAE at thesis scale"}
+                "steps": 100_000, "trained": {"full": {"step": 0, "finished": False, "sha256": None}},
+                "hidden": 450, "pred_weight": 20.0, "issue_scale": True, "variant": "thesis",
+                "title": "GLSO's VAE at thesis scale"}
     metrics = {"knn_predictability": knns, "gate": gate, "thesis_scale": progress}
     (tmp_path / "metrics" / "vae_landscape.json").write_text(json.dumps(metrics))
     text = section(tmp_path, tmp_path, TRAIN_VAE)
@@ -119,9 +120,12 @@ def test_section_shows_metrics_curves_and_landscape(tmp_path):
     metrics = {"knn_predictability": knns | {"thesis/flat/s16_h16_e48": knn},
                "gate": gate | {"thesis/flat/s8_h8_e48": {**failed, "designs": 120, "passes": True},
                                "thesis/flat/s16_h16_e48": failed},
-               "thesis_scale": {**progress, "designs": 100_500, "step": 100_000, "finished": True}}
+               "thesis_scale": {**progress, "designs": 100_500, "trained": {
+                   "full": {"step": 100_000, "finished": True, "sha256": "ab"},
+                   "nopred": {"step": 3_000, "finished": False, "sha256": None}}}}
     (tmp_path / "metrics" / "vae_landscape.json").write_text(json.dumps(metrics))
     text = section(tmp_path, tmp_path, TRAIN_VAE)
     assert "| GLSO's VAE at thesis scale | flat | s16_h16_e48 | 3002 | 0.400 | 0.250 | +0.050 | 30 | no |" in text
     assert "GLSO's VAE at thesis scale passes the gate (hidden 450, predictor weight 20, 100,500 designs, 100,000 " \
         "steps): **does NOT hold** On flat/s16_h16_e48 (3002 designs): margin +0.050 (needs >= 0.1)" in text
+    assert "Its twin without the property predictor (GLSO_nopred's): step 3,000 of 100,000." in text
