@@ -46,6 +46,10 @@ def png(path: Path, width: int, height: int, colour: tuple[int, int, int] = (255
     Image.new("RGB", (width, height), colour).save(path, format="PNG")
 
 
+# a campaign that plans the thesis-scale arm (issue 42, item 6) at a fixed rung (no fidelity stage needed)
+THESIS_ARM = "doc['glso_campaign'].update(rung='s8_h8_e48', seeds={'glso_turbo_thesis': 1})"
+
+
 # --- files a command reads, where it writes, and the error line itself (one line, no usage block, no banner) ---
 OUTPUTS_AND_LINES = [
     Case("compose teams: a 15000 x 15000 label PNG", ("chip.png: more than 144,000,000 pixels",),
@@ -288,6 +292,14 @@ PARAMS = [
          setup=lambda tmp: (tmp / "p.yaml").write_bytes((tmp / "params.yaml").read_bytes())),
     Case("glso-campaign: missing directory", ("nowhere: not a directory (glso_campaign.directory",),
          argv=("glso-campaign", "summarise"), change="doc['glso_campaign']['directory'] = 'nowhere'"),
+    Case("glso-campaign: a thesis-scale arm before its VAE is trained",
+         ("measured/vae_thesis/vae_full.pt: the thesis-scale VAE of method glso_turbo_thesis is missing",),
+         argv=("glso-campaign", "run"), change=THESIS_ARM),
+    Case("glso-campaign: a thesis-scale arm before its VAE is gated",
+         ("reports/metrics/vae_landscape.json: not found; the thesis-scale VAE is gated by stage vae_landscape",),
+         argv=("glso-campaign", "run"), change=THESIS_ARM, setup=lambda tmp: (
+             (tmp / "measured" / "vae_thesis").mkdir(parents=True),
+             (tmp / "measured" / "vae_thesis" / "vae_full.pt").write_bytes(b"not gated"))),
     Case("profile: params.yaml is a directory", ("params.yaml: not a file",), argv=("profile", "default"),
          setup=lambda tmp: ((tmp / "profiles").mkdir(), (tmp / "profiles" / "default.yaml").write_bytes(
              (tmp / "params.yaml").read_bytes()), (tmp / "params.yaml").unlink(), (tmp / "params.yaml").mkdir())),

@@ -6,11 +6,14 @@ import json
 
 import pandas as pd
 import pytest
+import yaml
 
+from robocompose.cli import main
 from robocompose.dataset.enumerate import EnumerateConfig
 from robocompose.io import read_table, write_table
 from robocompose.io.checkpoint import save_checkpoint
 from robocompose.io.errors import InputError
+from robocompose.io.provenance import ROOT
 from robocompose.latent import thesis_scale
 from robocompose.latent.thesis_scale import ThesisScaleConfig
 from robocompose.latent.train import TrainConfig, beta_at, load_model, lr_at
@@ -77,6 +80,19 @@ def test_the_nopred_twin_trains_on_the_same_designs_without_the_predictor(tmp_pa
     trained = thesis_scale.progress(config)["trained"]
     assert (trained["nopred"]["finished"], trained["full"]["finished"]) == (True, False)
     assert thesis_scale.finished_model(config) is None and thesis_scale.finished_model(config, "nopred") == twin
+
+
+def test_the_command_trains_every_variant_asked_and_prints_where_each_stands(tmp_path, write_designs, capsys):
+    doc = yaml.safe_load((ROOT / "params.yaml").read_text())
+    config = tiny(tmp_path / "vae", designs=12)
+    doc["vae_thesis"] = {**dataclasses.asdict(config), "variants": ["full", "nopred"]}
+    (tmp_path / "params.yaml").write_text(yaml.safe_dump(doc))
+    write_designs(tmp_path / "vae" / "designs-000.parquet", 12)  # the pieces are there: no enumeration
+    assert main(["glso-campaign", "vae", "--params", str(tmp_path / "params.yaml")]) == 0
+    printed = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert {v: (t["step"], t["finished"]) for v, t in printed["trained"].items()} == {
+        "full": (4, True), "nopred": (4, True)}
+    assert load_model(tmp_path / "vae" / "vae_nopred.pt").config.predictor is False
 
 
 def test_a_committed_checkpoint_of_another_run_is_refused_not_overwritten(tmp_path, write_designs):
