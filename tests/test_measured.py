@@ -71,7 +71,8 @@ def dep_problems(deps: dict[str, list[str]], outputs: list[str], tracked: list[s
 
 def path_problems(names: dict[str, set[str]], outputs: list[str], tracked: list[str]) -> list[str]:
     """`reports/...` paths named in code or profiles that are no output; `measured/...` paths a profile names that
-    are not committed (code may name a folder a command fills later). `names`: where -> the path strings there."""
+    are not committed (code may name a folder a command fills later; a profile's template, `.../vae_{variant}.pt`,
+    names files a command writes into a folder that must be committed). `names`: where -> the path strings there."""
     problems = []
     for where, texts in sorted(names.items()):
         for text in sorted(texts):
@@ -79,7 +80,7 @@ def path_problems(names: dict[str, set[str]], outputs: list[str], tracked: list[
                 problems.append(f"{where}: names {text}, which no stage writes (read committed truth from "
                                 f"{MEASURED}/)")
             elif where.endswith(".yaml") and text.startswith(MEASURED + "/") and not any(
-                    covered(f, [text.rstrip("/")]) for f in tracked):
+                    covered(f, [text.rsplit("/", 1)[0] if "{" in text else text.rstrip("/")]) for f in tracked):
                 problems.append(f"{where}: names {text}, which is not committed under {MEASURED}/")
     return problems
 
@@ -169,3 +170,7 @@ def test_a_dep_outside_measured_a_missing_measurement_and_an_output_under_measur
     assert path_problems({"profiles/paper.yaml": {"measured/fidelity/scorez"}}, project["outputs"],
                          project["tracked"]) == [
         "profiles/paper.yaml: names measured/fidelity/scorez, which is not committed under measured/"]
+    # a template names files a command writes later: its folder must be committed, not the files
+    templates = {"measured/vae_thesis/vae_{variant}.pt", "measured/vae_nowhere/vae_{variant}.pt"}
+    assert path_problems({"profiles/paper.yaml": templates}, project["outputs"], project["tracked"]) == [
+        "profiles/paper.yaml: names measured/vae_nowhere/vae_{variant}.pt, which is not committed under measured/"]
