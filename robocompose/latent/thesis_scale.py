@@ -22,7 +22,9 @@ GLSO_nopred on it"), so `variants` starts as [full].
 The schedule is the thesis's compressed from 400k to `train.steps` steps (learning-rate decay, KL warm-up and
 KL increments every quarter as many steps), so the final KL weight is the thesis's ~0.36. The run's key covers the
 settings, the designs' content and the training code; a committed checkpoint of another key is refused (one
-line), never silently restarted: deleting it is the user's call. Stage `vae_landscape` gates the finished `full`
+line, before the training log is touched), never silently restarted: deleting it is the user's call. Outside the
+pinned dispatch (`io.dispatch`) the key also carries the processor, so train through the `robocompose` command
+(pinned): a natively trained checkpoint resumes on no machine of other processor flags. Stage `vae_landscape` gates the finished `full`
 model on the campaign's scored designs beside the default VAEs (`thesis` rows) and reports progress until then; a
 campaign searches a thesis-scale VAE only once that gate has passed on this very model file
 (`glso.campaign.check_thesis_gate`).
@@ -149,6 +151,7 @@ def train_thesis_scale(config: ThesisScaleConfig, variant: str) -> Path:
     if model_path(config, variant).exists():
         return model_path(config, variant)
     designs = load_pieces(config)
+    check_resumable(config, variant, designs)  # before the log opens: a fresh log would erase the committed one
     with training_log(log_dir(config, variant)) as live:
         model, _, _ = train(config.variant_model(variant), config.train, designs, checkpoint_path(config, variant),
                             live, log_dir(config, variant) / f"vae_thesis_{variant}.mcap",
@@ -156,6 +159,17 @@ def train_thesis_scale(config: ThesisScaleConfig, variant: str) -> Path:
     save_model(model, model_path(config, variant))
     checkpoint_path(config, variant).unlink(missing_ok=True)
     return model_path(config, variant)
+
+
+def check_resumable(config: ThesisScaleConfig, variant: str, designs: Designs) -> None:
+    """An InputError (one line) if `variant`'s committed checkpoint holds another run: another key (settings,
+    designs, training code, or a dispatch other than the pinned one: `io.dispatch`) or a damaged file."""
+    from robocompose.io.checkpoint import load_checkpoint
+    from robocompose.latent.train import run_key, split
+
+    train_idx, _ = split(len(designs.ids), config.train.holdout, config.train.seed)  # train()'s split
+    key = run_key(config.variant_model(variant), config.train, designs, designs.subset(train_idx))
+    load_checkpoint(checkpoint_path(config, variant), key, named=True)
 
 
 def progress(config: ThesisScaleConfig) -> dict:

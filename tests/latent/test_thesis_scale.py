@@ -16,7 +16,7 @@ from robocompose.io.errors import InputError
 from robocompose.io.provenance import ROOT
 from robocompose.latent import thesis_scale
 from robocompose.latent.thesis_scale import ThesisScaleConfig
-from robocompose.latent.train import TrainConfig, beta_at, load_model, lr_at
+from robocompose.latent.train import TrainConfig, beta_at, load_model, lr_at, train, training_log
 from tests.latent.conftest import TINY
 
 
@@ -99,10 +99,29 @@ def test_a_committed_checkpoint_of_another_run_is_refused_not_overwritten(tmp_pa
     config = tiny(tmp_path / "vae", designs=12)
     write_designs(tmp_path / "vae" / "designs-000.parquet", 12)
     foreign = save_checkpoint(thesis_scale.checkpoint_path(config, "full"), "0" * 16, {"step": 2})
+    committed_log = thesis_scale.log_dir(config, "full") / "metrics.json"
+    committed_log.parent.mkdir(parents=True)
+    committed_log.write_text('{"step": 2}')
     before = foreign.read_bytes()
     with pytest.raises(InputError, match="checkpoint-full.pt"):
         thesis_scale.train_thesis_scale(config, "full")
     assert foreign.read_bytes() == before and thesis_scale.finished_model(config) is None
+    assert committed_log.read_text() == '{"step": 2}'  # refused before the training log was opened
+
+
+def test_the_check_before_training_accepts_the_checkpoint_train_writes(tmp_path, write_designs):
+    # check_resumable derives train()'s key itself: a divergence would refuse every committed checkpoint
+    config = tiny(tmp_path / "vae", designs=12, steps=4)
+    write_designs(tmp_path / "vae" / "designs-000.parquet", 12)
+    designs, checkpoint = thesis_scale.load_pieces(config), thesis_scale.checkpoint_path(config, "full")
+    with training_log(tmp_path / "log") as live:
+        train(config.variant_model("full"), dataclasses.replace(config.train, steps=2), designs, checkpoint, live,
+              tmp_path / "log.mcap")
+    assert checkpoint.exists()
+    thesis_scale.check_resumable(config, "full", designs)  # no error: the same run, two steps further to go
+    with pytest.raises(InputError, match="checkpoint-nopred.pt"):
+        checkpoint.rename(thesis_scale.checkpoint_path(config, "nopred"))
+        thesis_scale.check_resumable(config, "nopred", designs)
 
 
 def test_the_config_refuses_a_vae_glso_cannot_search():
