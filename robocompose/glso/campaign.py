@@ -10,8 +10,10 @@ Runs: GLSO's loop as the thesis's (`init` random points, then BO steps), the GA 
 every method under the accounting rule of `runs.py`. A finished run's step table is written to
 `<directory>/<task>_<method>_seed<k>.parquet` (committed, so that a campaign of many core-hours is
 summarised by the default pipeline and survives the machine); a run in progress lives in its checkpoint under
-`checkpoints` and resumes there. Runs go seed-major (every method's seed 0 first), so a partial campaign
-already compares every method. Each finished run's best simulated design is then re-scored at the thesis
+`checkpoints` (its step rows as plain JSON, keyed by settings and code, not by the machine under the pinned
+dispatch: a folder to commit, so a campaign of many sessions resumes a run on the next machine where it stopped)
+and resumes there; the checkpoint is removed once the run's table is written. Runs go seed-major (every
+method's seed 0 first), so a partial campaign already compares every method. Each finished run's best simulated design is then re-scored at the thesis
 setting once per `rescore_seeds` into `<directory>/rescores.csv` (one appended line per score), and
 `<directory>/campaign.json` records the evaluator every run used (rung and settings hash per task: a campaign
 does not mix evaluators).
@@ -85,7 +87,6 @@ LOGS = {RESCORES_FILE: (RESCORE_COLUMNS, "rescore_seed"), HELDOUT_FILE: (HELDOUT
 # At the campaign rung one controller seed's noise (sd ~0.10) exceeds the gaps between a run's top designs; a
 # mean over 4 seeds halves it
 MIN_HELDOUT_SEEDS = 4
-CACHE_FILE = "eval_cache.parquet"  # under `checkpoints`: not committed, it only saves time
 RUN = ["task", "method", "seed"]  # the columns that name a run in step and summary tables
 # The two axes of best so far: what a point counts (title, axis label); summaries key their curves by them.
 AXES = {"calls": ("call", "objective calls"), "distinct": ("distinct design", "distinct designs evaluated")}
@@ -99,7 +100,8 @@ class CampaignConfig:
     """The `glso_campaign:` section of params.yaml."""
 
     directory: str = "measured/glso_campaign"  # finished runs and re-scores (committed measurements)
-    checkpoints: str = "data/glso_campaign"  # runs in progress (not committed)
+    checkpoints: str = "measured/glso_campaign_progress"  # runs in progress, one checkpoint each (committed)
+    cache: str = "data/glso_campaign/eval_cache.parquet"  # every run's evaluations (not committed: saves time)
     tasks: list[str] = field(default_factory=lambda: ["flat"])  # ridged after flat if time allows
     seeds: dict[str, int] = field(default_factory=lambda: {  # run seeds per method: 0 .. n-1
         "glso": 5, "random": 10, "mcts": 5, "ghs": 5, "ga": 5, "glso_nopred": 3, "glso_nogram": 3, "glso_thesis": 5,
@@ -242,11 +244,12 @@ def campaign_jobs(config: CampaignConfig, glso: GLSOConfig, evaluation: Evaluati
     claim_directory(config.directory, {"rung": rung, "settings_hash": hashes})
     checkpoints = Path(config.checkpoints)
     return [CampaignJob(spec, settings, at_rung, str(run_path(config, spec)), str(checkpoints / f"{spec.name}.ckpt"),
-                        str(checkpoints / CACHE_FILE)) for spec in run_specs(config)]
+                        config.cache) for spec in run_specs(config)]
 
 
 def run_job(job: CampaignJob) -> str:
-    """Run (or resume) one search; its step table appears at `job.table` only once complete.
+    """Run (or resume) one search; its step table appears at `job.table` only once complete, and then its
+    checkpoint goes (the checkpoints folder holds only runs in progress).
 
     Runs share one evaluation cache: a design that another run (of any method or seed) already sent to the
     evaluator at the same settings costs this run its call but no simulation (evaluations are deterministic,
@@ -262,6 +265,7 @@ def run_job(job: CampaignJob) -> str:
                            cache=EvaluationCache(job.cache), on_step=lambda row: bar.update(row["step"] + 1 - bar.n))
     write_table(steps, table, "glso_steps")
     partial.unlink(missing_ok=True)
+    Path(job.checkpoint).unlink(missing_ok=True)
     return str(table)
 
 
@@ -460,12 +464,13 @@ def pilot_config(config: CampaignConfig) -> CampaignConfig:
     at the campaign's fixed controller seed (`variant` "full": no domain reduction, the wider floor, re-asking),
     `PILOT_SEEDS` seeds each, run exactly as the campaign runs them (budget, init, accounting) but at
     `PILOT_RUNG`, held-out scored the same way, with no thesis re-scores; in its own folder beside the
-    campaign's (`glso_pilot`), committed the same way. (The thesis-protocol arm is no fix, and the thesis-scale
+    campaign's (`glso_pilot`), committed the same way, its runs in progress in `checkpoints`/pilot (the evaluation
+    cache is shared: it is keyed by the evaluator's settings). (The thesis-protocol arm is no fix, and the thesis-scale
     VAE another VAE: neither is piloted.)"""
     seeds = {name: PILOT_SEEDS for name, method in METHODS.items()
              if method.variant == "full" and not method.fresh_seeds and not method.thesis_vae}
     return dataclasses.replace(config, directory=str(Path(config.directory).parent / "glso_pilot"),
-                               checkpoints=str(Path(config.checkpoints).parent / "glso_pilot"), seeds=seeds,
+                               checkpoints=str(Path(config.checkpoints) / "pilot"), seeds=seeds,
                                rung=PILOT_RUNG, rescore_seeds=[])
 
 

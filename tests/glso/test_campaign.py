@@ -68,6 +68,7 @@ def test_the_campaign_runs_at_its_own_rung_whatever_glso_rung_says(tmp_path, mon
     same with it as without it, at the campaign's rung."""
     monkeypatch.setitem(fidelity.LADDER, "tiny", (2, 2, 2, 3))
     config = CampaignConfig(directory=str(tmp_path / "campaign"), checkpoints=str(tmp_path / "ckpt"),
+                            cache=str(tmp_path / "cache.parquet"),
                             seeds={"random": 1, "mcts": 1}, budget=3, init=1)
     plain = campaign.campaign_jobs(config, GLSOConfig(), EvaluationConfig(), "tiny")
     smoke = campaign.campaign_jobs(config, GLSOConfig(rung="s8_h8_e48"), EvaluationConfig(), "tiny")
@@ -247,6 +248,7 @@ def test_a_tiny_campaign_runs_resumes_rescores_measures_held_out_and_summarises(
     monkeypatch.setitem(fidelity.LADDER, "tiny", (2, 2, 2, 3))
     monkeypatch.setitem(fidelity.LADDER, "tiny_rescore", (2, 2, 2, 4))
     config = CampaignConfig(directory=str(tmp_path / "campaign"), checkpoints=str(tmp_path / "ckpt"),
+                            cache=str(tmp_path / "cache.parquet"),
                             seeds={"random": 1, "mcts": 1}, budget=3, init=1, population=2,
                             rescore_rung="tiny_rescore", rescore_seeds=[7, 8], bootstrap=50)
     tables = campaign.run_campaign(config, GLSOConfig(), EvaluationConfig(), "tiny")
@@ -324,12 +326,13 @@ def test_runs_share_one_evaluation_cache_and_give_the_same_table_from_it(tmp_pat
     monkeypatch.setitem(fidelity.LADDER, "tiny", (2, 2, 2, 3))
     monkeypatch.setitem(fidelity.LADDER, "tiny_rescore", (2, 2, 2, 4))
     config = CampaignConfig(directory=str(tmp_path / "campaign"), checkpoints=str(tmp_path / "ckpt"),
+                            cache=str(tmp_path / "cache.parquet"),
                             seeds={"random": 1}, budget=3, init=1, rescore_rung="tiny_rescore")
     (job,) = campaign.campaign_jobs(config, GLSOConfig(), EvaluationConfig(), "tiny")
-    assert job.cache == str(tmp_path / "ckpt" / campaign.CACHE_FILE)
+    assert job.cache == str(tmp_path / "cache.parquet")
     first = Path(campaign.run_job(job)).read_bytes()
+    assert not Path(job.checkpoint).exists()  # a finished run leaves no checkpoint in the committed folder
     Path(job.table).unlink()
-    Path(job.checkpoint).unlink()
 
     def never(*args, **kwargs):
         raise AssertionError("a cached design was simulated again")
@@ -548,9 +551,11 @@ def test_the_pilot_runs_glso_and_its_variants_as_the_campaign_does_and_ranks_the
     """The pilot is the campaign's machinery on GLSO and the registered methods searching its VAE, in its own
     folder at its own rung, held-out scored and never re-scored at the thesis setting."""
     config = CampaignConfig(directory=str(tmp_path / "measured" / "glso_campaign"),
-                            checkpoints=str(tmp_path / "data" / "glso_campaign"), budget=4, init=2, bootstrap=20)
+                            checkpoints=str(tmp_path / "measured" / "glso_campaign_progress"),
+                            cache=str(tmp_path / "data" / "cache.parquet"), budget=4, init=2, bootstrap=20)
     pilot = campaign.pilot_config(config)
     assert pilot.directory == str(tmp_path / "measured" / "glso_pilot") and pilot.rescore_seeds == []
+    assert pilot.checkpoints == str(tmp_path / "measured" / "glso_campaign_progress" / "pilot")
     assert pilot.seeds == {"glso": 3, "glso_nodr": 3, "glso_floor": 3, "glso_reask": 3, "glso_turbo": 3}
     assert (pilot.rung, pilot.budget, pilot.init, pilot.heldout_seeds) == (
         "s8_h8_e48", 4, 2, config.heldout_seeds)
