@@ -6,17 +6,17 @@ thesis setting with controller seeds the search never used, and the statistics a
     robocompose glso-campaign heldout [--address tcp://SCHEDULER:8786]   # the held-out pieces only (resumable)
     robocompose glso-campaign summarise                                  # the statistics (stage glso_campaign)
 
-Runs: GLSO's loop as the thesis's (`init` random points, then BO steps), the GA at the thesis's population,
-every method under the accounting rule of `runs.py`. A finished run's step table is written to
-`<directory>/<task>_<method>_seed<k>.parquet` (committed, so that a campaign of many core-hours is
-summarised by the default pipeline and survives the machine); a run in progress lives in its checkpoint under
-`checkpoints` (its step rows as plain JSON, keyed by settings and code, not by the machine under the pinned
-dispatch: a folder to commit, so a campaign of many sessions resumes a run on the next machine where it stopped)
-and resumes there; the checkpoint is removed once the run's table is written. Runs go seed-major (every
-method's seed 0 first), so a partial campaign already compares every method. Each finished run's best simulated design is then re-scored at the thesis
-setting once per `rescore_seeds` into `<directory>/rescores.csv` (one appended line per score), and
-`<directory>/campaign.json` records the evaluator every run used (rung and settings hash per task: a campaign
-does not mix evaluators).
+Runs: GLSO's loop as the thesis's (`init` random points, then BO steps), the GA at the thesis's population, every
+method under the accounting rule of `runs.py`. A finished run's step table is written to
+`<directory>/<task>_<method>_seed<k>.parquet` (committed, so that a campaign of many core-hours is summarised by the
+default pipeline and survives the machine); a run in progress lives in its checkpoint under `checkpoints` (its step
+rows as plain JSON, keyed by settings and code, not by the machine under the pinned dispatch: a folder to commit, so
+a campaign of many sessions resumes a run on the next machine where it stopped) and resumes there; the checkpoint is
+removed once the run's table is written. Runs go seed-major (every method's seed 0 first), so a partial campaign
+already compares every method. Each finished run's best simulated design is then re-scored at the thesis setting
+once per `rescore_seeds` into `<directory>/rescores.csv` (one appended line per score), and
+`<directory>/campaign.json` records the evaluator every run used (rung and settings hash per task: a campaign does
+not mix evaluators).
 
 Held-out scoring. A run scores every call once, with one controller seed (`evaluation.seed`), and its best is
 the maximum over those noisy scores: inflated by the winner's curse (the seed-to-seed sd at the campaign rung,

@@ -14,19 +14,19 @@ so it runs in resumable pieces committed under `directory` (`robocompose glso-ca
     log/VARIANT/          its training curves (dvclive) and vae_thesis_VARIANT.mcap, rewritten at every checkpoint
     vae_VARIANT.pt        the trained model, once `train.steps` are done (its checkpoint is then removed)
 
-The variants are the two latent methods' VAEs, trained one after the other on the same designs: `full` (GLSO's:
-the property predictor, weight 20; the one the gate judges) and `nopred` (GLSO_nopred's: the same VAE without
-the predictor), which a campaign needs only once `full` passes its gate (issue 42: "if it passes, run GLSO and
+The variants are the two latent methods' VAEs, trained one after the other on the same designs: `full` (GLSO's: the
+property predictor, weight 20; the one the gate judges) and `nopred` (GLSO_nopred's: the same VAE without the
+predictor), which a campaign needs only once `full` passes its gate (issue 42: "if it passes, run GLSO and
 GLSO_nopred on it"), so `variants` starts as [full].
 
-The schedule is the thesis's compressed from 400k to `train.steps` steps (learning-rate decay, KL warm-up and
-KL increments every quarter as many steps), so the final KL weight is the thesis's ~0.36. The run's key covers the
-settings, the designs' content and the training code; a committed checkpoint of another key is refused (one
-line, before the training log is touched), never silently restarted: deleting it is the user's call. Outside the
-pinned dispatch (`io.dispatch`) the key also carries the processor, so train through the `robocompose` command
-(pinned): a natively trained checkpoint resumes on no machine of other processor flags. Stage `vae_landscape` gates the finished `full`
-model on the campaign's scored designs beside the default VAEs (`thesis` rows) and reports progress until then; a
-campaign searches a thesis-scale VAE only once that gate has passed on this very model file
+The schedule is the thesis's compressed from 400k to `train.steps` steps (learning-rate decay, KL warm-up and KL
+increments every quarter as many steps), so the final KL weight is the thesis's ~0.36. The run's key covers the
+settings, the designs' content and the training code; a committed checkpoint of another key is refused (one line,
+before the training log is touched), never silently restarted: deleting it is the user's call. Outside the pinned
+dispatch (`io.dispatch`) the key also carries the processor, so train through the `robocompose` command (pinned): a
+natively trained checkpoint resumes on no machine of other processor flags. Stage `vae_landscape` gates the finished
+`full` model on the campaign's scored designs beside the default VAEs (`thesis` rows) and reports progress until
+then; a campaign searches a thesis-scale VAE only once that gate has passed on this very model file
 (`glso.campaign.check_thesis_gate`).
 """
 
