@@ -106,11 +106,12 @@ def family(group: str, reference: str = REFERENCE) -> tuple[str, ...]:
 
 def describe() -> list[dict]:
     """Every registered method's name, title, figure groups, VAE variant (None without one) and scale, protocol
-    (`fresh_seeds`) and, for an arm, its ablations, in registry order: what the stages write into their artifacts
-    so that the report (no torch, so no registry) can name and group the methods, title each VAE by the method
-    that searches it and name the protocol and the family of each verdict."""
+    (`fresh_seeds`) and the methods it is compared with per figure group (`family`), in registry order: what the
+    stages write into their artifacts so that the report (no torch, so no registry) can name and group the
+    methods, title each VAE by the method that searches it and name the protocol and the family of each verdict."""
     return [{"name": name, "title": method.title, "groups": list(method.groups), "variant": method.variant,
-             "fresh_seeds": method.fresh_seeds, "thesis_vae": method.thesis_vae, "ablations": list(method.ablations)}
+             "fresh_seeds": method.fresh_seeds, "thesis_vae": method.thesis_vae,
+             "families": {group: list(family(group, name)) for group in GROUPS}}
             for name, method in METHODS.items()]
 
 

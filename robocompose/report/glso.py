@@ -202,7 +202,7 @@ def campaign_verdicts(tests: pd.DataFrame, on: str, alpha: float, methods: list[
     the thesis's protocol, and its verdict says so."""
     titles = group_titles(methods)
     fresh = {m["name"] for m in methods if m.get("fresh_seeds")}
-    ablations = {m["name"]: m.get("ablations", []) for m in methods}
+    families = {m["name"]: m["families"] for m in methods}
     protocol = ("under the thesis's protocol (a fresh controller seed per call: its reported best)"
                 if on == "search" and reference in fresh else COMPARED[on].protocol)
     out = []
@@ -210,9 +210,8 @@ def campaign_verdicts(tests: pd.DataFrame, on: str, alpha: float, methods: list[
     for (task, family), group in mine.groupby(["task", "family"], sort=False):
         claim = (f"{titles[reference]} best of {GROUPS[family]}" if family == "baselines"
                  else f"all ablations worse than {titles[reference]} ({GROUPS[family]})")
-        members = (group_titles(methods, family) if family == "baselines" or reference == REFERENCE
-                   else {m: titles[m] for m in ablations[reference]})  # an arm's ablations are its own
-        missing = [t for m, t in members.items() if m != REFERENCE and m not in set(group["method"])]
+        members = {m: titles[m] for m in families[reference][family]}  # registry.family: an arm's ablations are its own
+        missing = [t for m, t in members.items() if m not in set(group["method"])]
         held = not missing and bool(group["better"].all())
         floor = float(group["holm_floor"].max())
         caveat = (f" (with these seed counts the family's largest Holm-adjusted p is at least {floor:.3f}, not "

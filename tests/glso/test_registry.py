@@ -44,6 +44,9 @@ def test_the_registry_holds_the_thesis_methods_and_the_latent_ones_name_their_va
     assert family("baselines", "glso_turbo_thesis") == family("baselines")
     assert family("ablations", "glso_turbo_thesis") == ("glso_nopred_turbo_thesis",)
     assert family("ablations", "glso_thesis") == ()  # an arm without ablations of its own meets the baselines only
+    record = {m["name"]: m["families"] for m in describe()}  # what the report reads the families from
+    assert record["glso_turbo_thesis"] == {"baselines": ["random", "ga", "mcts", "ghs"],
+                                           "ablations": ["glso_nopred_turbo_thesis"]}
     with pytest.raises(TypeError, match=r"figure groups \['baseline'\] are not of \['baselines', 'ablations'\]"):
         Method(RandomSearch, RandomConfig, "random", "Typo", ("baseline",))
 
