@@ -258,8 +258,9 @@ def run_job(job: CampaignJob) -> str:
     from tqdm import tqdm
 
     table = Path(job.table)
-    partial = Path(job.checkpoint).with_suffix(".parquet")
-    Path(job.checkpoint).parent.mkdir(parents=True, exist_ok=True)
+    partial = Path(job.cache).parent / f"{job.spec.name}.parquet"  # the steps so far, to look at (not committed)
+    for folder in (Path(job.checkpoint).parent, partial.parent):
+        folder.mkdir(parents=True, exist_ok=True)
     with tqdm(total=job.glso.budget, desc=job.spec.name, unit="call", leave=False) as bar:
         steps = run_search(job.spec, job.glso, job.evaluation, checkpoint=Path(job.checkpoint), table=partial,
                            cache=EvaluationCache(job.cache), on_step=lambda row: bar.update(row["step"] + 1 - bar.n))
