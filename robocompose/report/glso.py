@@ -27,10 +27,12 @@ from robocompose.report.verdicts import verdict
 
 def method_titles(record: dict, ran: set[str], where: Path) -> list[dict]:
     """The methods a stage recorded (`record["methods"]`: `registry.describe`), checked to name every method
-    that ran (`ran`); ArtifactError naming the file otherwise."""
+    that ran (`ran`) and to give each one's comparison families; ArtifactError naming the file otherwise."""
     methods = record.get("methods")
     if not isinstance(methods, list):
         raise ArtifactError(f"{where}: no record of the methods' titles (rerun its stage)")
+    if not all(isinstance(m.get("families"), dict) for m in methods):  # a record of older code
+        raise ArtifactError(f"{where}: no record of each method's comparison families (rerun its stage)")
     unknown = sorted(ran - set(group_titles(methods)))
     if unknown:
         raise ArtifactError(f"{where}: no title for methods {unknown} (rerun its stage)")

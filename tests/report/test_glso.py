@@ -201,6 +201,13 @@ def test_the_campaign_section_judges_under_held_out_scoring_from_its_tests_and_s
     with pytest.raises(ArtifactError, match=r"glso_campaign\.json: no record of the held-out scoring"):
         campaign_section(tmp_path)
 
+    summary["heldout_progress"] = {}
+    for method in summary["methods"]:
+        del method["families"]  # the record older code wrote: the report does not guess a method's family
+    (tmp_path / "metrics" / "glso_campaign.json").write_text(json.dumps(summary))
+    with pytest.raises(ArtifactError, match=r"glso_campaign\.json: no record of each method's comparison families"):
+        campaign_section(tmp_path)
+
 
 def test_the_thesis_protocol_arm_gets_its_own_verdicts_naming_each_protocol(tmp_path):
     """The arm's search bests beat every baseline's, but they are maxima over lucky draws (2.0 above their
